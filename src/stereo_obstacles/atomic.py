@@ -1,0 +1,98 @@
+"""Outputs that are either complete or absent.
+
+A file is written to a temporary name in its destination folder and renamed over the final
+name only once it is whole, so an interrupted run never leaves a truncated file that looks
+finished. A set of files that belong together (a scene, a detection report) is staged in a
+hidden temporary folder beside the destination and moved in only when every file is written.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+from stereo_obstacles.errors import OutputError
+
+
+def _prepare_parent(path: Path) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot create folder {path.parent}: {exc.strerror or exc}") from exc
+    if not os.access(path.parent, os.W_OK):
+        raise OutputError(f"cannot write to folder {path.parent}: permission denied")
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds.
+
+    On any exception the temporary file is removed and ``path`` is left as it was.
+    """
+    final = Path(path)
+    _prepare_parent(final)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".part" + final.suffix,
+                                    dir=final.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        os.replace(tmp, final)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, OutputError):
+            raise
+        raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_bytes_atomic(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically and return the final path."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return Path(path)
+
+
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically and return the final path."""
+    return write_bytes_atomic(path, text.encode("utf-8"))
+
+
+@contextlib.contextmanager
+def staged_directory(out_dir: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a hidden staging folder; on success move its files into ``out_dir``.
+
+    ``out_dir`` may exist already: files of the same names are replaced, other files are
+    kept. On any exception the staging folder is deleted and ``out_dir`` is untouched.
+    Only regular files at the top of the staging folder and in its sub-folders are moved.
+    """
+    final = Path(out_dir)
+    if final.exists() and not final.is_dir():
+        raise OutputError(f"output folder {final} exists and is not a folder")
+    _prepare_parent(final)
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".partial", dir=final.parent))
+    except OSError as exc:
+        raise OutputError(f"cannot write to folder {final.parent}: {exc.strerror or exc}") from exc
+    try:
+        yield stage
+        if not final.exists():
+            os.replace(stage, final)
+            return
+        for src in sorted(stage.rglob("*")):
+            if src.is_file():
+                dest = final / src.relative_to(stage)
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(src, dest)
+    except OSError as exc:
+        if isinstance(exc, OutputError):
+            raise
+        raise OutputError(f"cannot write to {final}: {exc.strerror or exc}") from exc
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)

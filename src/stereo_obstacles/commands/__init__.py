@@ -1,0 +1,1 @@
+"""One module per ``stereo-obstacles`` sub-command; see :mod:`stereo_obstacles.cli`."""
