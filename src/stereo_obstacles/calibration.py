@@ -1,0 +1,112 @@
+"""The stereo calibration of a rectified camera pair, and its JSON file format.
+
+A rectified pair is described by the focal length ``focal_px`` (pixels, the same in x and y),
+the principal point of the left camera ``(cx_px, cy_px)``, the baseline ``baseline_m``
+(metres, distance between the optical centres), Middlebury's ``doffs_px`` (x-difference of
+the two principal points, so that depth is ``Z = f B / (d + doffs)``; 0 for most rigs) and
+the image size. Depth from disparity is in :mod:`stereo_obstacles.depth`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import asdict, dataclass
+
+from stereo_obstacles.atomic import write_text_atomic
+from stereo_obstacles.errors import CalibrationError, InputFileError
+
+CALIBRATION_FORMAT = "stereo-obstacles/calibration"
+CALIBRATION_VERSION = 1
+
+
+@dataclass(frozen=True)
+class StereoCalibration:
+    """Calibration of a rectified stereo pair.
+
+    Attributes
+    ----------
+    focal_px : float
+        Focal length in pixels (> 0).
+    cx_px, cy_px : float
+        Principal point of the left (reference) camera in pixels.
+    baseline_m : float
+        Distance between the two optical centres in metres (> 0).
+    width_px, height_px : int
+        Image size the calibration belongs to.
+    doffs_px : float
+        Difference of the principal points' x coordinates (right minus left, Middlebury
+        convention), pixels; depth is ``focal_px * baseline_m / (d + doffs_px)``.
+    """
+
+    focal_px: float
+    cx_px: float
+    cy_px: float
+    baseline_m: float
+    width_px: int
+    height_px: int
+    doffs_px: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("focal_px", "cx_px", "cy_px", "baseline_m", "doffs_px"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+                raise CalibrationError(f"calibration {name} must be a finite number, got {value!r}")
+        if self.focal_px <= 0:
+            raise CalibrationError(f"calibration focal_px must be > 0, got {self.focal_px}")
+        if self.baseline_m <= 0:
+            raise CalibrationError(f"calibration baseline_m must be > 0 metres, got {self.baseline_m}")
+        if self.baseline_m > 100:
+            raise CalibrationError(f"calibration baseline_m = {self.baseline_m} m is implausible "
+                                   f"(millimetres given as metres?)")
+        for name in ("width_px", "height_px"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value <= 0:
+                raise CalibrationError(f"calibration {name} must be a positive integer, got {value!r}")
+
+    @property
+    def focal_baseline_px_m(self) -> float:
+        """``f * B`` in pixel-metres: depth in metres is this divided by ``d + doffs``."""
+        return self.focal_px * self.baseline_m
+
+    def check_image_size(self, width_px: int, height_px: int) -> None:
+        """Raise :class:`CalibrationError` when the images are not the calibrated size."""
+        if (width_px, height_px) != (self.width_px, self.height_px):
+            raise CalibrationError(
+                f"calibration is for {self.width_px}x{self.height_px} images, "
+                f"the images are {width_px}x{height_px}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready mapping with the format name and version."""
+        return {"format": CALIBRATION_FORMAT, "version": CALIBRATION_VERSION, **asdict(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict, *, source: str = "calibration") -> StereoCalibration:
+        """Build from :meth:`to_dict` output; raise :class:`CalibrationError` on bad content."""
+        if not isinstance(data, dict) or data.get("format") != CALIBRATION_FORMAT:
+            raise CalibrationError(f"{source} is not a {CALIBRATION_FORMAT} file")
+        if data.get("version") != CALIBRATION_VERSION:
+            raise CalibrationError(f"{source}: unsupported version {data.get('version')!r}")
+        fields = ("focal_px", "cx_px", "cy_px", "baseline_m", "width_px", "height_px", "doffs_px")
+        missing = [f for f in fields[:-1] if f not in data]
+        if missing:
+            raise CalibrationError(f"{source} lacks {', '.join(missing)}")
+        return cls(**{f: data[f] for f in fields if f in data})
+
+
+def write_calibration_json(path: str | os.PathLike[str], calibration: StereoCalibration) -> None:
+    """Write ``calibration`` as the project's JSON format (atomically)."""
+    write_text_atomic(path, json.dumps(calibration.to_dict(), indent=2) + "\n")
+
+
+def read_calibration_json(path: str | os.PathLike[str]) -> StereoCalibration:
+    """Read the project's JSON calibration format."""
+    try:
+        with open(path, encoding="utf-8") as handle:
+            data = json.load(handle)
+    except FileNotFoundError as exc:
+        raise InputFileError(f"calibration file {path} does not exist") from exc
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CalibrationError(f"calibration file {path} does not parse: {exc}") from exc
+    return StereoCalibration.from_dict(data, source=str(path))
