@@ -33,8 +33,9 @@ class StereoCalibration:
         Principal point of the left (reference) camera in pixels.
     baseline_m : float
         Distance between the two optical centres in metres (> 0).
-    width_px, height_px : int
-        Image size the calibration belongs to.
+    width_px, height_px : int or None
+        Image size the calibration belongs to; ``None`` when the source does not record it
+        (KITTI's ``calib`` files), in which case any image size is accepted.
     doffs_px : float
         Difference of the principal points' x coordinates (right minus left, Middlebury
         convention), pixels; depth is ``focal_px * baseline_m / (d + doffs_px)``.
@@ -44,8 +45,8 @@ class StereoCalibration:
     cx_px: float
     cy_px: float
     baseline_m: float
-    width_px: int
-    height_px: int
+    width_px: int | None = None
+    height_px: int | None = None
     doffs_px: float = 0.0
 
     def __post_init__(self) -> None:
@@ -62,6 +63,8 @@ class StereoCalibration:
                                    f"(millimetres given as metres?)")
         for name in ("width_px", "height_px"):
             value = getattr(self, name)
+            if value is None:
+                continue
             if not isinstance(value, int) or isinstance(value, bool) or value <= 0:
                 raise CalibrationError(f"calibration {name} must be a positive integer, got {value!r}")
 
@@ -72,6 +75,8 @@ class StereoCalibration:
 
     def check_image_size(self, width_px: int, height_px: int) -> None:
         """Raise :class:`CalibrationError` when the images are not the calibrated size."""
+        if self.width_px is None or self.height_px is None:
+            return
         if (width_px, height_px) != (self.width_px, self.height_px):
             raise CalibrationError(
                 f"calibration is for {self.width_px}x{self.height_px} images, "
@@ -89,10 +94,13 @@ class StereoCalibration:
         if data.get("version") != CALIBRATION_VERSION:
             raise CalibrationError(f"{source}: unsupported version {data.get('version')!r}")
         fields = ("focal_px", "cx_px", "cy_px", "baseline_m", "width_px", "height_px", "doffs_px")
-        missing = [f for f in fields[:-1] if f not in data]
+        missing = [f for f in fields[:4] if f not in data]
         if missing:
             raise CalibrationError(f"{source} lacks {', '.join(missing)}")
-        return cls(**{f: data[f] for f in fields if f in data})
+        try:
+            return cls(**{f: data[f] for f in fields if f in data})
+        except TypeError as exc:
+            raise CalibrationError(f"{source}: {exc}") from exc
 
 
 def write_calibration_json(path: str | os.PathLike[str], calibration: StereoCalibration) -> None:

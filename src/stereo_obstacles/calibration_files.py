@@ -1,0 +1,210 @@
+"""Reading a rectified stereo calibration from the file formats people have.
+
+Supported, detected from the content:
+
+* the project's own JSON (:func:`stereo_obstacles.calibration.write_calibration_json`);
+* Middlebury 2014 ``calib.txt`` (``cam0=[f 0 cx; 0 f cy; 0 0 1]``, ``doffs``, ``baseline`` in mm);
+* KITTI calibration text (``P_rect_02``/``P_rect_03`` or ``P2``/``P3`` 3x4 rectified projection
+  matrices; the stereo baseline is ``(P2[0,3] - P3[0,3]) / f``, already in metres);
+* OpenCV ``FileStorage`` YAML/XML as written after ``stereoCalibrate``/``stereoRectify``
+  (rectified ``P1``, ``P2``, optional ``imageSize``); the length unit of ``T`` is the unit of
+  the chessboard square size, which the file does not record, so it is passed as
+  ``length_unit``;
+* an OpenCV 4x4 reprojection matrix ``Q`` stored as 16 numbers in a text file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from stereo_obstacles.calibration import StereoCalibration, read_calibration_json
+from stereo_obstacles.errors import CalibrationError, InputFileError
+
+LENGTH_UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001}
+"""Metres per unit for the ``length_unit`` argument."""
+
+IMPLAUSIBLE_BASELINE_M = 5.0
+"""A baseline above this (metres) in a unit-less file is taken as a unit mistake, not a rig."""
+
+_NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+def read_calibration(path: str | os.PathLike[str], *, length_unit: str | None = None) -> StereoCalibration:
+    """Read a rectified stereo calibration, detecting the file format from its content.
+
+    Parameters
+    ----------
+    path
+        A calibration file in one of the formats listed in the module docstring.
+    length_unit
+        ``"m"``, ``"cm"`` or ``"mm"``: the unit of the translation in an OpenCV file (which does
+        not record it). Default: metres, and a baseline over
+        :data:`IMPLAUSIBLE_BASELINE_M` is refused with a hint to pass the unit.
+
+    Raises
+    ------
+    InputFileError
+        The file is missing or unreadable.
+    CalibrationError
+        The content is not a recognised calibration or holds impossible values.
+    """
+    if length_unit is not None and length_unit not in LENGTH_UNITS_M:
+        raise CalibrationError(f"length_unit must be one of {sorted(LENGTH_UNITS_M)}, got {length_unit!r}")
+    p = Path(path)
+    if not p.is_file():
+        raise InputFileError(f"calibration file {p} does not exist" if not p.exists()
+                             else f"calibration file {p} is not a regular file")
+    try:
+        text = p.read_text(encoding="utf-8", errors="strict")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CalibrationError(f"calibration file {p} is not a text file: {exc}") from exc
+    stripped = text.lstrip()
+    if stripped.startswith("{"):
+        try:
+            json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise CalibrationError(f"calibration file {p} does not parse as JSON: {exc}") from exc
+        return read_calibration_json(p)
+    if stripped.startswith("%YAML") or stripped.startswith("<?xml") or "opencv-matrix" in text \
+            or "<opencv_storage>" in text:
+        return _read_opencv_storage(p, length_unit)
+    if re.search(r"^\s*cam0\s*=", text, flags=re.MULTILINE):
+        return _parse_middlebury(text, str(p))
+    fields = _keyed_numbers(text)
+    if ("P_rect_02" in fields and "P_rect_03" in fields) or ("P2" in fields and "P3" in fields):
+        return _parse_kitti(fields, str(p))
+    numbers = [t for t in text.split() if _NUMBER.match(t)]
+    if len(numbers) == 16 and len(numbers) == len(text.split()):
+        return _parse_q_matrix(np.array(numbers, dtype=float).reshape(4, 4), str(p), length_unit)
+    raise CalibrationError(
+        f"{p} is not a calibration format this tool reads (project JSON, Middlebury calib.txt, "
+        f"KITTI P_rect, OpenCV YAML/XML with P1/P2, or a 4x4 Q matrix)")
+
+
+def _unit_scale(length_unit: str | None, baseline_in_file: float, source: str) -> float:
+    scale = LENGTH_UNITS_M[length_unit or "m"]
+    if length_unit is None and abs(baseline_in_file) > IMPLAUSIBLE_BASELINE_M:
+        raise CalibrationError(
+            f"{source}: the baseline is {abs(baseline_in_file):.4g} in the file's length unit, "
+            f"implausible in metres; the file does not say its unit, so give it "
+            f"(--calib-unit mm or cm, or length_unit=...)")
+    return scale
+
+
+def _parse_middlebury(text: str, source: str) -> StereoCalibration:
+    values: dict[str, str] = {}
+    for line in text.splitlines():
+        if "=" in line:
+            key, _, value = line.partition("=")
+            values[key.strip()] = value.strip()
+    try:
+        cam0 = _matlab_matrix(values["cam0"])
+        cam1 = _matlab_matrix(values["cam1"]) if "cam1" in values else None
+        baseline_mm = float(values["baseline"])
+        doffs = float(values["doffs"]) if "doffs" in values else float(cam1[0, 2] - cam0[0, 2])
+        width = int(values["width"]) if "width" in values else None
+        height = int(values["height"]) if "height" in values else None
+    except KeyError as exc:
+        raise CalibrationError(f"{source}: Middlebury calib.txt lacks {exc.args[0]!r}") from exc
+    except ValueError as exc:
+        raise CalibrationError(f"{source}: Middlebury calib.txt does not parse: {exc}") from exc
+    return StereoCalibration(focal_px=float(cam0[0, 0]), cx_px=float(cam0[0, 2]), cy_px=float(cam0[1, 2]),
+                             baseline_m=baseline_mm / 1000.0, width_px=width, height_px=height,
+                             doffs_px=doffs)
+
+
+def _matlab_matrix(text: str) -> np.ndarray:
+    rows = [r.split() for r in text.strip().strip("[]").split(";")]
+    matrix = np.array(rows, dtype=float)
+    if matrix.shape != (3, 3):
+        raise ValueError(f"camera matrix must be 3x3, got {matrix.shape}")
+    return matrix
+
+
+def _keyed_numbers(text: str) -> dict[str, list[float]]:
+    """Map each ``key:`` of a KITTI-style file to the numbers that follow it (over line breaks)."""
+    fields: dict[str, list[float]] = {}
+    key = None
+    for token in text.split():
+        if token.endswith(":"):
+            key = token[:-1]
+            fields[key] = []
+        elif key is not None and _NUMBER.match(token):
+            fields[key].append(float(token))
+    return fields
+
+
+def _projection(fields: dict[str, list[float]], names: tuple[str, ...], source: str) -> np.ndarray:
+    for name in names:
+        if name in fields:
+            if len(fields[name]) != 12:
+                raise CalibrationError(f"{source}: {name} must have 12 numbers, has {len(fields[name])}")
+            return np.array(fields[name]).reshape(3, 4)
+    raise CalibrationError(f"{source}: no {' or '.join(names)}")
+
+
+def _parse_kitti(fields: dict[str, list[float]], source: str) -> StereoCalibration:
+    left = _projection(fields, ("P_rect_02", "P2"), source)
+    right = _projection(fields, ("P_rect_03", "P3"), source)
+    focal = float(left[0, 0])
+    if focal <= 0:
+        raise CalibrationError(f"{source}: focal length {focal} must be > 0")
+    baseline = float(left[0, 3] - right[0, 3]) / focal
+    size = fields.get("S_rect_02")
+    width, height = (int(size[0]), int(size[1])) if size and len(size) == 2 else (None, None)
+    return StereoCalibration(focal_px=focal, cx_px=float(left[0, 2]), cy_px=float(left[1, 2]),
+                             baseline_m=baseline, width_px=width, height_px=height,
+                             doffs_px=float(right[0, 2] - left[0, 2]))
+
+
+def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:
+    import cv2
+
+    source = str(path)
+    try:
+        storage = cv2.FileStorage(source, cv2.FILE_STORAGE_READ)
+    except cv2.error as exc:
+        raise CalibrationError(f"{source}: OpenCV cannot parse this file: {exc.msg.strip()}") from exc
+    try:
+        if not storage.isOpened():
+            raise CalibrationError(f"{source}: OpenCV cannot open this file as YAML/XML")
+        left, right = storage.getNode("P1").mat(), storage.getNode("P2").mat()
+        size_node = storage.getNode("imageSize")
+        size = [int(size_node.at(i).real()) for i in range(size_node.size())] if not size_node.empty() else []
+    finally:
+        storage.release()
+    if left is None or right is None:
+        raise CalibrationError(
+            f"{source} has no rectified projection matrices P1 and P2 (an unrectified calibration "
+            f"or not a calibration at all); rectify with stereoRectify first")
+    if left.shape != (3, 4) or right.shape != (3, 4):
+        raise CalibrationError(f"{source}: P1 and P2 must be 3x4, got {left.shape} and {right.shape}")
+    focal = float(left[0, 0])
+    if focal <= 0:
+        raise CalibrationError(f"{source}: focal length {focal} must be > 0")
+    if abs(right[1, 3]) > abs(right[0, 3]):
+        raise CalibrationError(f"{source} describes a vertical stereo rig; only horizontal rigs are supported")
+    baseline_in_file = -float(right[0, 3]) / focal
+    scale = _unit_scale(length_unit, baseline_in_file, source)
+    width, height = (size[0], size[1]) if len(size) == 2 else (None, None)
+    return StereoCalibration(focal_px=focal, cx_px=float(left[0, 2]), cy_px=float(left[1, 2]),
+                             baseline_m=abs(baseline_in_file) * scale, width_px=width, height_px=height,
+                             doffs_px=float(right[0, 2] - left[0, 2]))
+
+
+def _parse_q_matrix(q: np.ndarray, source: str, length_unit: str | None) -> StereoCalibration:
+    """OpenCV's Q: [[1,0,0,-cx],[0,1,0,-cy],[0,0,0,f],[0,0,-1/Tx,(cx-cx')/Tx]]."""
+    focal, inverse_baseline = float(q[2, 3]), float(q[3, 2])
+    if focal <= 0 or inverse_baseline == 0:
+        raise CalibrationError(f"{source}: not a valid Q matrix (f = {focal}, 1/B = {inverse_baseline})")
+    baseline_in_file = 1.0 / abs(inverse_baseline)
+    scale = _unit_scale(length_unit, baseline_in_file, source)
+    # Q[3,3] = (cx - cx') / Tx and Q[3,2] = -1 / Tx, so cx' - cx = Q[3,3] / Q[3,2].
+    doffs = float(q[3, 3] / q[3, 2])
+    return StereoCalibration(focal_px=focal, cx_px=-float(q[0, 3]), cy_px=-float(q[1, 3]),
+                             baseline_m=baseline_in_file * scale, doffs_px=doffs)

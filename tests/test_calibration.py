@@ -1,0 +1,131 @@
+"""The calibration dataclass, its JSON format, and the readers of other people's formats."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.calibration import StereoCalibration, read_calibration_json, write_calibration_json
+from stereo_obstacles.calibration_files import read_calibration
+from stereo_obstacles.errors import CalibrationError, InputFileError
+
+RIG = StereoCalibration(focal_px=700.0, cx_px=320.5, cy_px=240.25, baseline_m=0.12, width_px=640, height_px=480)
+
+
+def test_json_round_trip(tmp_path):
+    write_calibration_json(tmp_path / "c.json", RIG)
+    assert read_calibration_json(tmp_path / "c.json") == RIG
+    assert read_calibration(tmp_path / "c.json") == RIG
+    assert json.loads((tmp_path / "c.json").read_text())["format"] == "stereo-obstacles/calibration"
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"baseline_m": 0.0}, "baseline_m must be > 0"),
+    ({"baseline_m": -0.1}, "baseline_m must be > 0"),
+    ({"baseline_m": 120.0}, "implausible"),
+    ({"focal_px": 0.0}, "focal_px must be > 0"),
+    ({"focal_px": float("nan")}, "finite number"),
+    ({"cx_px": float("inf")}, "finite number"),
+    ({"width_px": 0}, "positive integer"),
+    ({"height_px": 2.5}, "positive integer"),
+])
+def test_impossible_values_are_refused(change, message):
+    fields = {**RIG.__dict__, **change}
+    with pytest.raises(CalibrationError, match=message):
+        StereoCalibration(**fields)
+
+
+def test_image_size_check():
+    RIG.check_image_size(640, 480)
+    with pytest.raises(CalibrationError, match="640x480 images, the images are 320x240"):
+        RIG.check_image_size(320, 240)
+    StereoCalibration(focal_px=1.0, cx_px=0.0, cy_px=0.0, baseline_m=1.0).check_image_size(5, 5)
+
+
+def test_json_with_wrong_content_is_refused(tmp_path):
+    path = tmp_path / "c.json"
+    path.write_text('{"format": "stereo-obstacles/calibration", "version": 1, "focal_px": 1}')
+    with pytest.raises(CalibrationError, match="lacks cx_px"):
+        read_calibration(path)
+    path.write_text('{"focal_px": 1')
+    with pytest.raises(CalibrationError, match="does not parse"):
+        read_calibration(path)
+    path.write_text('{"format": "something else"}')
+    with pytest.raises(CalibrationError, match="is not a stereo-obstacles/calibration"):
+        read_calibration(path)
+
+
+def test_missing_and_binary_files(tmp_path):
+    with pytest.raises(InputFileError, match="does not exist"):
+        read_calibration(tmp_path / "none.txt")
+    (tmp_path / "bin").write_bytes(bytes(range(256)))
+    with pytest.raises(CalibrationError, match="not a text file"):
+        read_calibration(tmp_path / "bin")
+    (tmp_path / "prose.txt").write_text("hello world\n")
+    with pytest.raises(CalibrationError, match="not a calibration format"):
+        read_calibration(tmp_path / "prose.txt")
+
+
+def test_middlebury_2014_calib(shared_dataset):
+    c = read_calibration(shared_dataset("calibration_examples") / "middlebury2014_Adirondack-perfect_calib.txt")
+    assert (c.focal_px, c.cx_px, c.cy_px) == (4161.221, 1445.577, 984.686)
+    assert c.baseline_m == pytest.approx(0.176252)
+    assert c.doffs_px == pytest.approx(209.059)
+    assert (c.width_px, c.height_px) == (2880, 1988)
+
+
+def test_kitti_calib_of_frame_000005(shared_dataset):
+    c = read_calibration(shared_dataset("kitti2015_000005") / "Calib.txt")
+    assert c.focal_px == pytest.approx(721.5377)
+    assert (c.cx_px, c.cy_px) == pytest.approx((609.5593, 172.854))
+    assert c.baseline_m == pytest.approx(0.5327, abs=2e-4)
+    assert c.doffs_px == 0.0 and c.width_px is None
+
+
+def test_kitti_raw_cam_to_cam_agrees_with_the_frame_calib(shared_dataset):
+    raw = read_calibration(shared_dataset("calibration_examples") / "kitti_raw_2011_09_26_calib_cam_to_cam.txt")
+    frame = read_calibration(shared_dataset("kitti2015_000005") / "Calib.txt")
+    assert raw.focal_px == frame.focal_px and raw.baseline_m == pytest.approx(frame.baseline_m)
+    assert (raw.width_px, raw.height_px) == (1242, 375)
+
+
+def test_q_matrix_agrees_with_p_rect(shared_dataset):
+    q = read_calibration(shared_dataset("kitti2015_000005") / "Q.dat")
+    p = read_calibration(shared_dataset("kitti2015_000005") / "Calib.txt")
+    assert q.focal_px == pytest.approx(p.focal_px)
+    assert q.baseline_m == pytest.approx(p.baseline_m, rel=1e-3)
+    assert (q.cx_px, q.cy_px) == pytest.approx((p.cx_px, p.cy_px))
+
+
+def test_opencv_yaml_needs_its_length_unit(shared_dataset):
+    path = shared_dataset("calibration_examples") / "opencv_stereo_chessboard" / "cameraParams_from_CppStereoMatching.yml"
+    with pytest.raises(CalibrationError, match="--calib-unit mm"):
+        read_calibration(path)
+    c = read_calibration(path, length_unit="mm")
+    assert c.focal_px == pytest.approx(430.8037, rel=1e-6)
+    assert c.baseline_m == pytest.approx(35999.428823379807 / 430.80372885701422 / 1000)
+    assert c.doffs_px == pytest.approx(303.89015197753906 - 332.17965698242188)
+    assert (c.width_px, c.height_px) == (640, 480)
+
+
+def test_opencv_image_list_is_not_a_calibration(shared_dataset):
+    with pytest.raises(CalibrationError, match="no rectified projection matrices"):
+        read_calibration(shared_dataset("calibration_examples") / "opencv_stereo_chessboard" / "stereo_calib.xml")
+
+
+def test_opencv_xml_written_by_opencv_is_read(tmp_path):
+    import cv2
+    path = str(tmp_path / "rig.xml")
+    storage = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
+    storage.write("P1", np.array([[600.0, 0, 310, 0], [0, 600, 200, 0], [0, 0, 1, 0]]))
+    storage.write("P2", np.array([[600.0, 0, 310, -600 * 0.1], [0, 600, 200, 0], [0, 0, 1, 0]]))
+    storage.release()
+    c = read_calibration(path)
+    assert (c.focal_px, c.cx_px, c.cy_px, c.baseline_m, c.doffs_px) == pytest.approx((600, 310, 200, 0.1, 0))
+
+
+def test_unknown_length_unit_is_refused(tmp_path):
+    with pytest.raises(CalibrationError, match="length_unit"):
+        read_calibration(tmp_path / "x", length_unit="inch")
