@@ -1,0 +1,143 @@
+"""Grouping obstacle pixels with a disparity into separate objects.
+
+Semi-dense disparity has holes, so pixels are grouped through a coarse grid of square cells:
+a cell holding enough obstacle pixels with a disparity gets their median disparity, and two
+4-adjacent cells belong to the same object when their disparities agree within a tolerance
+(``max(abs_tolerance_px, rel_tolerance * d)``). A near pole in front of a far wall therefore
+splits from the wall even where they touch in the image. Each pixel then joins its cell's
+group only when its own disparity agrees with the cell's, which keeps stray background pixels
+out of an object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles.errors import InvalidInputError
+
+
+@dataclass(frozen=True)
+class GroupingParameters:
+    """How obstacle pixels are grouped.
+
+    Attributes
+    ----------
+    cell_px : int
+        Side of the square grid cells in pixels.
+    min_cell_pixels : int
+        Obstacle pixels with a disparity a cell needs to take part.
+    abs_tolerance_px, rel_tolerance : float
+        Two neighbouring cells (or a pixel and its cell) are consistent when their
+        disparities differ by at most ``max(abs_tolerance_px, rel_tolerance * d)`` pixels.
+    min_object_pixels : int
+        Objects with fewer pixels are dropped as noise.
+    """
+
+    cell_px: int = 8
+    min_cell_pixels: int = 6
+    abs_tolerance_px: float = 1.5
+    rel_tolerance: float = 0.08
+    min_object_pixels: int = 60
+
+    def __post_init__(self) -> None:
+        if self.cell_px < 2:
+            raise InvalidInputError(f"cell_px must be >= 2, got {self.cell_px}")
+        if not 1 <= self.min_cell_pixels <= self.cell_px ** 2:
+            raise InvalidInputError(f"min_cell_pixels must be in [1, {self.cell_px ** 2}], got {self.min_cell_pixels}")
+        if self.abs_tolerance_px <= 0 or self.rel_tolerance < 0:
+            raise InvalidInputError("abs_tolerance_px must be > 0 and rel_tolerance >= 0")
+        if self.min_object_pixels < 1:
+            raise InvalidInputError(f"min_object_pixels must be >= 1, got {self.min_object_pixels}")
+
+
+def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:
+    return np.maximum(params.abs_tolerance_px, params.rel_tolerance * np.abs(d))
+
+
+def _cell_disparities(disparity: np.ndarray, mask: np.ndarray, params: GroupingParameters) -> np.ndarray:
+    """Median disparity of each cell's masked valid pixels, NaN for cells with too few."""
+    h, w = disparity.shape
+    c = params.cell_px
+    gh, gw = -(-h // c), -(-w // c)
+    padded = np.full((gh * c, gw * c), np.nan, dtype=np.float32)
+    padded[:h, :w] = np.where(mask, disparity, np.nan)
+    blocks = padded.reshape(gh, c, gw, c).transpose(0, 2, 1, 3).reshape(gh, gw, c * c)
+    counts = np.isfinite(blocks).sum(axis=2)
+    medians = np.full((gh, gw), np.nan, dtype=np.float32)
+    enough = counts >= params.min_cell_pixels
+    if enough.any():
+        medians[enough] = np.nanmedian(blocks[enough], axis=1)
+    return medians
+
+
+def _label_cells(cells: np.ndarray, params: GroupingParameters) -> np.ndarray:
+    """Connected components of valid cells joined where disparities agree (union-find)."""
+    gh, gw = cells.shape
+    parent = np.arange(gh * gw)
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    valid = np.isfinite(cells)
+    tol = _tolerance(np.nan_to_num(cells), params)
+    for dy, dx in ((0, 1), (1, 0)):
+        a = cells[: gh - dy, : gw - dx]
+        b = cells[dy:, dx:]
+        joined = valid[: gh - dy, : gw - dx] & valid[dy:, dx:] & (
+            np.abs(a - b) <= np.minimum(tol[: gh - dy, : gw - dx], tol[dy:, dx:]))
+        ys, xs = np.nonzero(joined)
+        for y, x in zip(ys.tolist(), xs.tolist()):
+            ra, rb = find(y * gw + x), find((y + dy) * gw + (x + dx))
+            if ra != rb:
+                parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([find(i) for i in range(gh * gw)]).reshape(gh, gw)
+    labels = np.full((gh, gw), -1, dtype=np.int64)
+    _, compact = np.unique(roots[valid], return_inverse=True)
+    labels[valid] = compact
+    return labels
+
+
+def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
+                          params: GroupingParameters = GroupingParameters()) -> np.ndarray:
+    """Label each obstacle pixel with the object it belongs to.
+
+    Parameters
+    ----------
+    disparity
+        ``float32 (H, W)`` disparity in pixels, NaN where unmatched.
+    obstacle_mask
+        ``bool (H, W)``: pixels that phase 1 (or geometry) calls obstacle.
+    params
+        Grouping parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``int32 (H, W)``: 0 for pixels in no object, ``1..N`` for the objects, numbered by
+        decreasing size.
+    """
+    d = np.asarray(disparity, dtype=np.float32)
+    m = np.asarray(obstacle_mask, dtype=bool)
+    if d.ndim != 2 or d.shape != m.shape:
+        raise InvalidInputError(f"disparity {d.shape} and obstacle_mask {m.shape} must be the same 2-D shape")
+    h, w = d.shape
+    usable = m & np.isfinite(d)
+    cells = _cell_disparities(d, usable, params)
+    cell_labels = _label_cells(cells, params)
+    c = params.cell_px
+    pixel_cell = cell_labels[np.arange(h)[:, None] // c, np.arange(w)[None, :] // c]
+    pixel_cell_d = cells[np.arange(h)[:, None] // c, np.arange(w)[None, :] // c]
+    consistent = usable & (pixel_cell >= 0) & (
+        np.abs(np.nan_to_num(d) - np.nan_to_num(pixel_cell_d)) <= _tolerance(np.nan_to_num(pixel_cell_d), params))
+    raw = np.where(consistent, pixel_cell, -1)
+    ids, counts = np.unique(raw[raw >= 0], return_counts=True)
+    keep = ids[counts >= params.min_object_pixels]
+    order = keep[np.argsort(-counts[counts >= params.min_object_pixels], kind="stable")]
+    relabel = np.zeros(int(cell_labels.max()) + 2, dtype=np.int32)
+    relabel[order + 1] = np.arange(1, len(order) + 1, dtype=np.int32)
+    return relabel[raw + 1]

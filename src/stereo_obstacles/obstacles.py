@@ -1,0 +1,245 @@
+"""Obstacles as objects: distance, image box, 3-D position and size, height above the ground.
+
+Phase 3 of the paper turns obstacle pixels into depths; users need objects. Obstacle pixels
+with a disparity are grouped (:mod:`stereo_obstacles.obstacle_grouping`) and each group is
+measured here. With a calibration every length is in metres in the rectified left camera
+frame (x right, y down, z forward); without one, only pixels and disparities are reported.
+
+Distance of an obstacle is the 10th percentile of its pixels' depths: the near face of the
+object, robust to the few wrong matches a mean would follow. Height above the ground uses the
+ground plane fitted in (x, y, disparity) space, converted to a 3-D plane; objects whose pixels
+all lie within ``flat_tolerance_m`` of that plane are rejected as flat (markings, puddles),
+and the rejection is reported with its reason.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
+
+DISTANCE_PERCENTILE = 10.0
+"""Percentile of an obstacle's pixel depths reported as its distance."""
+
+EXTENT_PERCENTILES = (1.0, 99.0)
+"""Percentiles of the pixels' 3-D coordinates taken as an obstacle's extent (robust min/max)."""
+
+
+@dataclass(frozen=True)
+class DisparityPlane:
+    """The ground as a plane in disparity space: ``d = a x + b y + c`` (pixels)."""
+
+    a: float
+    b: float
+    c: float
+
+    def disparity_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Disparity of the ground at pixel columns ``x`` and rows ``y``."""
+        return self.a * np.asarray(x, dtype=np.float64) + self.b * np.asarray(y, dtype=np.float64) + self.c
+
+    def height_above_m(self, points_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
+        """Signed height of 3-D points (``(..., 3)`` metres) above the plane; camera side positive.
+
+        Substituting ``x = f X / Z + cx``, ``y = f Y / Z + cy`` and ``d + doffs = f B / Z`` into
+        the disparity plane gives the 3-D plane ``n . P = f B`` with
+        ``n = (a f, b f, a cx + b cy + c + doffs)``; the camera centre lies on the positive side.
+        """
+        f = calibration.focal_px
+        normal = np.array([self.a * f, self.b * f,
+                           self.a * calibration.cx_px + self.b * calibration.cy_px + self.c + calibration.doffs_px])
+        norm = float(np.linalg.norm(normal))
+        return (calibration.focal_baseline_px_m - np.asarray(points_m, dtype=np.float64) @ normal) / norm
+
+
+@dataclass(frozen=True)
+class ObstacleParameters:
+    """How groups of obstacle pixels become reported obstacles.
+
+    Attributes
+    ----------
+    flat_tolerance_m : float
+        A group whose 99th-percentile height above the ground is below this is flat on the
+        ground (a marking, a puddle) and rejected. Needs a calibration and a ground plane.
+    flat_tolerance_px : float
+        The same test without a calibration: 99th-percentile disparity above the ground plane.
+    max_distance_m : float
+        Groups farther than this are not reported (depth error grows as Z**2).
+    corridor_width_m : float
+        Width of the walking corridor straight ahead for :func:`corridor_summary`.
+    """
+
+    flat_tolerance_m: float = 0.08
+    flat_tolerance_px: float = 1.0
+    max_distance_m: float = 30.0
+    corridor_width_m: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"):
+            value = getattr(self, name)
+            if not math.isfinite(value) or value <= 0:
+                raise InvalidInputError(f"{name} must be a positive number, got {value}")
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """One detected obstacle. Lengths in metres (``None`` without a calibration).
+
+    ``box_px`` is ``(x0, y0, x1, y1)``, inclusive-exclusive pixel bounds in the left image;
+    ``centre_m`` the median 3-D point ``(X, Y, Z)`` in the left camera frame; ``confidence``
+    in [0, 1] grows with the number of matched pixels and their depth agreement.
+    """
+
+    id: int
+    box_px: tuple[int, int, int, int]
+    pixel_count: int
+    disparity_px: float
+    confidence: float
+    distance_m: float | None = None
+    centre_m: tuple[float, float, float] | None = None
+    lateral_extent_m: tuple[float, float] | None = None
+    width_m: float | None = None
+    height_m: float | None = None
+    height_above_ground_m: float | None = None
+
+
+@dataclass(frozen=True)
+class RejectedGroup:
+    """A group of obstacle pixels that was not reported, and why."""
+
+    box_px: tuple[int, int, int, int]
+    pixel_count: int
+    reason: str
+
+
+@dataclass(frozen=True)
+class CorridorSummary:
+    """The nearest obstacle in a corridor straight ahead, and the free distance before it.
+
+    ``nearest_obstacle_id`` is ``None`` and ``free_distance_m`` is ``None`` when nothing was
+    found in the corridor (the free distance is then unknown beyond the measured range).
+    """
+
+    width_m: float
+    nearest_obstacle_id: int | None
+    free_distance_m: float | None
+
+
+@dataclass(frozen=True)
+class ObstacleList:
+    """Obstacles nearest first, the groups rejected, and the corridor summary (if calibrated)."""
+
+    obstacles: tuple[Obstacle, ...]
+    rejected: tuple[RejectedGroup, ...] = field(default_factory=tuple)
+    corridor: CorridorSummary | None = None
+
+
+def _box(xs: np.ndarray, ys: np.ndarray) -> tuple[int, int, int, int]:
+    return int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1
+
+
+def _confidence(pixel_count: int, disparities: np.ndarray) -> float:
+    """More pixels and a tighter disparity spread give more confidence (0..1)."""
+    size_term = 1.0 - math.exp(-pixel_count / 300.0)
+    spread = float(np.subtract(*np.percentile(disparities, [75, 25])))
+    agreement = 1.0 / (1.0 + spread / max(1.0, 0.1 * float(np.median(disparities))))
+    return round(size_term * agreement, 3)
+
+
+def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
+                      calibration: StereoCalibration | None, ground: DisparityPlane | None,
+                      params: ObstacleParameters = ObstacleParameters()) -> ObstacleList:
+    """Measure each group of obstacle pixels; reject flat and far ones; sort nearest first.
+
+    Parameters
+    ----------
+    groups
+        ``int (H, W)`` group number per pixel, 0 for none (from
+        :func:`stereo_obstacles.obstacle_grouping.group_obstacle_pixels`).
+    disparity
+        ``float32 (H, W)`` disparity in pixels, NaN where unmatched.
+    calibration
+        Rectified calibration, or ``None`` to stay in pixels and disparities.
+    ground
+        The ground plane in disparity space, or ``None`` when it could not be fitted (then
+        nothing is rejected as flat and heights above the ground are not reported).
+    params
+        Thresholds.
+    """
+    groups = np.asarray(groups)
+    d = np.asarray(disparity, dtype=np.float32)
+    if groups.shape != d.shape or d.ndim != 2:
+        raise InvalidInputError(f"groups {groups.shape} and disparity {d.shape} must be the same 2-D shape")
+    flat = groups.ravel()
+    order = np.argsort(flat, kind="stable")
+    bounds = np.searchsorted(flat[order], np.arange(1, int(flat.max(initial=0)) + 2))
+    w = d.shape[1]
+    kept: list[Obstacle] = []
+    rejected: list[RejectedGroup] = []
+    for group in range(1, len(bounds)):
+        index = order[bounds[group - 1]:bounds[group]]
+        ys, xs = np.divmod(index, w)
+        outcome = _measure_group(xs, ys, d[ys, xs].astype(np.float64), calibration, ground, params)
+        (kept if isinstance(outcome, Obstacle) else rejected).append(outcome)
+    kept.sort(key=lambda o: (o.distance_m if o.distance_m is not None else math.inf, -o.disparity_px))
+    numbered = tuple(Obstacle(**{**o.__dict__, "id": i + 1}) for i, o in enumerate(kept))
+    corridor = corridor_summary(numbered, params.corridor_width_m) if calibration is not None else None
+    return ObstacleList(obstacles=numbered, rejected=tuple(rejected), corridor=corridor)
+
+
+def _flat(box, count: int, above: float, unit: str) -> RejectedGroup:
+    return RejectedGroup(box, count, f"flat on the ground plane (a marking or puddle): at most {above:.2f} {unit} above it")
+
+
+def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
+                   calibration: StereoCalibration | None, ground: DisparityPlane | None,
+                   params: ObstacleParameters) -> Obstacle | RejectedGroup:
+    """Measure one group of pixels (columns ``xs``, rows ``ys``) or say why it is rejected."""
+    box, count = _box(xs, ys), int(len(xs))
+    if calibration is None:
+        if ground is not None:
+            above_px = float(np.percentile(disparities - ground.disparity_at(xs, ys), EXTENT_PERCENTILES[1]))
+            if above_px < params.flat_tolerance_px:
+                return _flat(box, count, above_px, "px")
+        return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(np.median(disparities)), 3),
+                        confidence=_confidence(count, disparities))
+    positive = disparities + calibration.doffs_px > 0
+    if not positive.any():
+        return RejectedGroup(box, count, "no valid depth (disparity + doffs <= 0)")
+    xs, ys, disparities = xs[positive], ys[positive], disparities[positive]
+    z = calibration.focal_baseline_px_m / (disparities + calibration.doffs_px)
+    distance = float(np.percentile(z, DISTANCE_PERCENTILE))
+    if distance > params.max_distance_m:
+        return RejectedGroup(box, count, f"farther than {params.max_distance_m:g} m ({distance:.1f} m)")
+    points = np.stack([(xs - calibration.cx_px) * z / calibration.focal_px,
+                       (ys - calibration.cy_px) * z / calibration.focal_px, z], axis=-1)
+    height_above = None
+    if ground is not None:
+        height_above = float(np.percentile(ground.height_above_m(points, calibration), EXTENT_PERCENTILES[1]))
+        if height_above < params.flat_tolerance_m:
+            return _flat(box, count, height_above, "m")
+        height_above = round(height_above, 3)
+    x_lo, x_hi = np.percentile(points[:, 0], EXTENT_PERCENTILES)
+    y_lo, y_hi = np.percentile(points[:, 1], EXTENT_PERCENTILES)
+    return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(np.median(disparities)), 3),
+                    confidence=_confidence(count, disparities), distance_m=round(distance, 3),
+                    centre_m=tuple(round(float(v), 3) for v in np.median(points, axis=0)),
+                    lateral_extent_m=(round(float(x_lo), 3), round(float(x_hi), 3)),
+                    width_m=round(float(x_hi - x_lo), 3), height_m=round(float(y_hi - y_lo), 3),
+                    height_above_ground_m=height_above)
+
+
+def corridor_summary(obstacles: tuple[Obstacle, ...], width_m: float) -> CorridorSummary:
+    """The nearest obstacle whose lateral extent overlaps ``[-width_m / 2, width_m / 2]``.
+
+    The corridor runs straight ahead along the left camera's optical axis.
+    """
+    half = width_m / 2.0
+    for o in sorted((o for o in obstacles if o.lateral_extent_m is not None), key=lambda o: o.distance_m):
+        lo, hi = o.lateral_extent_m
+        if hi >= -half and lo <= half:
+            return CorridorSummary(width_m=width_m, nearest_obstacle_id=o.id, free_distance_m=o.distance_m)
+    return CorridorSummary(width_m=width_m, nearest_obstacle_id=None, free_distance_m=None)
