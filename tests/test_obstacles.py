@@ -51,6 +51,9 @@ def test_pole_in_front_of_wall_is_a_separate_object_and_marking_is_rejected():
     assert box.box_px == (300, 275, 400, 450)
     assert len(result.rejected) == 1 and "flat on the ground" in result.rejected[0].reason
     assert result.rejected[0].box_px[1] >= 455
+    assert set(np.unique(result.id_map).tolist()) == {0, 1, 2, 3}
+    assert (result.id_map[300:440, 310:390] == 1).mean() > 0.5  # the box's own pixels carry its id
+    assert (result.id_map[455:470, 450:600] == 0).all()        # the rejected marking carries none
 
 
 def test_without_calibration_results_stay_in_pixels():

@@ -130,9 +130,13 @@ class CorridorSummary:
 
 @dataclass(frozen=True)
 class ObstacleList:
-    """Obstacles nearest first, the groups rejected, and the corridor summary (if calibrated)."""
+    """Obstacles nearest first, the groups rejected, and the corridor summary (if calibrated).
+
+    ``id_map`` is ``int32 (H, W)``: the id of the obstacle each pixel belongs to, 0 for none.
+    """
 
     obstacles: tuple[Obstacle, ...]
+    id_map: np.ndarray
     rejected: tuple[RejectedGroup, ...] = field(default_factory=tuple)
     corridor: CorridorSummary | None = None
 
@@ -177,17 +181,25 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     order = np.argsort(flat, kind="stable")
     bounds = np.searchsorted(flat[order], np.arange(1, int(flat.max(initial=0)) + 2))
     w = d.shape[1]
-    kept: list[Obstacle] = []
+    kept: list[tuple[Obstacle, int]] = []
     rejected: list[RejectedGroup] = []
     for group in range(1, len(bounds)):
         index = order[bounds[group - 1]:bounds[group]]
         ys, xs = np.divmod(index, w)
         outcome = _measure_group(xs, ys, d[ys, xs].astype(np.float64), calibration, ground, params)
-        (kept if isinstance(outcome, Obstacle) else rejected).append(outcome)
-    kept.sort(key=lambda o: (o.distance_m if o.distance_m is not None else math.inf, -o.disparity_px))
-    numbered = tuple(Obstacle(**{**o.__dict__, "id": i + 1}) for i, o in enumerate(kept))
+        if isinstance(outcome, Obstacle):
+            kept.append((outcome, group))
+        else:
+            rejected.append(outcome)
+    kept.sort(key=lambda pair: (pair[0].distance_m if pair[0].distance_m is not None else math.inf,
+                                -pair[0].disparity_px))
+    numbered = tuple(Obstacle(**{**o.__dict__, "id": i + 1}) for i, (o, _) in enumerate(kept))
+    group_to_id = np.zeros(len(bounds), dtype=np.int32)
+    for i, (_, group) in enumerate(kept):
+        group_to_id[group] = i + 1
+    id_map = group_to_id[np.clip(groups, 0, len(bounds) - 1)]
     corridor = corridor_summary(numbered, params.corridor_width_m) if calibration is not None else None
-    return ObstacleList(obstacles=numbered, rejected=tuple(rejected), corridor=corridor)
+    return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected), corridor=corridor)
 
 
 def _flat(box, count: int, above: float, unit: str) -> RejectedGroup:
