@@ -1,0 +1,65 @@
+"""The command line as a whole: help, version, error reporting, ``python -m``."""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+
+import pytest
+
+from stereo_obstacles import __version__, cli
+from stereo_obstacles.errors import InputFileError
+
+
+def test_help_lists_every_sub_command(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    parser = cli.build_parser()
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+    assert len(commands) == len(cli.COMMAND_MODULES) > 0
+    for name in commands:
+        assert name in out
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["--version"])
+    assert __version__ in capsys.readouterr().out
+
+
+def test_missing_command_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main([])
+    assert exit_info.value.code == 2
+
+
+def _parser_with(handler):
+    def build():
+        parser = argparse.ArgumentParser(prog=cli.PROG)
+        parser.add_argument("-v", "--verbose", action="count", default=0)
+        parser.set_defaults(handler=handler)
+        return parser
+    return build
+
+
+@pytest.mark.parametrize("exception, code, text", [
+    (InputFileError("left.png does not exist"), cli.EXIT_ERROR, "error: left.png does not exist"),
+    (KeyboardInterrupt(), cli.EXIT_INTERRUPTED, "interrupted"),
+    (RuntimeError("boom\nsecond line"), cli.EXIT_INTERNAL, "internal error: RuntimeError: boom second line"),
+])
+def test_errors_become_one_line_and_an_exit_code(monkeypatch, capsys, exception, code, text):
+    def handler(args):
+        raise exception
+    monkeypatch.setattr(cli, "build_parser", _parser_with(handler))
+    assert cli.main([]) == code
+    err = capsys.readouterr().err
+    assert text in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_python_dash_m_runs_the_same_command():
+    result = subprocess.run([sys.executable, "-m", "stereo_obstacles", "--version"],
+                            capture_output=True, text=True, check=False)
+    assert result.returncode == 0 and __version__ in result.stdout
