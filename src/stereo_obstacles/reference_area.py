@@ -1,0 +1,341 @@
+"""The reference area: a rectangle in front of the walker assumed to be ground, and its statistics.
+
+The paper takes the mean hue and intensity (and the intensity range) of a rectangle at the
+bottom centre of the image. A plain mean is broken by a small obstacle or a shadow inside
+the rectangle, and a plain mean of hue angles is wrong across 0/360. Here:
+
+* hue: circular mean as a start, then the median of the hue differences to it (a circular
+  median); pixels farther than ``outlier_mads`` robust deviations (1.4826 MAD) are rejected;
+* the hue spread is the ``spread_percentile``..``100 - spread_percentile`` range of the
+  remaining hues, and the hue threshold is ``hue_threshold_factor`` times it (the paper's
+  "20 % of the hue difference in the reference area"), clipped to a sensible interval;
+* intensity: median and MAD over the colour-consistent pixels, outliers rejected the same
+  way (a shadow or a dark object inside the rectangle), then a percentile range;
+* grey ground (asphalt, concrete: fewer than ``min_hue_fraction`` of the pixels have a hue)
+  is described by its saturation instead of its hue.
+
+An unusable area (too few pixels bright enough to measure colour, or too few left after
+rejection) raises :class:`~stereo_obstacles.errors.InvalidInputError`; a suspicious one (most
+pixels rejected, or a very wide hue or intensity spread) is logged as a warning.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles.colour import HSI, hue_difference
+from stereo_obstacles.errors import InvalidInputError
+
+logger = logging.getLogger(__name__)
+
+_MAD_TO_SIGMA = 1.4826
+"""MAD of a normal distribution times this is its standard deviation."""
+
+
+@dataclass(frozen=True)
+class ReferenceArea:
+    """A rectangle ``[x0, x1) x [y0, y1)``, in pixels or in fractions of the image size.
+
+    Parameters
+    ----------
+    x0, y0, x1, y1
+        Corners; ``x0 < x1`` and ``y0 < y1``.
+    unit
+        ``"fraction"`` (0..1 of width and height) or ``"px"``.
+    """
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+    unit: str = "fraction"
+
+    def __post_init__(self) -> None:
+        if self.unit not in ("fraction", "px"):
+            raise InvalidInputError(f"reference unit must be 'fraction' or 'px', got {self.unit!r}")
+        corners = (self.x0, self.y0, self.x1, self.y1)
+        if not all(math.isfinite(float(v)) for v in corners):
+            raise InvalidInputError(f"reference corners must be finite, got {corners}")
+        if not (self.x0 < self.x1 and self.y0 < self.y1):
+            raise InvalidInputError(f"reference needs x0 < x1 and y0 < y1, got {corners}")
+        if min(corners) < 0 or (self.unit == "fraction" and max(corners) > 1):
+            raise InvalidInputError(f"reference corners out of range for unit {self.unit!r}: {corners}")
+
+    @classmethod
+    def parse(cls, text: str) -> ReferenceArea:
+        """Parse ``"x0,y0,x1,y1"``: fractions of the image when every value is <= 1, else pixels."""
+        parts = text.split(",")
+        try:
+            values = [float(p) for p in parts]
+        except ValueError:
+            values = []
+        if len(values) != 4:
+            raise InvalidInputError(f"reference must be x0,y0,x1,y1 (pixels or fractions), got {text!r}")
+        unit = "fraction" if max(values) <= 1.0 else "px"
+        return cls(*values, unit=unit)
+
+    def to_pixels(self, height: int, width: int) -> tuple[int, int, int, int]:
+        """Integer pixel bounds ``(x0, y0, x1, y1)`` (half-open) inside a ``height x width`` image.
+
+        Raises
+        ------
+        InvalidInputError
+            The rectangle is empty or outside the image.
+        """
+        if self.unit == "fraction":
+            box = (round(self.x0 * width), round(self.y0 * height),
+                   round(self.x1 * width), round(self.y1 * height))
+        else:
+            box = (int(self.x0), int(self.y0), int(math.ceil(self.x1)), int(math.ceil(self.y1)))
+        x0, y0, x1, y1 = box
+        x1, y1 = min(x1, width), min(y1, height)
+        if x1 <= x0 or y1 <= y0:
+            raise InvalidInputError(f"reference area {self} is empty in a {width}x{height} image")
+        return x0, y0, x1, y1
+
+
+DEFAULT_REFERENCE_AREA = ReferenceArea(0.35, 0.85, 0.65, 1.0)
+"""Bottom centre: the middle 30 % of the width, the lowest 15 % of the height."""
+
+
+@dataclass(frozen=True)
+class ReferenceParameters:
+    """How the reference statistics are made robust; every field is a documented threshold.
+
+    Attributes
+    ----------
+    min_valid_fraction
+        Error when fewer than this fraction of the area's pixels are bright enough to measure
+        colour (``intensity >= min_intensity``).
+    min_pixels
+        Error when fewer pixels than this remain for the statistics.
+    min_hue_fraction
+        Below this fraction of pixels with a valid hue the ground is treated as grey.
+    outlier_mads
+        Pixels farther than this many robust standard deviations from the median (hue, then
+        intensity) are rejected as not ground (an object or a shadow inside the area).
+    min_outlier_hue_deg, min_outlier_intensity
+        Floors of those rejection distances, so that a perfectly uniform area rejects nothing
+        of its noise: degrees, and fraction of full scale.
+    spread_percentile
+        The hue spread and intensity range are taken between this percentile and
+        ``100 -`` it of the kept pixels.
+    hue_threshold_factor
+        Hue threshold = this times the hue spread (the paper's 20 %; see docs/segmentation.md
+        for the measured default).
+    min_hue_threshold_deg, max_hue_threshold_deg
+        Clip of the hue threshold, degrees.
+    saturation_margin
+        Grey ground: a pixel matches when its saturation is at most the area's upper
+        saturation percentile plus this.
+    warn_kept_fraction
+        Warn when fewer than this fraction of measurable pixels survive rejection.
+    warn_hue_spread_deg, warn_intensity_spread
+        Warn when the hue spread (degrees) or the relative intensity range
+        ``(high - low) / median`` exceeds these: the area is too varied to be one ground.
+    """
+
+    min_valid_fraction: float = 0.3
+    min_pixels: int = 30
+    min_hue_fraction: float = 0.5
+    outlier_mads: float = 3.0
+    min_outlier_hue_deg: float = 3.0
+    min_outlier_intensity: float = 0.02
+    spread_percentile: float = 1.0
+    hue_threshold_factor: float = 0.2
+    min_hue_threshold_deg: float = 4.0
+    max_hue_threshold_deg: float = 45.0
+    saturation_margin: float = 0.03
+    warn_kept_fraction: float = 0.5
+    warn_hue_spread_deg: float = 90.0
+    warn_intensity_spread: float = 1.0
+
+    def __post_init__(self) -> None:
+        fractions = ("min_valid_fraction", "min_hue_fraction", "warn_kept_fraction",
+                     "saturation_margin", "min_outlier_intensity")
+        for name in fractions:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+                raise InvalidInputError(f"ReferenceParameters.{name} must be in [0, 1], got {value!r}")
+        positives = ("outlier_mads", "hue_threshold_factor", "warn_hue_spread_deg",
+                     "warn_intensity_spread")
+        for name in positives:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise InvalidInputError(f"ReferenceParameters.{name} must be > 0, got {value!r}")
+        if not 0.0 <= self.spread_percentile < 50.0:
+            raise InvalidInputError(f"spread_percentile must be in [0, 50), got {self.spread_percentile!r}")
+        if not 0.0 <= self.min_outlier_hue_deg <= 180.0:
+            raise InvalidInputError(f"min_outlier_hue_deg must be in [0, 180], got {self.min_outlier_hue_deg!r}")
+        if not 0.0 <= self.min_hue_threshold_deg <= self.max_hue_threshold_deg <= 180.0:
+            raise InvalidInputError("need 0 <= min_hue_threshold_deg <= max_hue_threshold_deg <= 180, got "
+                                    f"{self.min_hue_threshold_deg!r} and {self.max_hue_threshold_deg!r}")
+        if isinstance(self.min_pixels, bool) or not isinstance(self.min_pixels, int) or self.min_pixels < 1:
+            raise InvalidInputError(f"min_pixels must be a positive integer, got {self.min_pixels!r}")
+
+
+@dataclass(frozen=True)
+class ReferenceStatistics:
+    """What the ground looks like, measured in the reference area.
+
+    Attributes
+    ----------
+    box_px
+        ``(x0, y0, x1, y1)`` of the area in pixels, half-open.
+    hue_deg
+        Circular median hue of the ground, degrees in ``[0, 360)``; None for grey ground.
+    hue_spread_deg
+        Robust hue range of the kept pixels, degrees (0 for grey ground).
+    hue_threshold_deg
+        Hue threshold used by the classifier, degrees (0 for grey ground).
+    max_saturation
+        Grey ground: saturation up to which a pixel matches (None for coloured ground).
+    intensity_median, intensity_low, intensity_high
+        Median and robust range of ground intensity, fractions of full scale.
+    n_pixels, n_measurable, n_kept
+        Pixels in the area, pixels bright enough to measure colour, pixels kept after rejection.
+    """
+
+    box_px: tuple[int, int, int, int]
+    hue_deg: float | None
+    hue_spread_deg: float
+    hue_threshold_deg: float
+    max_saturation: float | None
+    intensity_median: float
+    intensity_low: float
+    intensity_high: float
+    n_pixels: int
+    n_measurable: int
+    n_kept: int
+
+    def __post_init__(self) -> None:
+        if (self.hue_deg is None) == (self.max_saturation is None):
+            raise InvalidInputError("exactly one of hue_deg (coloured ground) and max_saturation "
+                                    "(grey ground) must be set")
+        if not 0.0 < self.intensity_median <= 1.0:
+            raise InvalidInputError(f"intensity_median must be in (0, 1], got {self.intensity_median!r}")
+        if not self.intensity_low <= self.intensity_median <= self.intensity_high:
+            raise InvalidInputError("need intensity_low <= intensity_median <= intensity_high, got "
+                                    f"{self.intensity_low}, {self.intensity_median}, {self.intensity_high}")
+
+    @property
+    def is_grey(self) -> bool:
+        """True when the ground has too little colour for a hue and saturation is used instead."""
+        return self.hue_deg is None
+
+    def as_dict(self) -> dict:
+        """JSON-ready dictionary of the statistics."""
+        return {"box_px": list(self.box_px), "hue_deg": self.hue_deg,
+                "hue_spread_deg": self.hue_spread_deg, "hue_threshold_deg": self.hue_threshold_deg,
+                "max_saturation": self.max_saturation, "intensity_median": self.intensity_median,
+                "intensity_low": self.intensity_low, "intensity_high": self.intensity_high,
+                "n_pixels": self.n_pixels, "n_measurable": self.n_measurable, "n_kept": self.n_kept}
+
+
+def circular_median_deg(hue_deg: np.ndarray) -> float:
+    """Circular median of angles in degrees (1-D, no NaN), in ``[0, 360)``.
+
+    The median of the differences to the circular mean, added back to it: exact whenever
+    the angles lie within a half circle around their mean, which is the case for ground.
+    """
+    h = np.asarray(hue_deg, dtype=np.float64)
+    if h.ndim != 1 or h.size == 0 or not np.all(np.isfinite(h)):
+        raise InvalidInputError(f"hue_deg must be a non-empty 1-D array without NaN, got shape {h.shape}")
+    radians = np.deg2rad(h)
+    mean = math.degrees(math.atan2(float(np.sin(radians).mean()), float(np.cos(radians).mean())))
+    return float((mean + np.median(hue_difference(h, mean))) % 360.0)
+
+
+def _keep_close(values: np.ndarray, centre: float, floor: float, mads: float) -> np.ndarray:
+    deviation = np.abs(values - centre)
+    limit = max(floor, mads * _MAD_TO_SIGMA * float(np.median(deviation)))
+    return deviation <= limit
+
+
+def reference_statistics(hsi: HSI, box_px: tuple[int, int, int, int], *,
+                         params: ReferenceParameters = ReferenceParameters()) -> ReferenceStatistics:
+    """Robust statistics of the ground in the reference area.
+
+    Parameters
+    ----------
+    hsi
+        HSI of the reference area (the crop ``image[y0:y1, x0:x1]``).
+    box_px
+        ``(x0, y0, x1, y1)`` of the crop in the full image, for the record and messages.
+    params
+        Robustness thresholds.
+
+    Returns
+    -------
+    ReferenceStatistics
+
+    Raises
+    ------
+    InvalidInputError
+        Too few measurable pixels (too dark) or too few left after outlier rejection.
+    """
+    hue = hsi.hue.ravel()
+    saturation = hsi.saturation.ravel()
+    intensity = hsi.intensity.ravel()
+    n_pixels = intensity.size
+    measurable = ~np.isnan(saturation)
+    n_measurable = int(measurable.sum())
+    if n_measurable < max(params.min_pixels, params.min_valid_fraction * n_pixels):
+        raise InvalidInputError(
+            f"reference area {box_px} is unusable: only {n_measurable} of {n_pixels} pixels are "
+            f"bright enough to measure colour (intensity >= {hsi.min_intensity}); need "
+            f"{params.min_valid_fraction:.0%} and at least {params.min_pixels}. Choose another "
+            f"area with --reference or check the exposure")
+    hue_valid = ~np.isnan(hue)
+    grey = hue_valid.sum() < params.min_hue_fraction * n_measurable
+    if grey:
+        keep = measurable.copy()
+        hue_deg = None
+        spread = threshold = 0.0
+    else:
+        hue_deg = circular_median_deg(hue[hue_valid])
+        offsets = np.zeros(n_pixels)
+        offsets[hue_valid] = hue_difference(hue[hue_valid], hue_deg)
+        keep = hue_valid & _keep_close(offsets, 0.0, params.min_outlier_hue_deg, params.outlier_mads)
+    intensity_keep = _keep_close(intensity[keep], float(np.median(intensity[keep])),
+                                 params.min_outlier_intensity, params.outlier_mads)
+    keep[np.flatnonzero(keep)[~intensity_keep]] = False
+    n_kept = int(keep.sum())
+    if n_kept < params.min_pixels:
+        raise InvalidInputError(f"reference area {box_px} is unusable: only {n_kept} pixels are "
+                                f"consistent with one ground (need {params.min_pixels})")
+    q = params.spread_percentile
+    kept_intensity = intensity[keep]
+    low, median, high = (float(v) for v in np.percentile(kept_intensity, [q, 50.0, 100.0 - q]))
+    max_saturation = None
+    if grey:
+        max_saturation = min(1.0, float(np.percentile(saturation[keep], 100.0 - q))
+                             + params.saturation_margin)
+    else:
+        lo_h, hi_h = np.percentile(offsets[keep], [q, 100.0 - q])
+        spread = float(hi_h - lo_h)
+        threshold = float(np.clip(params.hue_threshold_factor * spread,
+                                  params.min_hue_threshold_deg, params.max_hue_threshold_deg))
+    if median <= 0.0:
+        raise InvalidInputError(f"reference area {box_px} is black (median intensity 0)")
+    if n_kept < params.warn_kept_fraction * n_measurable:
+        logger.warning("reference area %s: only %d of %d measurable pixels look like one ground; "
+                       "an obstacle or a shadow may cover it", box_px, n_kept, n_measurable)
+    if spread > params.warn_hue_spread_deg or (high - low) / median > params.warn_intensity_spread:
+        logger.warning("reference area %s is very varied (hue spread %.0f deg, intensity %.2f..%.2f); "
+                       "the segmentation may be poor", box_px, spread, low, high)
+    logger.debug("reference %s: hue %s, threshold %.1f deg, intensity %.3f [%.3f, %.3f]", box_px,
+                 hue_deg, threshold, median, low, high)
+    return ReferenceStatistics(box_px=tuple(int(v) for v in box_px), hue_deg=hue_deg,
+                               hue_spread_deg=spread, hue_threshold_deg=threshold,
+                               max_saturation=max_saturation, intensity_median=median,
+                               intensity_low=low, intensity_high=high, n_pixels=n_pixels,
+                               n_measurable=n_measurable, n_kept=n_kept)
+
+
+__all__ = ["ReferenceArea", "DEFAULT_REFERENCE_AREA", "ReferenceParameters", "ReferenceStatistics",
+           "circular_median_deg", "reference_statistics"]

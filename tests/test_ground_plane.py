@@ -1,0 +1,80 @@
+"""Robust ground plane fit in (x, y, disparity)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.ground_plane import (GroundPlane, PlaneFitParameters, fit_ground_plane,
+                                           fit_plane_points)
+
+
+def _scene(seed=0):
+    """A 120x160 disparity map: ground plane + noise, a box in front, a wall behind, holes."""
+    rng = np.random.default_rng(seed)
+    ys, xs = np.mgrid[0:120, 0:160]
+    disparity = 0.02 * xs + 0.3 * ys - 10.0 + rng.normal(0.0, 0.2, xs.shape)
+    disparity[60:90, 40:80] = 40.0                     # an obstacle: much closer
+    disparity[:40] = 3.0                               # a fronto-parallel wall (b = 0)
+    disparity[rng.random(xs.shape) < 0.3] = np.nan     # sparse, like LiDAR ground truth
+    return disparity.astype(np.float32)
+
+
+def test_recovers_plane_despite_obstacle_wall_and_holes():
+    plane = fit_ground_plane(_scene())
+    assert plane.a == pytest.approx(0.02, abs=2e-3)
+    assert plane.b == pytest.approx(0.3, abs=2e-3)
+    assert plane.c == pytest.approx(-10.0, abs=0.3)
+    assert plane.rms_px < 0.3
+    assert 0.3 < plane.inlier_fraction < 0.8
+
+
+def test_residual_map_sign_and_nan():
+    d = _scene()
+    plane = fit_ground_plane(d)
+    residual = plane.residual_map(d)
+    assert residual.dtype == np.float32 and residual.shape == d.shape
+    assert np.nanmedian(residual[60:90, 40:80]) > 10.0          # the box is in front
+    assert np.isnan(residual[np.isnan(d)]).all()
+
+
+def test_mask_limits_the_points():
+    d = _scene()
+    mask = np.zeros(d.shape, bool)
+    mask[:40] = True                                     # only the wall: no ground-like slope
+    with pytest.raises(InvalidInputError, match="plane"):
+        fit_ground_plane(d, mask=mask)
+    wall = fit_ground_plane(d, mask=mask, params=PlaneFitParameters(min_slope_y=None))
+    assert wall.c == pytest.approx(3.0, abs=1e-6) and abs(wall.b) < 1e-6
+
+
+def test_disparity_at_broadcasts():
+    plane = GroundPlane(a=1.0, b=2.0, c=3.0)
+    assert plane.disparity_at(1.0, 1.0) == pytest.approx(6.0)
+    assert plane.disparity_at(np.arange(3), 0).tolist() == [3.0, 4.0, 5.0]
+    assert plane.disparity_map(2, 3).tolist() == [[3, 4, 5], [5, 6, 7]]
+
+
+def test_reproducible_with_seed():
+    d = _scene(3)
+    assert fit_ground_plane(d) == fit_ground_plane(d)
+
+
+@pytest.mark.parametrize("args, match", [
+    ((np.zeros(10), np.zeros(10), np.zeros(9)), "one length"),
+    ((np.zeros(2), np.zeros(2), np.zeros(2)), "at least"),
+    ((np.array([0.0, np.nan, 1.0]), np.zeros(3), np.zeros(3)), "finite"),
+])
+def test_rejects_bad_points(args, match):
+    with pytest.raises(InvalidInputError, match=match):
+        fit_plane_points(*args)
+
+
+def test_rejects_bad_parameters_and_maps():
+    with pytest.raises(InvalidInputError, match="inlier_threshold_px"):
+        PlaneFitParameters(inlier_threshold_px=0.0)
+    with pytest.raises(InvalidInputError, match="disparity"):
+        fit_ground_plane(np.zeros((4, 4), np.uint8))
+    with pytest.raises(InvalidInputError, match="mask"):
+        fit_ground_plane(np.zeros((4, 4), np.float32), mask=np.ones((3, 3), bool))

@@ -1,0 +1,95 @@
+"""Reference rectangle parsing and robust ground statistics."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.colour import rgb_to_hsi
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
+                                             ReferenceParameters, ReferenceStatistics,
+                                             circular_median_deg, reference_statistics)
+
+
+def _noisy(colour, shape=(40, 60), sigma=3.0, seed=0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.clip(rng.normal(colour, sigma, shape + (3,)), 0, 255).astype(np.uint8)
+
+
+def _stats(rgb, **kwargs) -> ReferenceStatistics:
+    return reference_statistics(rgb_to_hsi(rgb), (0, 0, rgb.shape[1], rgb.shape[0]), **kwargs)
+
+
+def test_parse_fractions_and_pixels():
+    assert DEFAULT_REFERENCE_AREA.unit == "fraction"
+    area = ReferenceArea.parse("0.25,0.8,0.75,1")
+    assert area == ReferenceArea(0.25, 0.8, 0.75, 1.0, unit="fraction")
+    assert area.to_pixels(100, 200) == (50, 80, 150, 100)
+    px = ReferenceArea.parse("10,20,50,60")
+    assert px.unit == "px" and px.to_pixels(40, 30) == (10, 20, 30, 40)
+
+
+@pytest.mark.parametrize("text", ["1,2,3", "a,b,c,d", "0.5,0.5,0.4,0.9", "-1,0,5,5"])
+def test_parse_rejects(text):
+    with pytest.raises(InvalidInputError, match="reference"):
+        ReferenceArea.parse(text)
+
+
+def test_area_outside_image_is_an_error():
+    with pytest.raises(InvalidInputError, match="empty"):
+        ReferenceArea(100, 100, 120, 120, unit="px").to_pixels(50, 50)
+
+
+def test_circular_median_across_wrap():
+    assert circular_median_deg(np.array([350.0, 355.0, 2.0, 8.0, 359.0])) == pytest.approx(359.0)
+    assert circular_median_deg(np.array([10.0, 20.0, 30.0])) == pytest.approx(20.0)
+
+
+def test_statistics_of_uniform_coloured_ground():
+    s = _stats(_noisy((90, 140, 60)))
+    assert not s.is_grey
+    assert abs(((s.hue_deg - 98.3) + 180) % 360 - 180) < 2.0
+    assert s.intensity_low < s.intensity_median < s.intensity_high
+    assert s.intensity_median == pytest.approx(290 / 765, abs=0.01)
+    assert 4.0 <= s.hue_threshold_deg <= 45.0
+
+
+def test_robust_to_a_shadow_and_an_object_inside():
+    clean = _stats(_noisy((90, 140, 60)))
+    rgb = _noisy((90, 140, 60))
+    rgb[:12, :20] = (rgb[:12, :20] * 0.5).astype(np.uint8)     # 10 % shadow
+    rgb[25:35, 40:55] = (200, 30, 200)                          # 6 % magenta object
+    s = _stats(rgb)
+    assert s.intensity_median == pytest.approx(clean.intensity_median, abs=0.01)
+    assert s.intensity_low > 0.8 * clean.intensity_low         # the shadow is not in the range
+    assert abs(((s.hue_deg - clean.hue_deg) + 180) % 360 - 180) < 1.0
+    assert s.n_kept < 0.9 * s.n_pixels
+
+
+def test_grey_ground_uses_saturation():
+    s = _stats(_noisy((120, 120, 122)))
+    assert s.is_grey and s.hue_deg is None
+    assert 0.0 < s.max_saturation < 0.2
+
+
+def test_too_dark_area_is_an_error():
+    with pytest.raises(InvalidInputError, match="unusable.*bright enough"):
+        _stats(_noisy((5, 5, 5), sigma=1.0))
+
+
+def test_varied_area_warns(caplog):
+    rgb = _noisy((90, 140, 60))
+    rgb[:, 30:] = _noisy((40, 60, 160), shape=(40, 30))       # half the area is blue
+    with caplog.at_level(logging.WARNING, logger="stereo_obstacles.reference_area"):
+        _stats(rgb)
+    assert "look like one ground" in caplog.text or "very varied" in caplog.text
+
+
+def test_parameters_are_validated():
+    with pytest.raises(InvalidInputError, match="min_hue_fraction"):
+        ReferenceParameters(min_hue_fraction=2.0)
+    with pytest.raises(InvalidInputError, match="max_hue_threshold_deg"):
+        ReferenceParameters(min_hue_threshold_deg=50.0, max_hue_threshold_deg=10.0)
