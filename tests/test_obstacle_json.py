@@ -1,0 +1,106 @@
+"""The obstacles JSON document: schema, round trip, version check, the uncalibrated case."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from _obstacle_scene import RIG, detection
+
+from stereo_obstacles import __version__
+from stereo_obstacles.errors import InputFileError, InvalidInputError
+from stereo_obstacles.obstacle_json import (
+    OBSTACLES_FORMAT, obstacles_to_dict, read_obstacles_json, write_obstacles_json)
+from stereo_obstacles.obstacles import Obstacle
+
+DETECTION = detection()
+
+
+def test_document_states_format_units_frame_and_calibration():
+    doc = obstacles_to_dict(DETECTION.calibrated, RIG)
+    assert doc["format"] == OBSTACLES_FORMAT and doc["version"] == 1
+    assert doc["units"] == "metres" and "metres" in doc["units_note"]
+    assert doc["frame"]["x"] == "right" and doc["frame"]["y"] == "down" and doc["frame"]["z"].startswith("forward")
+    assert doc["calibration"]["focal_px"] == 350.0 and doc["calibration"]["baseline_m"] == 0.12
+    assert doc["image_size_px"] == {"width": 320, "height": 240}
+    assert doc["run"] == {"package_version": __version__}
+
+
+def test_obstacles_nearest_first_with_every_field_and_rejections_and_corridor():
+    doc = obstacles_to_dict(DETECTION.calibrated, RIG)
+    distances = [o["distance_m"] for o in doc["obstacles"]]
+    assert distances == sorted(distances) and distances == pytest.approx([4.0, 5.0, 8.0], rel=0.01)
+    assert set(doc["obstacles"][0]) == set(Obstacle.__dataclass_fields__)
+    assert doc["obstacles"][0]["box_px"] == [150, 138, 200, 225]
+    assert len(doc["rejected"]) == 1 and "flat on the ground" in doc["rejected"][0]["reason"]
+    assert doc["corridor"] == {"width_m": 1.0, "nearest_obstacle_id": 1, "free_distance_m": 4.0}
+
+
+def test_write_read_round_trip_keeps_everything(tmp_path):
+    config = {"tau": 0.6, "out": Path("/tmp/x"), "k": np.int64(10), "ratio": np.float32(0.5), "bad": float("nan")}
+    path = write_obstacles_json(tmp_path / "obstacles.json", DETECTION.calibrated, RIG, config=config,
+                                timings_s={"matching": 0.25}, inputs={"left": "l.png", "right": "r.png"})
+    json.loads(path.read_text(encoding="utf-8"))  # strict JSON: NaN was written as null
+    record = read_obstacles_json(path)
+    assert record.obstacles == DETECTION.calibrated.obstacles
+    assert record.rejected == DETECTION.calibrated.rejected
+    assert record.corridor == DETECTION.calibrated.corridor
+    assert record.calibration == RIG and record.calibrated
+    assert record.image_size_px == (320, 240)
+    assert record.run["config"] == {"tau": 0.6, "out": "/tmp/x", "k": 10, "ratio": 0.5, "bad": None}
+    assert record.run["timings_s"] == {"matching": 0.25}
+    assert record.run["inputs"]["left"] == "l.png" and record.run["package_version"] == __version__
+
+
+def test_uncalibrated_document_says_pixels_and_has_no_calibration(tmp_path):
+    path = write_obstacles_json(tmp_path / "o.json", DETECTION.uncalibrated, None)
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    assert doc["calibration"] is None and doc["units"] == "pixels"
+    assert "No calibration" in doc["units_note"] and "pixels" in doc["units_note"]
+    assert all(o["distance_m"] is None and o["disparity_px"] > 0 for o in doc["obstacles"])
+    assert doc["corridor"] is None
+    record = read_obstacles_json(path)
+    assert record.obstacles == DETECTION.uncalibrated.obstacles and not record.calibrated
+
+
+def _write(tmp_path, doc) -> Path:
+    path = tmp_path / "doc.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d.update(format="stereo-obstacles/calibration"), "is not a stereo-obstacles/obstacles document"),
+    (lambda d: d.update(version=2), "unsupported .* version 2"),
+    (lambda d: d.pop("obstacles"), "lacks 'obstacles'"),
+    (lambda d: d["obstacles"][0].update(speed=3), "unknown fields speed"),
+    (lambda d: d["obstacles"][0].pop("id"), "obstacles\\[0\\]"),
+    (lambda d: d["calibration"].update(baseline_m=-1), "baseline_m must be > 0"),
+    (lambda d: d.update(image_size_px={"width": 3}), "lacks 'height'"),
+])
+def test_bad_documents_raise_input_file_error(tmp_path, change, message):
+    doc = obstacles_to_dict(DETECTION.calibrated, RIG)
+    change(doc)
+    with pytest.raises(InputFileError, match=message):
+        read_obstacles_json(_write(tmp_path, doc))
+
+
+def test_missing_and_non_json_files(tmp_path):
+    with pytest.raises(InputFileError, match="does not exist"):
+        read_obstacles_json(tmp_path / "nope.json")
+    (tmp_path / "bad.json").write_text("{not json", encoding="utf-8")
+    with pytest.raises(InputFileError, match="not valid JSON"):
+        read_obstacles_json(tmp_path / "bad.json")
+    with pytest.raises(InputFileError, match="not a stereo-obstacles/obstacles document"):
+        read_obstacles_json(_write(tmp_path, [1, 2]))
+
+
+def test_bad_arguments():
+    with pytest.raises(InvalidInputError, match="obstacle_list must be an ObstacleList"):
+        obstacles_to_dict(DETECTION.calibrated.obstacles, RIG)
+    with pytest.raises(InvalidInputError, match="calibration must be a StereoCalibration"):
+        obstacles_to_dict(DETECTION.calibrated, {"focal_px": 1})
+    with pytest.raises(InvalidInputError, match="cannot store a object"):
+        obstacles_to_dict(DETECTION.calibrated, RIG, config={"x": object()})
