@@ -1,0 +1,223 @@
+"""Pictures a person looks at: obstacles over the left image, disparity, depth and labels with legends.
+
+Every function returns an RGB ``uint8`` picture. Text is drawn with OpenCV's Hershey font,
+scaled to the image width, on a filled background so that it stays readable on any scene.
+Legends and colour bars are a panel under the picture, at least :data:`MIN_PANEL_WIDTH_PX`
+wide (a narrow picture is padded with black on the right).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
+from stereo_obstacles.obstacles import ObstacleList
+
+OBSTACLE_COLOURS_RGB: tuple[tuple[int, int, int], ...] = (
+    (255, 64, 64), (255, 170, 0), (0, 200, 255), (200, 80, 255), (80, 230, 80),
+    (255, 90, 200), (255, 230, 40), (40, 120, 255), (150, 255, 200), (255, 140, 110),
+)
+"""Colour of obstacle ``id`` is ``OBSTACLE_COLOURS_RGB[(id - 1) % 10]`` (box, label and tint)."""
+
+REJECTED_COLOUR_RGB = (170, 170, 170)
+TINT_ALPHA = 0.45
+"""Weight of an obstacle's colour over its own pixels."""
+
+MIN_PANEL_WIDTH_PX = 240
+_FONT = cv2.FONT_HERSHEY_SIMPLEX
+
+
+def obstacle_colour(obstacle_id: int) -> tuple[int, int, int]:
+    """The RGB colour obstacle ``obstacle_id`` (1, 2, ...) is drawn with."""
+    return OBSTACLE_COLOURS_RGB[(obstacle_id - 1) % len(OBSTACLE_COLOURS_RGB)]
+
+
+def _font_scale(width_px: int) -> float:
+    return float(np.clip(width_px / 900.0, 0.4, 1.0))
+
+
+def _text_colour_on(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
+    luminance = 0.299 * rgb[0] + 0.587 * rgb[1] + 0.114 * rgb[2]
+    return (0, 0, 0) if luminance > 140 else (255, 255, 255)
+
+
+def _put_label(image: np.ndarray, text: str, x: int, y: int, background: tuple[int, int, int],
+               scale: float) -> None:
+    """Write ``text`` on a filled box whose top-left corner is ``(x, y)``, kept inside the image."""
+    (text_w, text_h), baseline = cv2.getTextSize(text, _FONT, scale, 1)
+    pad = max(2, int(round(3 * scale)))
+    box_w, box_h = text_w + 2 * pad, text_h + baseline + 2 * pad
+    h, w = image.shape[:2]
+    x = int(np.clip(x, 0, max(0, w - box_w)))
+    y = int(np.clip(y, 0, max(0, h - box_h)))
+    cv2.rectangle(image, (x, y), (x + box_w - 1, y + box_h - 1), background, thickness=cv2.FILLED)
+    cv2.putText(image, text, (x + pad, y + pad + text_h), _FONT, scale, _text_colour_on(background), 1,
+                cv2.LINE_AA)
+
+
+def _label_height(scale: float) -> int:
+    (_, text_h), baseline = cv2.getTextSize("#0", _FONT, scale, 1)
+    return text_h + baseline + 2 * max(2, int(round(3 * scale)))
+
+
+def _as_rgb(image: np.ndarray, name: str) -> np.ndarray:
+    a = np.asarray(image)
+    if a.dtype != np.uint8 or not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] == 3)):
+        raise InvalidInputError(f"{name} must be uint8 RGB (H, W, 3) or grey (H, W), got {a.dtype} {a.shape}")
+    return np.repeat(a[..., None], 3, axis=2) if a.ndim == 2 else a.copy()
+
+
+def _obstacle_caption(obstacle, calibrated: bool) -> str:
+    if calibrated and obstacle.distance_m is not None:
+        return f"#{obstacle.id} {obstacle.distance_m:.2f} m"
+    return f"#{obstacle.id} d={obstacle.disparity_px:.1f} px"
+
+
+def _summary(obstacle_list: ObstacleList, calibrated: bool) -> list[str]:
+    obstacles = obstacle_list.obstacles
+    parts = [f"{len(obstacles)} obstacle{'s' if len(obstacles) != 1 else ''}"]
+    if obstacles:
+        parts[0] += f", nearest {_obstacle_caption(obstacles[0], calibrated)}"
+    corridor = obstacle_list.corridor
+    if calibrated and corridor is not None:
+        free = (f"free {corridor.free_distance_m:.2f} m to #{corridor.nearest_obstacle_id}"
+                if corridor.nearest_obstacle_id is not None else "nothing found ahead")
+        parts.append(f"{corridor.width_m:g} m corridor: {free}")
+    if not calibrated:
+        parts.append("no calibration: d = disparity in px, larger is nearer")
+    if obstacle_list.rejected:
+        parts.append(f"{len(obstacle_list.rejected)} rejected (grey boxes)")
+    return parts
+
+
+def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibrated: bool) -> np.ndarray:
+    """The left image with every obstacle tinted, boxed and labelled with its id and distance.
+
+    Each obstacle's own pixels (``obstacle_list.id_map``) are tinted in its colour
+    (:func:`obstacle_colour`), its box drawn and captioned ``"#1 2.35 m"`` (or
+    ``"#1 d=21.0 px"`` without a calibration). The obstacle nearest in the walking corridor
+    has a doubled box. Rejected groups get a thin grey box. A panel under the image sums up:
+    count, nearest obstacle, the corridor's free distance, and whether values are pixels.
+
+    Parameters
+    ----------
+    left_rgb
+        ``uint8 (H, W, 3)`` RGB left image (or ``(H, W)`` grey).
+    obstacle_list
+        The measured obstacles; its ``id_map`` must be ``(H, W)``.
+    calibrated
+        Whether distances in metres are shown (else disparities in pixels).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``uint8 (H + panel, max(W, MIN_PANEL_WIDTH_PX), 3)`` RGB picture; the image is at the top left.
+    """
+    out = _as_rgb(left_rgb, "left_rgb")
+    id_map = np.asarray(obstacle_list.id_map)
+    if id_map.shape != out.shape[:2]:
+        raise InvalidInputError(f"obstacle_list.id_map is {id_map.shape}, the left image {out.shape[:2]}")
+    h, w = id_map.shape
+    palette = np.array([(0, 0, 0), *OBSTACLE_COLOURS_RGB], dtype=np.float32)
+    tinted = id_map > 0
+    colours = palette[(id_map[tinted] - 1) % len(OBSTACLE_COLOURS_RGB) + 1]
+    out[tinted] = np.rint((1 - TINT_ALPHA) * out[tinted] + TINT_ALPHA * colours).astype(np.uint8)
+    scale = _font_scale(w)
+    thickness = max(1, int(round(w / 400)))
+    for group in obstacle_list.rejected:
+        x0, y0, x1, y1 = group.box_px
+        cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), REJECTED_COLOUR_RGB, 1)
+    corridor = obstacle_list.corridor
+    corridor_id = corridor.nearest_obstacle_id if corridor is not None else None
+    label_h = _label_height(scale)
+    for obstacle in reversed(obstacle_list.obstacles):  # nearest drawn last, on top
+        x0, y0, x1, y1 = obstacle.box_px
+        colour = obstacle_colour(obstacle.id)
+        cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), colour, thickness)
+        if obstacle.id == corridor_id:
+            cv2.rectangle(out, (x0 - 2 * thickness, y0 - 2 * thickness),
+                          (x1 - 1 + 2 * thickness, y1 - 1 + 2 * thickness), colour, thickness)
+        top = y0 - label_h if y0 - label_h >= label_h else y0 + thickness  # above the box unless at the top
+        _put_label(out, _obstacle_caption(obstacle, calibrated), x0, top, colour, scale)
+    return _stack_with_panel(out, _text_panel(_summary(obstacle_list, calibrated), w))
+
+
+def _panel(width_px: int, height_px: int) -> np.ndarray:
+    return np.full((height_px, width_px, 3), 32, dtype=np.uint8)
+
+
+def _text_panel(parts: list[str], width_px: int) -> np.ndarray:
+    """A panel with ``parts`` joined by " | " and wrapped into lines that fit ``width_px``."""
+    width = max(width_px, MIN_PANEL_WIDTH_PX)
+    scale = _font_scale(width) * 0.9
+    lines: list[str] = []
+    for part in parts:
+        joined = f"{lines[-1]} | {part}" if lines else part
+        if lines and cv2.getTextSize(joined, _FONT, scale, 1)[0][0] + 12 <= width:
+            lines[-1] = joined
+        else:
+            lines.append(part)
+    row_h = _label_height(scale)
+    panel = _panel(width, len(lines) * row_h + 6)
+    for i, line in enumerate(lines):
+        _put_label(panel, line, 4, 3 + i * row_h, (32, 32, 32), scale)
+    return panel
+
+
+def _stack_with_panel(picture: np.ndarray, panel: np.ndarray) -> np.ndarray:
+    """``picture`` above ``panel``; the narrower of the two is padded with black on the right."""
+    width = max(picture.shape[1], panel.shape[1])
+
+    def pad(a):
+        return np.pad(a, ((0, 0), (0, width - a.shape[1]), (0, 0)))
+
+    return np.concatenate([pad(picture), pad(panel)], axis=0)
+
+
+def labels_picture(labels: np.ndarray) -> np.ndarray:
+    """The label image in the colours of :data:`~stereo_obstacles.labels.LABEL_COLOURS_RGB`, with a legend.
+
+    The legend under the picture lists the labels present in the image with their colour and
+    the share of pixels each covers.
+
+    Parameters
+    ----------
+    labels
+        ``uint8 (H, W)`` label image (values of :class:`~stereo_obstacles.labels.Label`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``uint8 (H + legend, max(W, MIN_PANEL_WIDTH_PX), 3)`` RGB picture.
+    """
+    a = np.asarray(labels)
+    if a.ndim != 2 or a.dtype != np.uint8:
+        raise InvalidInputError(f"labels must be uint8 (H, W), got {a.dtype} {a.shape}")
+    counts = np.bincount(a.ravel(), minlength=256)
+    present = [label for label in Label if counts[label] > 0]
+    unknown_values = int(counts.sum() - sum(counts[label] for label in Label))
+    width = max(a.shape[1], MIN_PANEL_WIDTH_PX)
+    scale = _font_scale(width) * 0.9
+    row_h = _label_height(scale)
+    entries = [(label.name.lower(), LABEL_COLOURS_RGB[label], counts[label]) for label in present]
+    if unknown_values:
+        entries.append(("other values", (0, 0, 0), unknown_values))
+    texts = [f"{name} {100.0 * n / a.size:.0f}%" for name, _, n in entries]
+    widths = [row_h + 6 + cv2.getTextSize(t, _FONT, scale, 1)[0][0] + 14 for t in texts]
+    positions, x, y = [], 6, 4
+    for item_w in widths:  # flow the entries into rows
+        if x + item_w > width and x > 6:
+            x, y = 6, y + row_h + 4
+        positions.append((x, y))
+        x += item_w
+    panel = _panel(width, y + row_h + 6)
+    for (px, py), (_, rgb, _), text in zip(positions, entries, texts):
+        cv2.rectangle(panel, (px, py + 2), (px + row_h - 4, py + row_h - 2), rgb, cv2.FILLED)
+        cv2.rectangle(panel, (px, py + 2), (px + row_h - 4, py + row_h - 2), (200, 200, 200), 1)
+        _put_label(panel, text, px + row_h, py, (32, 32, 32), scale)
+    return _stack_with_panel(colorize_labels(a), panel)
+
+
+__all__ = ["OBSTACLE_COLOURS_RGB", "obstacle_colour", "draw_obstacles", "labels_picture"]

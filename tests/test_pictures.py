@@ -1,0 +1,75 @@
+"""Pictures: obstacle overlay, labels with legend, disparity and depth with colour bars."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from _obstacle_scene import detection
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
+from stereo_obstacles.pictures import (
+    MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, TINT_ALPHA, draw_obstacles, labels_picture, obstacle_colour)
+
+DETECTION = detection()
+
+
+def test_obstacle_pixels_are_tinted_in_their_colour_and_others_are_untouched():
+    picture = draw_obstacles(DETECTION.left, DETECTION.calibrated, calibrated=True)
+    h, w = DETECTION.left.shape[:2]
+    assert picture.dtype == np.uint8 and picture.shape[1] == w and picture.shape[0] > h
+    image = picture[:h]
+    box = DETECTION.calibrated.obstacles[0]
+    x0, y0, x1, y1 = box.box_px
+    cx, cy = (x0 + x1) // 2, (y0 + y1) // 2
+    assert DETECTION.calibrated.id_map[cy, cx] == 1
+    expected = np.rint((1 - TINT_ALPHA) * DETECTION.left[cy, cx] + TINT_ALPHA * np.array(obstacle_colour(1)))
+    np.testing.assert_array_equal(image[cy, cx], expected)
+    np.testing.assert_array_equal(image[h // 2, w - 3], DETECTION.left[h // 2, w - 3])  # ground, far from all
+
+
+def test_boxes_are_drawn_in_obstacle_colours_and_rejected_in_grey():
+    image = draw_obstacles(DETECTION.left, DETECTION.calibrated, calibrated=True)[:DETECTION.left.shape[0]]
+    for obstacle in DETECTION.calibrated.obstacles:
+        x0, y0, x1, y1 = obstacle.box_px
+        bottom_edge = image[y1 - 1, x0 + 2:x1 - 2]
+        assert (bottom_edge == obstacle_colour(obstacle.id)).all(axis=1).mean() > 0.5
+    x0, y0, x1, y1 = DETECTION.calibrated.rejected[0].box_px
+    assert (image[y1 - 1, x0:x1] == REJECTED_COLOUR_RGB).all()
+
+
+def test_caption_panel_differs_between_calibrated_and_pixels():
+    h = DETECTION.left.shape[0]
+    metres = draw_obstacles(DETECTION.left, DETECTION.calibrated, calibrated=True)
+    pixels = draw_obstacles(DETECTION.left, DETECTION.uncalibrated, calibrated=False)
+    assert pixels.shape[0] > metres.shape[0]  # the "no calibration" line takes a row of its own
+    assert (metres[h:] != metres[h, 0]).any()  # the panel holds text
+    assert not np.array_equal(metres[:h], pixels[:h])  # "4.00 m" against "d=10.5 px"
+
+
+def test_grey_left_image_is_accepted_and_mismatched_sizes_are_refused():
+    grey = DETECTION.left[..., 1]
+    assert draw_obstacles(grey, DETECTION.calibrated, calibrated=True).ndim == 3
+    with pytest.raises(InvalidInputError, match="id_map is \\(240, 320\\), the left image \\(240, 300\\)"):
+        draw_obstacles(DETECTION.left[:, :300], DETECTION.calibrated, calibrated=True)
+    with pytest.raises(InvalidInputError, match="left_rgb must be uint8"):
+        draw_obstacles(DETECTION.left.astype(np.float32), DETECTION.calibrated, calibrated=True)
+
+
+def test_labels_picture_shows_label_colours_and_a_legend_of_present_labels():
+    picture = labels_picture(DETECTION.labels)
+    h, w = DETECTION.labels.shape
+    np.testing.assert_array_equal(picture[:h, :w], colorize_labels(DETECTION.labels))
+    legend = picture[h:]
+    assert legend.shape[0] > 10
+    for label in (Label.GROUND, Label.SHADOW, Label.OBSTACLE, Label.SKY):  # present: a swatch in the legend
+        assert (legend == LABEL_COLOURS_RGB[label]).all(axis=2).sum() > 20
+    assert (legend == LABEL_COLOURS_RGB[Label.MARKING]).all(axis=2).sum() == 0  # absent: not listed
+
+
+def test_narrow_labels_picture_is_padded_to_the_legend_width():
+    picture = labels_picture(np.full((10, 20), Label.GROUND, np.uint8))
+    assert picture.shape[1] == MIN_PANEL_WIDTH_PX
+    assert (picture[:10, 20:] == 0).all()
+    with pytest.raises(InvalidInputError, match="labels must be uint8"):
+        labels_picture(np.zeros((4, 4), np.int32))
