@@ -23,6 +23,7 @@ from stereo_obstacles import __version__
 PROG = "stereo-obstacles"
 
 COMMAND_MODULES: tuple[str, ...] = (
+    "segment",
     "evaluate",
 )
 """Sub-command modules in the order ``--help`` lists them."""

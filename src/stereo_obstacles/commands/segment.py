@@ -1,0 +1,67 @@
+"""``stereo-obstacles segment``: phase 1 alone, ground / shadow / obstacle labels of one image."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``segment`` sub-command."""
+    parser = subparsers.add_parser(
+        "segment",
+        help="label ground, ground in shadow and obstacles in one colour image (phase 1)",
+        description=(
+            "Shadow-robust HSI segmentation: the ground's colour and brightness are measured in "
+            "a reference rectangle in front of the camera; every pixel becomes ground (1), "
+            "shadow (2, ground in shadow), obstacle (3) or unknown (0). The labels are written "
+            "as an 8-bit PNG; --overlay writes a picture for people. See docs/segmentation.md."),
+    )
+    parser.add_argument("image", metavar="IMAGE", help="colour image (left camera)")
+    parser.add_argument("-o", "--output", required=True, metavar="LABELS.png",
+                        help="label image to write (uint8 PNG with the values above)")
+    parser.add_argument("--overlay", metavar="PICTURE.png", default=None,
+                        help="also write the image with the labels blended over it")
+    parser.add_argument("--reference", metavar="X0,Y0,X1,Y1", default=None,
+                        help="ground reference rectangle, in pixels or, when every value is <= 1, "
+                             "in fractions of the image (default: bottom centre "
+                             "0.35,0.85,0.65,1)")
+    parser.add_argument("--no-shadow-rule", action="store_true",
+                        help="do not recognise shadows (the ablation: shadows become obstacles)")
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Segment the image and write the outputs; returns the exit code."""
+    import json
+    import logging
+
+    import numpy as np
+
+    from stereo_obstacles import __version__
+    from stereo_obstacles.atomic import write_text_atomic
+    from stereo_obstacles.fileio import read_image, write_image, write_labels
+    from stereo_obstacles.labels import Label, colorize_labels
+    from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
+    from stereo_obstacles.segmentation import SegmentationParameters, segment
+
+    log = logging.getLogger(__name__)
+    rgb = read_image(args.image, mode="color")
+    reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
+    params = SegmentationParameters(shadow_rule=not args.no_shadow_rule)
+    result = segment(rgb, reference=reference, params=params)
+    write_labels(args.output, result.labels)
+    if args.overlay:
+        picture = rgb if rgb.dtype == np.uint8 else (rgb >> 8).astype(np.uint8)
+        blended = (0.55 * picture + 0.45 * colorize_labels(result.labels)).astype(np.uint8)
+        x0, y0, x1, y1 = result.reference.box_px
+        blended[y0:y1, [x0, x1 - 1]] = 255
+        blended[[y0, y1 - 1], x0:x1] = 255
+        write_image(args.overlay, blended)
+    sidecar = {"version": __version__, "image": str(args.image),
+               "reference": result.reference.as_dict(),
+               "shadow_rule": params.shadow_rule,
+               "fractions": {label.name.lower(): float(np.mean(result.labels == label))
+                             for label in (Label.GROUND, Label.SHADOW, Label.OBSTACLE, Label.UNKNOWN)}}
+    write_text_atomic(f"{args.output}.json", json.dumps(sidecar, indent=2) + "\n")
+    log.info("labels written to %s (%s)", args.output, sidecar["fractions"])
+    return 0

@@ -1,0 +1,262 @@
+"""Phase 1: ground, ground in shadow, and obstacles from one colour image (HSI, shadow-robust).
+
+The paper's rule, corrected (docs/segmentation.md has the reasoning and the measurements):
+
+1. RGB -> HSI with validity thresholds (:mod:`stereo_obstacles.colour`).
+2. Reference statistics of the ground from a bottom-centre rectangle, made robust to an
+   object or a shadow inside it (:mod:`stereo_obstacles.reference_area`).
+3. Colour match to the ground, median-filtered over a 7x7 window counting valid pixels only
+   (:mod:`stereo_obstacles.hue_filter`): the circular hue distance to the reference is within
+   the hue threshold ``T`` (coloured ground), or the saturation is low (grey ground).
+4. Per pixel, with ``I`` its intensity and ``I_ref`` the reference median:
+
+   * **ground**: colour matches and ``I`` is within the reference intensity range
+     (widened by ``ground_intensity_margin``);
+   * **shadow** (when ``shadow_rule``): colour matches within the wider shadow tolerance
+     (``T + shadow_hue_margin_deg``: skylight makes shadows bluish) and
+     ``shadow_min_ratio <= I / I_ref <= shadow_max_ratio``. The paper says "above the
+     average", a typo: a cast shadow is darker; the lower bound keeps a dark object of
+     the ground's hue from being taken for a shadow;
+   * a pixel whose own colour is farther than ``veto_factor`` times the shadow tolerance
+     from the ground is an obstacle whatever its window says: the median removes noise
+     but would otherwise erase obstacles thinner than half the window (poles);
+   * **unknown**: a window without any measurable colour whose darkness fits a shadow;
+   * **obstacle**: everything else (including grey objects on coloured ground).
+5. Clean-up: obstacle specks smaller than ``min_obstacle_area_px`` become ground (or shadow
+   when darker than the ground range), and non-obstacle holes smaller than
+   ``max_hole_area_px`` become obstacle. Both are area tests, so a thin long pole stays.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from stereo_obstacles._segmentation_kernel import classify_kernel, match_flags_kernel
+from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
+                                     check_thresholds, rgb_to_hsi)
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.hue_filter import DEFAULT_FILTER_SIZE, window_counts
+from stereo_obstacles.labels import Label
+from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
+                                             ReferenceParameters, ReferenceStatistics,
+                                             reference_statistics)
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SegmentationParameters:
+    """Every threshold of phase 1. Defaults chosen by measurement (docs/segmentation.md).
+
+    Attributes
+    ----------
+    min_intensity
+        Colour is measured only where intensity (fraction of full scale) is at least this.
+    min_saturation
+        Hue is measured only where saturation is at least this.
+    filter_size
+        Side of the median window on the colour match, pixels (the paper's 7).
+    reference
+        Robust reference-area statistics.
+    shadow_rule
+        Classify darker ground-coloured pixels as shadow (True) or leave them obstacles
+        (False, the ablation of the paper's Figs. 13-14).
+    shadow_min_ratio, shadow_max_ratio
+        Shadow brightness ratio bounds ``alpha <= I / I_ref <= beta``, ``0 < alpha < beta < 1``.
+    shadow_hue_margin_deg
+        Extra hue tolerance for shadows, degrees (skylight shifts the hue of shadows).
+    shadow_saturation_margin
+        Grey ground: extra saturation tolerance for shadows (bluish shadows are more saturated).
+    veto_factor
+        A pixel whose own hue is farther than this times the shadow hue tolerance from the
+        reference (grey ground: whose saturation exceeds this times the shadow saturation
+        limit) is an obstacle, whatever the median says.
+    ground_intensity_margin
+        The reference intensity range is widened by this on both sides (fraction of full scale).
+    min_obstacle_area_px
+        Obstacle regions (8-connected) smaller than this are specks and become ground.
+    max_hole_area_px
+        Non-obstacle regions (4-connected) smaller than this become obstacle.
+    """
+
+    min_intensity: float = DEFAULT_MIN_INTENSITY
+    min_saturation: float = DEFAULT_MIN_SATURATION
+    filter_size: int = DEFAULT_FILTER_SIZE
+    reference: ReferenceParameters = field(default_factory=ReferenceParameters)
+    shadow_rule: bool = True
+    shadow_min_ratio: float = 0.25
+    shadow_max_ratio: float = 0.95
+    shadow_hue_margin_deg: float = 25.0
+    shadow_saturation_margin: float = 0.1
+    veto_factor: float = 3.0
+    ground_intensity_margin: float = 0.02
+    min_obstacle_area_px: int = 16
+    max_hole_area_px: int = 16
+
+    def __post_init__(self) -> None:
+        check_thresholds(self.min_intensity, self.min_saturation)
+        if not isinstance(self.reference, ReferenceParameters):
+            raise InvalidInputError(f"reference must be ReferenceParameters, got {type(self.reference).__name__}")
+        if not isinstance(self.shadow_rule, bool):
+            raise InvalidInputError(f"shadow_rule must be a bool, got {self.shadow_rule!r}")
+        if not 0.0 < self.shadow_min_ratio < self.shadow_max_ratio < 1.0:
+            raise InvalidInputError("need 0 < shadow_min_ratio < shadow_max_ratio < 1, got "
+                                    f"{self.shadow_min_ratio!r} and {self.shadow_max_ratio!r}")
+        if not (math.isfinite(self.veto_factor) and self.veto_factor >= 1.0):
+            raise InvalidInputError(f"veto_factor must be >= 1, got {self.veto_factor!r}")
+        for name in ("shadow_hue_margin_deg", "shadow_saturation_margin", "ground_intensity_margin"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise InvalidInputError(f"{name} must be >= 0, got {value!r}")
+        for name in ("filter_size", "min_obstacle_area_px", "max_hole_area_px"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise InvalidInputError(f"{name} must be a non-negative integer, got {value!r}")
+        if self.filter_size % 2 == 0:
+            raise InvalidInputError(f"filter_size must be odd, got {self.filter_size}")
+
+
+@dataclass(frozen=True, eq=False)
+class SegmentationResult:
+    """Output of :func:`segment`.
+
+    Attributes
+    ----------
+    labels
+        ``uint8 (H, W)`` of :class:`~stereo_obstacles.labels.Label` values GROUND, SHADOW,
+        OBSTACLE, UNKNOWN.
+    reference
+        The ground statistics the labels were computed from.
+    params
+        The parameters used.
+    """
+
+    labels: np.ndarray
+    reference: ReferenceStatistics
+    params: SegmentationParameters
+
+    def __post_init__(self) -> None:
+        if self.labels.dtype != np.uint8 or self.labels.ndim != 2:
+            raise InvalidInputError(f"labels must be uint8 (H, W), got {self.labels.dtype} {self.labels.shape}")
+
+    @property
+    def obstacle_mask(self) -> np.ndarray:
+        """``bool (H, W)``: pixels labelled OBSTACLE."""
+        return self.labels == Label.OBSTACLE
+
+    @property
+    def ground_mask(self) -> np.ndarray:
+        """``bool (H, W)``: pixels labelled GROUND or SHADOW (ground in shadow)."""
+        return (self.labels == Label.GROUND) | (self.labels == Label.SHADOW)
+
+
+def _match_flags(rgb: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
+                 params: SegmentationParameters) -> tuple[np.ndarray, np.ndarray]:
+    shape = rgb.shape[:2]
+    flags = np.empty(shape + (4,), dtype=np.uint8)
+    intensity = np.empty(shape, dtype=np.float32)
+    ref_x = ref_y = cos_ground = cos_shadow = cos_veto = 0.0
+    max_sat_ground = max_sat_shadow = max_sat_veto = 0.0
+    if ref.is_grey:
+        max_sat_ground = ref.max_saturation
+        max_sat_shadow = ref.max_saturation + params.shadow_saturation_margin
+        max_sat_veto = params.veto_factor * max_sat_shadow
+    else:
+        angle = math.radians(ref.hue_deg)
+        ref_x, ref_y = math.cos(angle), math.sin(angle)
+        shadow_deg = ref.hue_threshold_deg + params.shadow_hue_margin_deg
+        cos_ground = math.cos(math.radians(ref.hue_threshold_deg))
+        cos_shadow = math.cos(math.radians(min(180.0, shadow_deg)))
+        cos_veto = math.cos(math.radians(min(180.0, params.veto_factor * shadow_deg)))
+    match_flags_kernel(rgb, inv_full_scale, np.float32(params.min_intensity),
+                       np.float32(params.min_saturation), ref.is_grey, np.float32(ref_x),
+                       np.float32(ref_y), np.float32(cos_ground), np.float32(cos_shadow),
+                       np.float32(cos_veto), np.float32(max_sat_ground), np.float32(max_sat_shadow),
+                       np.float32(max_sat_veto), flags, intensity)
+    return flags, intensity
+
+
+def _clean_up(labels: np.ndarray, intensity: np.ndarray, ground_low: float,
+              params: SegmentationParameters) -> None:
+    """Remove obstacle specks and fill small holes in obstacles, in place (area tests only)."""
+    if params.min_obstacle_area_px > 1:
+        obstacle = (labels == Label.OBSTACLE).view(np.uint8)
+        _, components, stats, _ = cv2.connectedComponentsWithStats(obstacle, connectivity=8)
+        small = stats[:, cv2.CC_STAT_AREA] < params.min_obstacle_area_px
+        small[0] = False  # component 0 is the non-obstacle background
+        speck = small[components]
+        darker = speck & (intensity < ground_low) & params.shadow_rule
+        labels[speck] = Label.GROUND
+        labels[darker] = Label.SHADOW
+    if params.max_hole_area_px > 1:
+        free = (labels != Label.OBSTACLE).view(np.uint8)
+        _, components, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=4)
+        small = stats[:, cv2.CC_STAT_AREA] < params.max_hole_area_px
+        small[0] = False  # component 0 is the obstacle background
+        labels[small[components]] = Label.OBSTACLE
+
+
+def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_AREA,
+            params: SegmentationParameters = SegmentationParameters()) -> SegmentationResult:
+    """Label every pixel as ground, ground in shadow, obstacle or unknown.
+
+    Parameters
+    ----------
+    rgb
+        ``uint8`` or ``uint16`` ``(H, W, 3)`` RGB image.
+    reference
+        The rectangle assumed to be ground (default: bottom centre).
+    params
+        Thresholds; see :class:`SegmentationParameters`.
+
+    Returns
+    -------
+    SegmentationResult
+        ``uint8 (H, W)`` labels and the reference statistics used.
+
+    Raises
+    ------
+    InvalidInputError
+        Bad image, or an unusable reference area (too dark, or not one ground).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> image = np.zeros((60, 80, 3), dtype=np.uint8)
+    >>> image[:] = (90, 140, 60)                  # green ground
+    >>> image[10:30, 30:40] = (200, 40, 40)       # a red box
+    >>> image[40:50, 5:25] = (45, 70, 30)         # its shadow: half as bright
+    >>> labels = segment(image).labels
+    >>> [int(labels[20, 35]), int(labels[45, 15]), int(labels[55, 40])]
+    [3, 2, 1]
+    """
+    a, inv_full_scale = check_rgb(rgb)
+    if not isinstance(reference, ReferenceArea):
+        raise InvalidInputError(f"reference must be a ReferenceArea, got {type(reference).__name__}")
+    if not isinstance(params, SegmentationParameters):
+        raise InvalidInputError(f"params must be SegmentationParameters, got {type(params).__name__}")
+    x0, y0, x1, y1 = box = reference.to_pixels(a.shape[0], a.shape[1])
+    area_hsi = rgb_to_hsi(a[y0:y1, x0:x1], min_intensity=params.min_intensity,
+                          min_saturation=params.min_saturation)
+    ref = reference_statistics(area_hsi, box, params=params.reference)
+    flags, intensity = _match_flags(a, inv_full_scale, ref, params)
+    counts = window_counts(flags[..., :3], size=params.filter_size)
+    ground_low = max(0.0, ref.intensity_low - params.ground_intensity_margin)
+    ground_high = ref.intensity_high + params.ground_intensity_margin
+    labels = np.empty(a.shape[:2], dtype=np.uint8)
+    classify_kernel(counts, flags, intensity, ref.is_grey, np.float32(params.min_intensity),
+                    np.float32(ground_low), np.float32(ground_high),
+                    np.float32(params.shadow_min_ratio * ref.intensity_median),
+                    np.float32(params.shadow_max_ratio * ref.intensity_median), params.shadow_rule,
+                    int(Label.UNKNOWN), int(Label.GROUND), int(Label.SHADOW), int(Label.OBSTACLE),
+                    labels)
+    _clean_up(labels, intensity, ground_low, params)
+    return SegmentationResult(labels=labels, reference=ref, params=params)
+
+
+__all__ = ["SegmentationParameters", "SegmentationResult", "segment"]

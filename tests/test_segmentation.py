@@ -1,0 +1,136 @@
+"""The phase-1 classifier on constructed scenes: shadow, dark object of ground hue, grey ground."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.labels import Label
+from stereo_obstacles.reference_area import ReferenceArea
+from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
+
+GREEN = np.array((90, 140, 60), dtype=float)
+ASPHALT = np.array((118, 118, 122), dtype=float)
+
+
+def _ground(colour, shape=(120, 160), sigma=3.0, seed=0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return rng.normal(colour, sigma, shape + (3,))
+
+
+def _u8(image: np.ndarray) -> np.ndarray:
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def _fraction(labels: np.ndarray, region, label: Label) -> float:
+    return float(np.mean(labels[region] == label))
+
+
+def test_shadow_is_ground_in_shadow_and_an_obstacle_without_the_rule():
+    image = _ground(GREEN)
+    region = np.s_[30:70, 20:100]
+    image[region] *= 0.5
+    rgb = _u8(image)
+    on = segment(rgb).labels
+    assert _fraction(on, region, Label.SHADOW) > 0.98
+    assert _fraction(on, np.s_[80:, :], Label.GROUND) > 0.98
+    off = segment(rgb, params=SegmentationParameters(shadow_rule=False)).labels
+    assert _fraction(off, region, Label.OBSTACLE) > 0.98
+
+
+def test_bluish_shadow_is_still_shadow():
+    image = _ground(GREEN)
+    region = np.s_[30:70, 20:100]
+    image[region] = image[region] * (0.45, 0.5, 0.62)      # skylight: bluer and darker
+    labels = segment(_u8(image)).labels
+    assert _fraction(labels, region, Label.SHADOW) > 0.95
+
+
+def test_dark_obstacle_of_ground_hue_is_not_a_shadow():
+    image = _ground(GREEN)
+    region = np.s_[30:70, 60:90]
+    image[region] *= 0.15                                # same hue, far darker than any shadow
+    labels = segment(_u8(image)).labels
+    assert _fraction(labels, region, Label.OBSTACLE) > 0.95
+
+
+def test_coloured_and_grey_obstacles_on_coloured_ground():
+    image = _ground(GREEN)
+    image[20:50, 20:50] = (200, 40, 40)                  # red box
+    image[20:50, 100:130] = (128, 128, 128)              # grey box, ground-like brightness
+    labels = segment(_u8(image)).labels
+    assert _fraction(labels, np.s_[20:50, 20:50], Label.OBSTACLE) > 0.98
+    assert _fraction(labels, np.s_[20:50, 100:130], Label.OBSTACLE) > 0.98
+
+
+def test_grey_ground_with_shadow_and_obstacle():
+    image = _ground(ASPHALT)
+    image[10:40, 20:60] *= 0.55                          # shadow on asphalt, slightly bluish
+    image[10:40, 20:60, 2] *= 1.1
+    image[10:40, 100:140] = (60, 90, 200)                # blue bin
+    image[50:70, 100:140] = (230, 230, 230)              # white object: too bright for ground
+    rgb = _u8(image)
+    result = segment(rgb)
+    assert result.reference.is_grey
+    labels = result.labels
+    assert _fraction(labels, np.s_[10:40, 20:60], Label.SHADOW) > 0.95
+    assert _fraction(labels, np.s_[10:40, 100:140], Label.OBSTACLE) > 0.98
+    assert _fraction(labels, np.s_[50:70, 100:140], Label.OBSTACLE) > 0.98
+    assert _fraction(labels, np.s_[80:, :], Label.GROUND) > 0.98
+
+
+def test_thin_pole_survives_and_specks_and_holes_are_cleaned():
+    image = _ground(GREEN)
+    image[10:90, 40:43] = (40, 40, 160)                  # 3 px wide pole: other hue, darker
+    image[50:52, 120:122] = (200, 40, 40)                # 2x2 speck: removed
+    image[15:45, 90:120] = (200, 40, 40)                 # box with a 2x2 hole of ground colour
+    image[30:32, 104:106] = GREEN
+    labels = segment(_u8(image)).labels
+    assert _fraction(labels, np.s_[10:90, 40:43], Label.OBSTACLE) > 0.9
+    assert not np.any(labels[50:52, 120:122] == Label.OBSTACLE)
+    assert np.all(labels[30:32, 104:106] == Label.OBSTACLE)
+
+
+def test_result_types_and_reference_record():
+    rgb = _u8(_ground(GREEN))
+    result = segment(rgb, reference=ReferenceArea(50, 100, 110, 120, unit="px"))
+    assert isinstance(result, SegmentationResult)
+    assert result.labels.dtype == np.uint8 and result.labels.shape == rgb.shape[:2]
+    assert result.reference.box_px == (50, 100, 110, 120)
+    assert set(np.unique(result.labels)) <= {Label.UNKNOWN, Label.GROUND, Label.SHADOW, Label.OBSTACLE}
+    assert result.ground_mask.mean() > 0.98 and not result.obstacle_mask.any()
+
+
+def test_uint16_input_gives_the_same_labels():
+    rgb = _u8(_ground(GREEN))
+    rgb[20:50, 20:50] = (200, 40, 40)
+    eight = segment(rgb).labels
+    sixteen = segment(rgb.astype(np.uint16) * 257).labels
+    np.testing.assert_array_equal(eight, sixteen)
+
+
+def test_unusable_reference_is_an_error():
+    rgb = _u8(_ground(GREEN))
+    rgb[100:, :] = 3                                     # black bottom: nothing to measure
+    with pytest.raises(InvalidInputError, match="reference area .* unusable"):
+        segment(rgb)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"shadow_min_ratio": 0.9, "shadow_max_ratio": 0.5}, "shadow_min_ratio"),
+    ({"shadow_max_ratio": 1.2}, "shadow_max_ratio"),
+    ({"filter_size": 6}, "odd"),
+    ({"shadow_rule": 1}, "bool"),
+    ({"min_obstacle_area_px": -1}, "min_obstacle_area_px"),
+])
+def test_parameters_are_validated(kwargs, match):
+    with pytest.raises(InvalidInputError, match=match):
+        SegmentationParameters(**kwargs)
+
+
+def test_rejects_bad_arguments():
+    with pytest.raises(InvalidInputError, match="reference"):
+        segment(np.zeros((10, 10, 3), np.uint8), reference=(0, 0, 1, 1))
+    with pytest.raises(InvalidInputError, match="shape"):
+        segment(np.zeros((10, 10), np.uint8))
