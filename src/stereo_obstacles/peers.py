@@ -22,7 +22,6 @@ Settings are the published ones from the OpenCV samples (``samples/cpp/stereo_ma
 
 from __future__ import annotations
 
-import logging
 import math
 
 import cv2
@@ -30,8 +29,6 @@ import numpy as np
 
 from stereo_obstacles._exhaustive_ncc_kernel import _ncc_wta_kernel
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
-
-logger = logging.getLogger(__name__)
 
 OPENCV_DISPARITY_SCALE = 16
 """OpenCV block matchers return ``round(d * 16)`` as ``int16``."""
