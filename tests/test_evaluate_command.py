@@ -143,3 +143,13 @@ def test_evaluate_command_on_tsukuba(shared_dataset, tmp_path, capsys):
     # OpenCV SGBM on Tsukuba, non-occluded: dense and a few percent bad-1
     assert m["density_pct"] > 90 and m["bad1_matched_pct"] < 8
     assert result["max_disparity_px"] == 14 and math.isfinite(m["epe_px"])
+
+
+def test_gcs_plugs_into_the_registry(shifted_scene):
+    if "gcs" not in available_methods():
+        pytest.skip("the GCS matcher (stereo_obstacles.matching) is not installed")
+    pair = load_pair(shifted_scene)
+    [result] = evaluate_pair(pair, resolve_methods(["gcs"]), repeat=1)
+    assert result.method == "gcs"
+    assert result.metrics.density_pct > 50 and result.metrics.bad1_matched_pct < 5
+    assert "match_seconds" in result.method_stats
