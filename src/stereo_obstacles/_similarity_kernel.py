@@ -1,0 +1,91 @@
+"""Compiled similarity of one disparity-space point and the scanline search of seeds.
+
+Private: :mod:`stereo_obstacles.similarity` prepares the padded images and the window
+statistics these kernels read, so the kernels need no bounds checks.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from numba import njit, prange
+
+CACHE = os.environ.get("STEREO_OBSTACLES_NUMBA_CACHE", "1") != "0"
+"""Cache compiled kernels on disk (set ``STEREO_OBSTACLES_NUMBA_CACHE=0`` to opt out)."""
+
+RADIUS = 2
+"""Half the window side: the window is ``(2 * RADIUS + 1)`` pixels square (5 x 5)."""
+
+UNDEFINED = -1.0
+"""Similarity given to a point where either window is too flat to correlate."""
+
+KIND_NCC = 0
+KIND_MNCC = 1
+
+
+@njit(cache=CACHE, inline="always")
+def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x, xr):
+    """Similarity of left pixel ``(x, y)`` and right pixel ``(xr, y)`` (see ``similarity.py``)."""
+    nl = norm_l[y, x]
+    nr = norm_r[y, xr]
+    if nl <= 0.0 or nr <= 0.0:
+        return UNDEFINED
+    acc = 0.0
+    side = 2 * RADIUS + 1
+    for i in range(side):
+        for j in range(side):
+            acc += np.float64(left_pad[y + i, x + j]) * np.float64(right_pad[y + i, xr + j])
+    cov = acc / (side * side) - np.float64(mean_l[y, x]) * np.float64(mean_r[y, xr])
+    if kind == KIND_NCC:
+        c = cov * nl * nr
+    else:
+        c = 2.0 * cov / (nl + nr)
+    if c > 1.0:
+        c = 1.0
+    elif c < -1.0:
+        c = -1.0
+    return c
+
+
+@njit(cache=CACHE, parallel=True)
+def _scan_best(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, ys, xs, d_min, d_max,
+               exclusion):
+    """Best and runner-up similarity of each listed left pixel along its scanline.
+
+    The runner-up ignores disparities within ``exclusion`` of the best one (the same peak).
+    Returns ``(best_d, best_c, second_c, n_evaluated)``; ``best_d`` is -1 where the
+    scanline holds no admissible disparity.
+    """
+    n = ys.shape[0]
+    best_d = np.full(n, -1, np.int32)
+    best_c = np.full(n, UNDEFINED, np.float32)
+    second_c = np.full(n, UNDEFINED, np.float32)
+    counts = np.zeros(n, np.int64)
+    n_blocks = min(n, 64)
+    for block in prange(n_blocks):
+        row = np.empty(d_max - d_min + 1, np.float64)
+        for k in range(block, n, n_blocks):
+            y = ys[k]
+            x = xs[k]
+            hi = min(d_max, x)
+            if hi < d_min:
+                continue
+            b = -2.0
+            bd = -1
+            for d in range(d_min, hi + 1):
+                c = _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind,
+                                y, x, x - d)
+                row[d - d_min] = c
+                if c > b:
+                    b = c
+                    bd = d
+            s = UNDEFINED
+            for d in range(d_min, hi + 1):
+                if abs(d - bd) > exclusion and row[d - d_min] > s:
+                    s = row[d - d_min]
+            best_d[k] = bd
+            best_c[k] = b
+            second_c[k] = s
+            counts[k] = hi - d_min + 1
+    return best_d, best_c, second_c, counts.sum()

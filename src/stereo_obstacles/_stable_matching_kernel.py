@@ -1,0 +1,64 @@
+"""Compiled confidently stable matching of the candidate table, row by row (private).
+
+The public wrapper is :func:`stereo_obstacles.stable_matching.stable_matching`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from stereo_obstacles._similarity_kernel import CACHE
+
+
+@njit(cache=CACHE)
+def _bucket_by(col, idx, w):
+    """CSR lists of the candidate indices ``idx`` by column value ``col[idx]`` in ``[0, w)``."""
+    start = np.zeros(w + 1, np.int64)
+    for i in idx:
+        start[col[i] + 1] += 1
+    for x in range(w):
+        start[x + 1] += start[x]
+    pos = start[:-1].copy()
+    items = np.empty(idx.shape[0], np.int64)
+    for i in idx:
+        items[pos[col[i]]] = i
+        pos[col[i]] += 1
+    return start, items
+
+
+@njit(cache=CACHE, parallel=True)
+def _stable_matching_kernel(t_y, t_x, t_xr, t_c, h, w, margin):
+    n = t_y.shape[0]
+    key = t_y.astype(np.float64) * 4.0 + (1.0 - t_c.astype(np.float64))
+    order = np.argsort(key)
+    row_start = np.searchsorted(t_y[order], np.arange(h + 1))
+    winner = np.full(n, False)
+    for y in prange(h):
+        idx = order[row_start[y]:row_start[y + 1]]
+        if idx.shape[0] == 0:
+            continue
+        start_l, items_l = _bucket_by(t_x, idx, w)
+        start_r, items_r = _bucket_by(t_xr, idx, w)
+        done_l = np.zeros(w, np.bool_)
+        done_r = np.zeros(w, np.bool_)
+        for p in idx:  # best first
+            x = t_x[p]
+            xr = t_xr[p]
+            if done_l[x] or done_r[xr]:
+                continue  # a better candidate took (or blocked) one of its pixels
+            runner_up = -np.inf
+            for k in range(start_l[x], start_l[x + 1]):
+                q = items_l[k]
+                if q != p and not done_r[t_xr[q]] and abs(t_xr[q] - xr) > 1:
+                    runner_up = max(runner_up, t_c[q])
+            for k in range(start_r[xr], start_r[xr + 1]):
+                q = items_r[k]
+                if q != p and not done_l[t_x[q]] and abs(t_x[q] - x) > 1:
+                    runner_up = max(runner_up, t_c[q])
+            done_l[x] = True
+            done_r[xr] = True
+            c = t_c[p]
+            if runner_up <= c - margin * abs(c):
+                winner[p] = True
+    return winner

@@ -1,0 +1,74 @@
+"""``stereo-obstacles disparity``: a semi-dense disparity map by Growing Correspondence Seeds."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "match a rectified stereo pair (GCS) and write its disparity map"
+
+
+def register(subparsers) -> None:
+    """Add the ``disparity`` sub-command."""
+    p = subparsers.add_parser("disparity", help=HELP, description=HELP + ". Output format by extension: "
+                              ".npy (float32, NaN unmatched), .pfm, or KITTI 16-bit .png.")
+    p.add_argument("left", help="left (reference) image")
+    p.add_argument("right", help="right image")
+    p.add_argument("-o", "--output", required=True, help="disparity file (.npy, .pfm or .png)")
+    p.add_argument("--seeds", default="canny",
+                   help="canny, sobel, random, or a text/.npy file of 'x y d' rows (default canny)")
+    p.add_argument("--max-disparity", type=int, default=None, help="largest disparity, px (default width/3)")
+    p.add_argument("--min-disparity", type=int, default=0, help="smallest disparity, px (default 0)")
+    p.add_argument("--tau", type=float, default=0.6, help="similarity threshold (default 0.6)")
+    p.add_argument("--mu", type=float, default=0.1, help="growth margin (default 0.1)")
+    p.add_argument("--max-candidates", type=int, default=10, help="candidates per pixel, K (default 10)")
+    p.add_argument("--final-margin", type=float, default=0.1, help="stable matching margin (default 0.1)")
+    p.add_argument("--variant", choices=("stable", "greedy"), default="stable")
+    p.add_argument("--similarity", choices=("ncc", "mncc"), default="ncc")
+    p.add_argument("--rng-seed", type=int, default=0, help="random seed for --seeds random")
+    p.add_argument("--picture", default=None, help="also write a turbo picture of the disparity (PNG)")
+    p.add_argument("--json", action="store_true", help="print one JSON line of statistics on stdout")
+    p.set_defaults(handler=run)
+
+
+def _seed_points(path: str):
+    from pathlib import Path
+
+    import numpy as np
+
+    from stereo_obstacles.errors import InputFileError
+    from stereo_obstacles.fileio import read_npy
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputFileError(f"--seeds: {path} is neither canny, sobel, random nor an existing file")
+    if p.suffix.lower() == ".npy":
+        return read_npy(p)
+    try:
+        return np.loadtxt(p, ndmin=2, comments="#")
+    except ValueError as exc:
+        raise InputFileError(f"--seeds: {path} is not a text file of 'x y d' rows: {exc}") from exc
+
+
+def run(args: argparse.Namespace) -> int:
+    """Match, write the disparity (and picture), print statistics on request."""
+    import json
+
+    from stereo_obstacles.colorize import colorize_disparity
+    from stereo_obstacles.fileio import read_image, write_disparity, write_image
+    from stereo_obstacles.matching import match
+    from stereo_obstacles.seeds import SEED_SOURCES
+
+    left = read_image(args.left)
+    right = read_image(args.right)
+    named = args.seeds in SEED_SOURCES
+    result = match(left, right, seeds=args.seeds if named else "canny",
+                   seed_points=None if named else _seed_points(args.seeds),
+                   max_disparity=args.max_disparity, min_disparity=args.min_disparity, tau=args.tau, mu=args.mu,
+                   max_candidates=args.max_candidates, final_margin=args.final_margin, similarity=args.similarity,
+                   variant=args.variant, rng_seed=args.rng_seed)
+    write_disparity(args.output, result.disparity)
+    if args.picture:
+        write_image(args.picture, colorize_disparity(result.disparity, 0, result.stats.d_max))
+    if args.json:
+        print(json.dumps({"output": str(args.output), **result.stats.to_dict()}))
+    return 0

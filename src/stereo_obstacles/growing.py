@@ -1,0 +1,133 @@
+"""Growing correspondence seeds: best-first growth of the candidate table over disparity space.
+
+From the best point ``s = (x, x', y)`` in the queue, each of the four neighbourhood groups
+
+* N1 = {(x-1, x'-1), (x-2, x'-1), (x-1, x'-2)} on row y,
+* N2 = {(x+1, x'+1), (x+2, x'+1), (x+1, x'+2)} on row y,
+* N3 = {(x, x'), (x-1, x'), (x+1, x'), (x, x'-1), (x, x'+1)} on row y-1,
+* N4 = the same on row y+1
+
+offers its best point ``q``. ``q`` joins the candidate table (and the queue) when
+
+* ``c(q) >= tau``, ``q`` is not yet a candidate,
+* its left and its right pixel have fewer than ``max_candidates`` candidates,
+* ``c(q) + mu >= ref``, where ``ref`` is the best candidate similarity so far at its
+  left pixel and at its right pixel, combined with ``max`` (default) or ``min``
+  (``margin_reference``).
+
+The greedy variant instead accepts ``q`` only when both its pixels are still unmatched, and
+the candidate table is then the matching itself. Seeds enter first, without the ``mu`` test.
+Every point's similarity is computed at most once (see ``_growing_kernel``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles._growing_kernel import COUNT_COMPUTED, COUNT_OVERFLOW, _grow_kernel, _side_similarities
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.seeds import Seeds
+from stereo_obstacles.similarity import SimilarityInputs
+
+__all__ = ["MARGIN_REFERENCES", "MEMO_SLOTS", "QUEUE_BUCKETS", "Growth", "grow"]
+
+MARGIN_REFERENCES = ("max", "min")
+"""How the left and right per-pixel bests combine in the ``mu`` test."""
+
+MEMO_SLOTS = 24
+"""Memoised disparities per left pixel (more are computed but not stored, and counted)."""
+
+QUEUE_BUCKETS = 4096
+"""Similarity steps of the bucket priority queue on ``[tau, 1]``."""
+
+
+@dataclass(frozen=True)
+class Growth:
+    """The candidate table after growth, and the memo to look similarities up in.
+
+    Attributes
+    ----------
+    y, x, x_right : ndarray of int32, shape (N,)
+        Candidate correspondences.
+    similarity : ndarray of float32, shape (N,)
+    n_computed : int
+        Distinct points whose similarity was computed during growth (and any later
+        :meth:`side_similarities` call).
+    n_overflow : int
+        Points computed at a pixel whose memo slots were full (computed again if met again).
+    """
+
+    y: np.ndarray
+    x: np.ndarray
+    x_right: np.ndarray
+    similarity: np.ndarray
+    inputs: SimilarityInputs
+    d_min: int
+    d_max: int
+    _memo: tuple
+
+    def __post_init__(self) -> None:
+        n = self.y.shape[0]
+        if any(a.shape != (n,) for a in (self.x, self.x_right, self.similarity)):
+            raise InvalidInputError("y, x, x_right, similarity: expected 1-D arrays of one length")
+
+    @property
+    def n_computed(self) -> int:
+        return int(self._memo[3][COUNT_COMPUTED])
+
+    @property
+    def n_overflow(self) -> int:
+        return int(self._memo[3][COUNT_OVERFLOW])
+
+    def side_similarities(self, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Similarity at disparities ``d - 1`` and ``d + 1`` of left pixels ``(x, y)``.
+
+        Looked up in the memo, computed (and counted) when absent; NaN outside the image or
+        the disparity range. Returns two float32 arrays shaped like ``y``.
+        """
+        args = [np.ascontiguousarray(a, np.int32) for a in (y, x, d)]
+        return _side_similarities(*self.inputs.kernel_args(), *self._memo, *args, self.d_min, self.d_max)
+
+
+def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau: float = 0.6,
+         mu: float = 0.1, max_candidates: int = 10, margin_reference: str = "max",
+         greedy: bool = False) -> Growth:
+    """Grow the seeds into a candidate table.
+
+    Parameters
+    ----------
+    inputs : SimilarityInputs
+        Prepared images (:func:`~stereo_obstacles.similarity.prepare_similarity`).
+    seeds : Seeds
+        Starting correspondences; those below ``tau`` are ignored.
+    d_min, d_max : int
+        Admissible disparities in pixels, inclusive.
+    tau : float
+        Similarity threshold in (0, 1).
+    mu : float
+        Margin of the growth test (>= 0).
+    max_candidates : int
+        Cap ``K`` on candidates per left and per right pixel (>= 1).
+    margin_reference : {"max", "min"}
+        Combination of the left and right bests in the ``mu`` test.
+    greedy : bool
+        Greedy variant: the candidate table is a one-to-one matching.
+
+    Returns
+    -------
+    Growth
+    """
+    if margin_reference not in MARGIN_REFERENCES:
+        raise InvalidInputError(f"margin_reference: expected one of {list(MARGIN_REFERENCES)}, "
+                                f"got {margin_reference!r}")
+    order = np.argsort(-seeds.similarity, kind="stable")
+    seed_arrays = [np.ascontiguousarray(a[order]) for a in (seeds.y, seeds.x, seeds.x_right)]
+    keep = seeds.similarity[order] >= tau
+    seed_arrays = [a[keep] for a in seed_arrays]
+    seed_c = np.ascontiguousarray(seeds.similarity[order][keep], np.float32)
+    t_y, t_x, t_xr, t_c, *memo = _grow_kernel(
+        *inputs.kernel_args(), *seed_arrays, seed_c, int(d_min), int(d_max), float(tau), float(mu),
+        int(max_candidates), margin_reference == "max", bool(greedy), MEMO_SLOTS, QUEUE_BUCKETS)
+    return Growth(t_y, t_x, t_xr, t_c, inputs, int(d_min), int(d_max), tuple(memo))

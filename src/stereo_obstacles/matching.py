@@ -1,0 +1,282 @@
+"""Semi-dense stereo matching by Growing Correspondence Seeds (GCS): the public entry point.
+
+Stages (each timed): *prepare* (grey conversion, window statistics), *seeds* (edge or
+random pixels matched along their scanline, or a user list), *growth* (best-first growth
+of the candidate table, :mod:`stereo_obstacles.growing`), *final* (confidently stable
+matching, :mod:`stereo_obstacles.stable_matching`; skipped by the greedy variant) and
+*subpixel* (:mod:`stereo_obstacles.subpixel`). See ``docs/matching.md``.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.growing import MARGIN_REFERENCES, grow
+from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
+from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
+from stereo_obstacles.stable_matching import stable_matching
+from stereo_obstacles.subpixel import parabola_offset
+
+__all__ = ["DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "VARIANTS", "MatchResult", "MatchStats", "match",
+           "warm_up"]
+
+logger = logging.getLogger(__name__)
+
+VARIANTS = ("stable", "greedy")
+"""``"stable"``: published GCS with the final stable matching; ``"greedy"``: fast variant."""
+
+MIN_SIZE = 2 * RADIUS + 1
+"""Smallest accepted image side in pixels (one correlation window)."""
+
+DEFAULT_MAX_DISPARITY_FRACTION = 1.0 / 3.0
+"""Without ``max_disparity``, disparities up to this fraction of the image width are searched."""
+
+
+@dataclass(frozen=True)
+class MatchStats:
+    """Statistics of one :func:`match` call.
+
+    Attributes
+    ----------
+    n_seeds : int
+        Seeds that entered the growth (similarity >= tau).
+    n_seed_pixels : int
+        Pixels searched along their scanline to find seeds.
+    n_candidates : int
+        Size of the candidate table after growth.
+    n_visited : int
+        Disparity-space points whose similarity was computed: scanline searches of the
+        seeds plus distinct points of growth and subpixel refinement (a point met by both a
+        seed search and the growth is counted twice, so this is an upper bound).
+    n_memo_overflow : int
+        Points computed at a pixel whose memo was full.
+    visited_fraction_full : float
+        ``n_visited / (W * W * H)``.
+    visited_fraction_range : float
+        ``n_visited / (W * H * (d_max - d_min + 1))``.
+    density : float
+        Fraction of pixels with a disparity.
+    d_min, d_max : int
+        Disparity range used, pixels.
+    prepare_seconds, seeds_seconds, growth_seconds, final_seconds, subpixel_seconds : float
+        Wall time of each stage.
+    match_seconds : float
+        ``seeds + growth + final`` (the matching proper, as in the benchmark targets).
+    total_seconds : float
+        Every stage.
+    """
+
+    n_seeds: int
+    n_seed_pixels: int
+    n_candidates: int
+    n_visited: int
+    n_memo_overflow: int
+    visited_fraction_full: float
+    visited_fraction_range: float
+    density: float
+    d_min: int
+    d_max: int
+    prepare_seconds: float
+    seeds_seconds: float
+    growth_seconds: float
+    final_seconds: float
+    subpixel_seconds: float
+    match_seconds: float
+    total_seconds: float
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.density <= 1.0:
+            raise InvalidInputError(f"density: expected in [0, 1], got {self.density}")
+
+    def to_dict(self) -> dict:
+        """The statistics as a JSON-ready dict."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class MatchResult:
+    """Output of :func:`match`.
+
+    Attributes
+    ----------
+    disparity : ndarray of float32, shape (H, W)
+        Left disparity in pixels (subpixel), NaN where unmatched: left ``(x, y)`` matches
+        right ``(x - d, y)``.
+    similarity : ndarray of float32, shape (H, W)
+        Similarity of each match at its integer disparity, NaN where unmatched.
+    stats : MatchStats
+    """
+
+    disparity: np.ndarray
+    similarity: np.ndarray
+    stats: MatchStats
+
+    def __post_init__(self) -> None:
+        if self.disparity.shape != self.similarity.shape or self.disparity.ndim != 2:
+            raise InvalidInputError(f"disparity, similarity: expected one (H, W) shape, got "
+                                    f"{self.disparity.shape} and {self.similarity.shape}")
+
+
+def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity,
+                   max_disparity, margin_reference, seeds, seed_points) -> None:
+    if not 0.0 < tau < 1.0:
+        raise InvalidInputError(f"tau: expected 0 < tau < 1, got {tau}")
+    if not mu >= 0.0:
+        raise InvalidInputError(f"mu: expected >= 0, got {mu}")
+    if int(max_candidates) != max_candidates or max_candidates < 1:
+        raise InvalidInputError(f"max_candidates: expected an integer >= 1, got {max_candidates}")
+    if not final_margin >= 0.0:
+        raise InvalidInputError(f"final_margin: expected >= 0, got {final_margin}")
+    if similarity not in KINDS:
+        raise InvalidInputError(f"similarity: expected one of {sorted(KINDS)}, got {similarity!r}")
+    if variant not in VARIANTS:
+        raise InvalidInputError(f"variant: expected one of {list(VARIANTS)}, got {variant!r}")
+    if margin_reference not in MARGIN_REFERENCES:
+        raise InvalidInputError(f"margin_reference: expected one of {list(MARGIN_REFERENCES)}, "
+                                f"got {margin_reference!r}")
+    if int(min_disparity) != min_disparity or min_disparity < 0:
+        raise InvalidInputError(f"min_disparity: expected an integer >= 0, got {min_disparity}")
+    if max_disparity is not None and (int(max_disparity) != max_disparity or max_disparity < min_disparity):
+        raise InvalidInputError(f"max_disparity: expected an integer >= min_disparity ({min_disparity}), "
+                                f"got {max_disparity}")
+    if seed_points is None and seeds not in SEED_SOURCES:
+        raise InvalidInputError(f"seeds: expected one of {list(SEED_SOURCES)}, got {seeds!r}")
+
+
+def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disparity: int | None = None,
+          min_disparity: int = 0, tau: float = 0.6, mu: float = 0.1, max_candidates: int = 10,
+          final_margin: float = 0.1, similarity: str = "ncc", variant: str = "stable", rng_seed: int = 0,
+          seed_points: np.ndarray | None = None, margin_reference: str = "max", min_std: float = 1.0,
+          seed_margin: float = 0.1) -> MatchResult:
+    """Match a rectified stereo pair by Growing Correspondence Seeds.
+
+    Parameters
+    ----------
+    left, right : ndarray, shape (H, W) or (H, W, 3)
+        Rectified grey or RGB images, any integer or float dtype, same shape, at least 5 x 5.
+    seeds : {"canny", "sobel", "random"}
+        Where seeds come from (ignored when ``seed_points`` is given).
+    max_disparity : int, optional
+        Largest disparity in pixels. Default: a third of the width (the growth itself needs
+        no range; the bound limits seed searches and admissible points).
+    min_disparity : int
+        Smallest disparity in pixels (>= 0).
+    tau : float
+        Similarity threshold of a candidate, in (0, 1).
+    mu : float
+        Growth margin: a point joins when within ``mu`` of the best candidate so far at its
+        pixels.
+    max_candidates : int
+        Cap ``K`` of candidates per pixel; keeps weak texture from exploding.
+    final_margin : float
+        Relative confidence margin of the final stable matching.
+    similarity : {"ncc", "mncc"}
+        Window similarity (5 x 5).
+    variant : {"stable", "greedy"}
+        ``"greedy"`` is faster and denser but makes more errors.
+    rng_seed : int
+        Seed of the random generator for ``seeds="random"``.
+    seed_points : ndarray, shape (N, 3), optional
+        User seeds as ``(x, y, d)`` rows (pixels).
+    margin_reference : {"max", "min"}
+        Combination of the left and right per-pixel bests in the growth test.
+    min_std : float
+        Windows flatter than this standard deviation (grey levels) never match.
+    seed_margin : float
+        A scanline seed must beat its runner-up (outside ``d +- 1``) by this similarity.
+
+    Returns
+    -------
+    MatchResult
+
+    Raises
+    ------
+    ImageMismatchError
+        The images differ in shape.
+    InvalidInputError
+        An image is too small or not an image, or an option is out of range.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(1)
+    >>> right = rng.uniform(0, 255, (40, 60)).astype(np.float32)
+    >>> left = np.roll(right, 4, axis=1)          # every left pixel is 4 px right of its match
+    >>> result = match(left, right, max_disparity=10)
+    >>> float(np.nanmedian(result.disparity))
+    4.0
+    """
+    t0 = time.perf_counter()
+    _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity, max_disparity,
+                   margin_reference, seeds, seed_points)
+    left_grey = to_grey(left, "left")
+    right_grey = to_grey(right, "right")
+    if left_grey.shape != right_grey.shape:
+        raise ImageMismatchError(f"left and right images differ in size: {left_grey.shape[1]}x"
+                                 f"{left_grey.shape[0]} vs {right_grey.shape[1]}x{right_grey.shape[0]}")
+    h, w = left_grey.shape
+    if h < MIN_SIZE or w < MIN_SIZE:
+        raise InvalidInputError(f"left, right: images must be at least {MIN_SIZE}x{MIN_SIZE} pixels, got {w}x{h}")
+    d_min = int(min_disparity)
+    d_max = int(max_disparity) if max_disparity is not None else max(d_min, round(w * DEFAULT_MAX_DISPARITY_FRACTION))
+    d_max = min(d_max, w - 1)
+    if d_min > d_max:
+        raise InvalidInputError(f"min_disparity: expected < image width {w}, got {d_min}")
+    inputs = prepare_similarity(left_grey, right_grey, kind=similarity, min_std=min_std)
+    t1 = time.perf_counter()
+
+    if seed_points is not None:
+        found = user_seeds(inputs, seed_points, d_min=d_min, d_max=d_max)
+    else:
+        found = find_seeds(inputs, left_grey, seeds, d_min=d_min, d_max=d_max, tau=tau, margin=seed_margin,
+                           rng_seed=rng_seed)
+    t2 = time.perf_counter()
+
+    growth = grow(inputs, found, d_min=d_min, d_max=d_max, tau=tau, mu=mu, max_candidates=int(max_candidates),
+                  margin_reference=margin_reference, greedy=variant == "greedy")
+    t3 = time.perf_counter()
+
+    if variant == "greedy":
+        won = np.ones(growth.y.shape[0], bool)
+    else:
+        won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, (h, w), margin=final_margin)
+    my, mx, mxr, mc = growth.y[won], growth.x[won], growth.x_right[won], growth.similarity[won]
+    t4 = time.perf_counter()
+
+    md = mx - mxr
+    c_minus, c_plus = growth.side_similarities(my, mx, md)
+    disparity = np.full((h, w), np.nan, np.float32)
+    sim = np.full((h, w), np.nan, np.float32)
+    disparity[my, mx] = md + parabola_offset(c_minus, mc, c_plus)
+    sim[my, mx] = mc
+    t5 = time.perf_counter()
+
+    n_visited = found.n_evaluated + growth.n_computed
+    n_range = d_max - d_min + 1
+    stats = MatchStats(
+        n_seeds=int(np.count_nonzero(found.similarity >= tau)), n_seed_pixels=found.n_candidates,
+        n_candidates=int(growth.y.shape[0]), n_visited=int(n_visited), n_memo_overflow=growth.n_overflow,
+        visited_fraction_full=n_visited / (w * w * h), visited_fraction_range=n_visited / (w * h * n_range),
+        density=float(my.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
+        prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=t3 - t2, final_seconds=t4 - t3,
+        subpixel_seconds=t5 - t4, match_seconds=t4 - t1, total_seconds=t5 - t0)
+    logger.info("GCS: %d seeds, %d candidates, density %.1f %%, match %.1f ms", stats.n_seeds,
+                stats.n_candidates, 100 * stats.density, 1e3 * stats.match_seconds)
+    return MatchResult(disparity, sim, stats)
+
+
+def warm_up() -> float:
+    """Compile (or load from the cache) every matching kernel; returns the seconds it took."""
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(0)
+    right = rng.uniform(0, 255, (24, 32)).astype(np.float32)
+    left = np.roll(right, 3, axis=1)
+    for kind in KINDS:
+        for variant in VARIANTS:
+            match(left, right, max_disparity=6, similarity=kind, variant=variant)
+    return time.perf_counter() - t0

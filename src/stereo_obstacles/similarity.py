@@ -1,0 +1,191 @@
+"""Window similarity of a left and a right pixel: NCC or Moravec's MNCC on a 5 x 5 window.
+
+For a left pixel ``(x, y)`` and a right pixel ``(x', y)`` with windows ``L`` and ``R``
+(25 grey values each):
+
+* NCC  = cov(L, R) / (std L * std R)
+* MNCC = 2 cov(L, R) / (var L + var R)   (Moravec; also penalises a contrast difference)
+
+Window means and variances are computed once per image with box filters
+(:func:`prepare_similarity`); the compiled kernels then only form the 25 products of a
+point. A window whose standard deviation is below ``min_std`` grey levels is too flat to
+correlate: every point touching it gets the similarity :data:`UNDEFINED` (-1), so it can
+never pass a positive threshold. Images are padded by reflection (``BORDER_REFLECT_101``)
+so that border pixels have full windows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from stereo_obstacles._similarity_kernel import KIND_MNCC, KIND_NCC, RADIUS, UNDEFINED, _similarity
+from stereo_obstacles.errors import InvalidInputError
+
+__all__ = ["KINDS", "RADIUS", "UNDEFINED", "SimilarityInputs", "prepare_similarity", "similarity_at",
+           "to_grey"]
+
+KINDS = {"ncc": KIND_NCC, "mncc": KIND_MNCC}
+"""Similarity names accepted by :func:`prepare_similarity` and their kernel codes."""
+
+_RGB_WEIGHTS = np.array([0.299, 0.587, 0.114], np.float32)
+
+
+def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
+    """Grey float32 copy of an image, without rescaling intensities.
+
+    Parameters
+    ----------
+    image : ndarray, shape (H, W) or (H, W, 3)
+        Grey or RGB image, any integer or float dtype (RGB weighted 0.299, 0.587, 0.114).
+    name : str
+        Argument name used in error messages.
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W)
+        Intensities in the input's own units.
+
+    Raises
+    ------
+    InvalidInputError
+        Wrong number of dimensions or channels, non-numeric dtype or non-finite values.
+    """
+    a = np.asarray(image)
+    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+        raise InvalidInputError(f"{name}: expected an integer or float image, got dtype {a.dtype}")
+    if a.ndim == 3 and a.shape[2] == 3:
+        grey = a.astype(np.float32) @ _RGB_WEIGHTS
+    elif a.ndim == 2:
+        grey = a.astype(np.float32)
+    else:
+        raise InvalidInputError(f"{name}: expected shape (H, W) or (H, W, 3), got {a.shape}")
+    if not np.isfinite(grey).all():
+        raise InvalidInputError(f"{name}: contains NaN or infinite values")
+    return np.ascontiguousarray(grey)
+
+
+@dataclass(frozen=True)
+class SimilarityInputs:
+    """Everything the compiled kernels read to score a point ``(y, x, x')``.
+
+    Attributes
+    ----------
+    left_pad, right_pad : ndarray of float32, shape (H + 4, W + 4)
+        Grey images minus their own mean, padded by reflection by :data:`RADIUS`.
+    mean_l, mean_r : ndarray of float32, shape (H, W)
+        Window means of the padded images (same offset as ``left_pad``/``right_pad``).
+    norm_l, norm_r : ndarray of float32, shape (H, W)
+        NCC: ``1 / std`` of the window; MNCC: its variance. 0 where ``std < min_std``.
+    kind : int
+        Kernel code of the similarity (see :data:`KINDS`).
+    """
+
+    left_pad: np.ndarray
+    right_pad: np.ndarray
+    mean_l: np.ndarray
+    norm_l: np.ndarray
+    mean_r: np.ndarray
+    norm_r: np.ndarray
+    kind: int
+
+    def __post_init__(self) -> None:
+        h, w = self.mean_l.shape
+        for field in ("left_pad", "right_pad"):
+            if getattr(self, field).shape != (h + 2 * RADIUS, w + 2 * RADIUS):
+                raise InvalidInputError(f"{field}: expected shape {(h + 2 * RADIUS, w + 2 * RADIUS)}")
+        for field in ("norm_l", "mean_r", "norm_r"):
+            if getattr(self, field).shape != (h, w):
+                raise InvalidInputError(f"{field}: expected shape {(h, w)}")
+        if self.kind not in KINDS.values():
+            raise InvalidInputError(f"kind: expected one of {sorted(KINDS.values())}, got {self.kind}")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Image shape ``(H, W)``."""
+        return self.mean_l.shape
+
+    def kernel_args(self) -> tuple:
+        """The arrays and code in the order the kernels take them."""
+        return (self.left_pad, self.right_pad, self.mean_l, self.norm_l, self.mean_r, self.norm_r,
+                self.kind)
+
+
+def _window_stats(grey: np.ndarray, kind: int, min_std: float) -> tuple[np.ndarray, ...]:
+    centred = grey.astype(np.float64) - float(grey.mean())
+    pad = cv2.copyMakeBorder(centred, RADIUS, RADIUS, RADIUS, RADIUS, cv2.BORDER_REFLECT_101)
+    side = 2 * RADIUS + 1
+    inner = (slice(RADIUS, -RADIUS), slice(RADIUS, -RADIUS))
+    mean = cv2.boxFilter(pad, -1, (side, side), normalize=True)[inner]
+    var = np.maximum(cv2.boxFilter(pad * pad, -1, (side, side), normalize=True)[inner] - mean * mean, 0.0)
+    flat = var < min_std * min_std
+    if kind == KIND_NCC:
+        norm = np.where(flat, 0.0, 1.0 / np.sqrt(np.where(flat, 1.0, var)))
+    else:
+        norm = np.where(flat, 0.0, var)
+    return (pad.astype(np.float32), mean.astype(np.float32), norm.astype(np.float32))
+
+
+def prepare_similarity(left_grey: np.ndarray, right_grey: np.ndarray, *, kind: str = "ncc",
+                       min_std: float = 1.0) -> SimilarityInputs:
+    """Pad both grey images and precompute their window statistics.
+
+    Parameters
+    ----------
+    left_grey, right_grey : ndarray of float32, shape (H, W)
+        Grey images (see :func:`to_grey`), same shape, at least 5 x 5.
+    kind : {"ncc", "mncc"}
+        The similarity.
+    min_std : float
+        Windows with a standard deviation below this (grey levels) are flat: points
+        touching them score :data:`UNDEFINED`.
+
+    Returns
+    -------
+    SimilarityInputs
+    """
+    if kind not in KINDS:
+        raise InvalidInputError(f"similarity: expected one of {sorted(KINDS)}, got {kind!r}")
+    if not min_std >= 0.0:
+        raise InvalidInputError(f"min_std: expected >= 0, got {min_std}")
+    code = KINDS[kind]
+    lp, ml, nl = _window_stats(left_grey, code, min_std)
+    rp, mr, nr = _window_stats(right_grey, code, min_std)
+    return SimilarityInputs(lp, rp, ml, nl, mr, nr, code)
+
+
+def similarity_at(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray, x_right: np.ndarray) -> np.ndarray:
+    """Similarity of left pixels ``(x, y)`` with right pixels ``(x_right, y)``.
+
+    Parameters
+    ----------
+    inputs : SimilarityInputs
+    y, x, x_right : array_like of int, same shape
+        Row, left column and right column of each point, inside the image.
+
+    Returns
+    -------
+    ndarray of float32, same shape as ``y``
+        Similarity in [-1, 1]; :data:`UNDEFINED` where a window is flat.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> img = rng.uniform(0, 255, (20, 30)).astype(np.float32)
+    >>> s = prepare_similarity(img, img)
+    >>> float(similarity_at(s, np.array([10]), np.array([12]), np.array([12]))[0])
+    1.0
+    """
+    y, x, x_right = (np.asarray(v, dtype=np.int64) for v in np.broadcast_arrays(y, x, x_right))
+    h, w = inputs.shape
+    if y.size and (y.min() < 0 or y.max() >= h or min(x.min(), x_right.min()) < 0
+                   or max(x.max(), x_right.max()) >= w):
+        raise InvalidInputError(f"points: expected 0 <= y < {h} and 0 <= x, x_right < {w}")
+    args = inputs.kernel_args()
+    out = np.empty(y.shape, np.float32)
+    for i in np.ndindex(y.shape):
+        out[i] = _similarity(*args, y[i], x[i], x_right[i])
+    return out

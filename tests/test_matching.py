@@ -1,0 +1,132 @@
+"""The public GCS matcher: validation, shapes, known answers, real Middlebury accuracy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.fileio import read_image
+from stereo_obstacles.matching import MatchResult, match
+
+
+def _shifted_pair(shape=(48, 80), shift=5, seed=1):
+    """A random-texture right image and the left image seeing it ``shift`` px to the right."""
+    rng = np.random.default_rng(seed)
+    right = rng.uniform(0, 255, shape).astype(np.float32)
+    left = np.empty_like(right)
+    left[:, shift:] = right[:, :-shift]
+    left[:, :shift] = rng.uniform(0, 255, (shape[0], shift))
+    return left, right
+
+
+def test_constant_shift_is_recovered_exactly():
+    left, right = _shifted_pair(shift=5)
+    result = match(left, right, max_disparity=12)
+    assert isinstance(result, MatchResult)
+    assert result.disparity.shape == left.shape and result.disparity.dtype == np.float32
+    assert result.similarity.dtype == np.float32
+    valid = np.isfinite(result.disparity)
+    assert valid.mean() > 0.85
+    assert np.abs(result.disparity[valid] - 5).max() < 0.5
+    assert np.all(np.isfinite(result.similarity) == valid)
+    assert np.nanmin(result.similarity) >= 0.6
+
+
+@pytest.mark.parametrize("variant", ["stable", "greedy"])
+@pytest.mark.parametrize("similarity", ["ncc", "mncc"])
+def test_variants_and_similarities_recover_shift(variant, similarity):
+    left, right = _shifted_pair(shift=3, seed=2)
+    result = match(left, right, max_disparity=8, variant=variant, similarity=similarity)
+    valid = np.isfinite(result.disparity)
+    assert valid.mean() > 0.85
+    assert np.median(result.disparity[valid]) == pytest.approx(3, abs=0.1)
+
+
+@pytest.mark.parametrize("seeds", ["canny", "sobel", "random"])
+def test_seed_sources(seeds):
+    left, right = _shifted_pair(shift=4, seed=3)
+    result = match(left, right, max_disparity=8, seeds=seeds)
+    assert result.stats.n_seeds > 0
+    assert np.nanmedian(result.disparity) == pytest.approx(4, abs=0.1)
+
+
+def test_user_seed_points_grow_from_one_seed():
+    left, right = _shifted_pair(shift=4, seed=4)
+    result = match(left, right, max_disparity=8, seed_points=np.array([[40, 20, 4]]))
+    assert result.stats.n_seeds == 1
+    assert np.isfinite(result.disparity).mean() > 0.8
+
+
+def test_colour_and_uint8_input_accepted():
+    left, right = _shifted_pair(shift=2, seed=5)
+    l8 = np.repeat(left.astype(np.uint8)[..., None], 3, axis=2)
+    r8 = np.repeat(right.astype(np.uint8)[..., None], 3, axis=2)
+    result = match(l8, r8, max_disparity=6)
+    assert np.nanmedian(result.disparity) == pytest.approx(2, abs=0.1)
+
+
+@pytest.mark.parametrize("image", [np.zeros((30, 40), np.uint8), np.full((30, 40), 128.0)])
+def test_textureless_gives_empty_result(image):
+    result = match(image, image)
+    assert np.isnan(result.disparity).all()
+    assert result.stats.density == 0.0
+
+
+def test_identical_images_match_at_zero_disparity_only():
+    left, _ = _shifted_pair()
+    result = match(left, left, max_disparity=10)
+    valid = np.isfinite(result.disparity)
+    assert valid.any()
+    assert np.abs(result.disparity[valid]).max() < 0.5
+
+
+def test_errors():
+    a = np.zeros((20, 30), np.uint8)
+    with pytest.raises(ImageMismatchError, match="differ in size"):
+        match(a, np.zeros((20, 31), np.uint8))
+    with pytest.raises(InvalidInputError, match="at least 5x5"):
+        match(np.zeros((4, 30)), np.zeros((4, 30)))
+    with pytest.raises(InvalidInputError, match="tau"):
+        match(a, a, tau=1.5)
+    with pytest.raises(InvalidInputError, match="variant"):
+        match(a, a, variant="fast")
+    with pytest.raises(InvalidInputError, match="seeds"):
+        match(a, a, seeds="harris")
+    with pytest.raises(InvalidInputError, match="max_disparity"):
+        match(a, a, min_disparity=5, max_disparity=2)
+    with pytest.raises(InvalidInputError, match="seed_points"):
+        match(a, a, seed_points=np.array([[100, 5, 1]]))
+
+
+def test_stats_dict_is_complete():
+    left, right = _shifted_pair()
+    stats = match(left, right, max_disparity=10).stats.to_dict()
+    for key in ("n_seeds", "n_visited", "visited_fraction_full", "visited_fraction_range", "density",
+                "prepare_seconds", "seeds_seconds", "growth_seconds", "final_seconds", "subpixel_seconds",
+                "match_seconds"):
+        assert key in stats
+    assert 0 < stats["visited_fraction_range"] <= 1.5
+
+
+def _bad1(shared_dataset, name, scale, **kw):
+    folder = shared_dataset(name)
+    left = read_image(folder / "imL.png", mode="color")
+    right = read_image(folder / "imR.png", mode="color")
+    gt = read_image(folder / "groundtruth.png", mode="gray").astype(np.float32) / scale
+    mask = read_image(folder / "nonocc.png", mode="gray") == 255
+    result = match(left, right, max_disparity=int(np.ceil(gt.max())) + 4, **kw)
+    matched = mask & np.isfinite(result.disparity)
+    bad = np.abs(result.disparity[matched] - gt[matched]) > 1
+    return bad.mean(), matched.sum() / mask.sum()
+
+
+@pytest.mark.shared_data
+@pytest.mark.parametrize("name, scale, max_bad, min_density", [
+    ("middlebury2003_cones", 4, 0.045, 0.80),
+    ("middlebury2003_teddy", 4, 0.065, 0.75),
+])
+def test_middlebury_accuracy(shared_dataset, name, scale, max_bad, min_density):
+    bad, density = _bad1(shared_dataset, name, scale)
+    assert bad <= max_bad
+    assert density >= min_density
