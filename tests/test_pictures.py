@@ -6,10 +6,12 @@ import numpy as np
 import pytest
 from _obstacle_scene import detection
 
+from stereo_obstacles.colorize import colorize_depth, colorize_disparity
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
 from stereo_obstacles.pictures import (
-    MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, TINT_ALPHA, draw_obstacles, labels_picture, obstacle_colour)
+    MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, TINT_ALPHA, depth_picture, disparity_picture, draw_obstacles,
+    labels_picture, obstacle_colour)
 
 DETECTION = detection()
 
@@ -73,3 +75,47 @@ def test_narrow_labels_picture_is_padded_to_the_legend_width():
     assert (picture[:10, 20:] == 0).all()
     with pytest.raises(InvalidInputError, match="labels must be uint8"):
         labels_picture(np.zeros((4, 4), np.int32))
+
+
+def _count(picture: np.ndarray, rgb: np.ndarray) -> int:
+    return int((picture == rgb.reshape(1, 1, 3)).all(axis=2).sum())
+
+
+def test_disparity_picture_uses_the_given_range_and_shows_both_ends_in_the_bar():
+    d = DETECTION.disparity
+    h, w = d.shape
+    picture = disparity_picture(d, vmin=2.0, vmax=12.0)
+    assert picture.dtype == np.uint8 and picture.shape[1] == w and picture.shape[0] > h + 20
+    np.testing.assert_array_equal(picture[:h], colorize_disparity(d, vmin=2.0, vmax=12.0))
+    assert (picture[:h][np.isnan(d)] == 0).all()
+    ends = colorize_disparity(np.array([[2.0, 12.0]], np.float32), vmin=2.0, vmax=12.0)[0]
+    bar = picture[h:]
+    assert _count(bar, ends[0]) > 10 and _count(bar, ends[1]) > 10
+
+
+def test_disparity_picture_default_range_is_rounded_out_to_whole_pixels():
+    d = np.linspace(3.3, 20.7, 40 * 60, dtype=np.float32).reshape(40, 60)
+    d[0, :5] = np.nan
+    picture = disparity_picture(d)
+    np.testing.assert_array_equal(picture[:40, :60], colorize_disparity(d, vmin=3.0, vmax=21.0))
+    assert disparity_picture(np.full((5, 5), np.nan, np.float32)).shape[1] == MIN_PANEL_WIDTH_PX  # all invalid
+
+
+def test_depth_picture_default_range_is_a_round_number_above_most_depths():
+    z = np.linspace(1.0, 8.6, 50 * 80, dtype=np.float32).reshape(50, 80)
+    z[10, 10] = np.nan
+    picture = depth_picture(z)  # 75th percentile 6.7 m rounds up to 8 m
+    np.testing.assert_array_equal(picture[:50, :80], colorize_depth(z, 8.0))
+    np.testing.assert_array_equal(depth_picture(z, max_m=20.0)[:50, :80], colorize_depth(z, 20.0))
+    assert (picture[10, 10] == 0).all()
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: disparity_picture(np.zeros((4, 4), np.int16)), "disparity must be a float"),
+    (lambda: disparity_picture(np.zeros((4, 4), np.float32), vmin=5.0, vmax=5.0), "maximum above the minimum"),
+    (lambda: depth_picture(np.ones((4, 4, 3), np.float32)), "depth_m must be a float"),
+    (lambda: depth_picture(np.ones((4, 4), np.float32), max_m=-1.0), "maximum above the minimum"),
+])
+def test_bad_maps_and_ranges(call, message):
+    with pytest.raises(InvalidInputError, match=message):
+        call()

@@ -8,12 +8,16 @@ wide (a narrow picture is padded with black on the right).
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
+
 import cv2
 import numpy as np
 
+from stereo_obstacles.colorize import colorize_depth, colorize_disparity
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
-from stereo_obstacles.obstacles import ObstacleList
+from stereo_obstacles.obstacles import Obstacle, ObstacleList
 
 OBSTACLE_COLOURS_RGB: tuple[tuple[int, int, int], ...] = (
     (255, 64, 64), (255, 170, 0), (0, 200, 255), (200, 80, 255), (80, 230, 80),
@@ -69,17 +73,19 @@ def _as_rgb(image: np.ndarray, name: str) -> np.ndarray:
     return np.repeat(a[..., None], 3, axis=2) if a.ndim == 2 else a.copy()
 
 
-def _obstacle_caption(obstacle, calibrated: bool) -> str:
+def obstacle_caption(obstacle: Obstacle, calibrated: bool) -> str:
+    """``"#1 2.35 m"``, or ``"#1 d=21.0 px"`` without a calibration."""
     if calibrated and obstacle.distance_m is not None:
         return f"#{obstacle.id} {obstacle.distance_m:.2f} m"
     return f"#{obstacle.id} d={obstacle.disparity_px:.1f} px"
 
 
-def _summary(obstacle_list: ObstacleList, calibrated: bool) -> list[str]:
+def describe_detection(obstacle_list: ObstacleList, calibrated: bool) -> list[str]:
+    """Short sentences summing up a detection: count and nearest, corridor, units, rejections."""
     obstacles = obstacle_list.obstacles
     parts = [f"{len(obstacles)} obstacle{'s' if len(obstacles) != 1 else ''}"]
     if obstacles:
-        parts[0] += f", nearest {_obstacle_caption(obstacles[0], calibrated)}"
+        parts[0] += f", nearest {obstacle_caption(obstacles[0], calibrated)}"
     corridor = obstacle_list.corridor
     if calibrated and corridor is not None:
         free = (f"free {corridor.free_distance_m:.2f} m to #{corridor.nearest_obstacle_id}"
@@ -140,8 +146,8 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
             cv2.rectangle(out, (x0 - 2 * thickness, y0 - 2 * thickness),
                           (x1 - 1 + 2 * thickness, y1 - 1 + 2 * thickness), colour, thickness)
         top = y0 - label_h if y0 - label_h >= label_h else y0 + thickness  # above the box unless at the top
-        _put_label(out, _obstacle_caption(obstacle, calibrated), x0, top, colour, scale)
-    return _stack_with_panel(out, _text_panel(_summary(obstacle_list, calibrated), w))
+        _put_label(out, obstacle_caption(obstacle, calibrated), x0, top, colour, scale)
+    return _stack_with_panel(out, _text_panel(describe_detection(obstacle_list, calibrated), w))
 
 
 def _panel(width_px: int, height_px: int) -> np.ndarray:
@@ -220,4 +226,113 @@ def labels_picture(labels: np.ndarray) -> np.ndarray:
     return _stack_with_panel(colorize_labels(a), panel)
 
 
-__all__ = ["OBSTACLE_COLOURS_RGB", "obstacle_colour", "draw_obstacles", "labels_picture"]
+def _nice_step(raw: float) -> float:
+    """The smallest of 1, 2, 2.5, 5 times a power of ten that is >= ``raw`` (> 0)."""
+    power = 10.0 ** math.floor(math.log10(raw))
+    return next(m * power for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * power >= raw * (1 - 1e-9))
+
+
+def _nice_ceil(value: float) -> float:
+    """``value`` rounded up to a multiple of a round step (about a quarter of it)."""
+    step = _nice_step(value / 4.0)
+    return math.ceil(value / step - 1e-9) * step
+
+
+def _ticks(lo: float, hi: float) -> np.ndarray:
+    step = _nice_step((hi - lo) / 5.0)
+    return np.arange(math.ceil(lo / step - 1e-9), math.floor(hi / step + 1e-9) + 1) * step
+
+
+def _colour_bar(colorize: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, title: str,
+                width_px: int) -> np.ndarray:
+    """A panel with ``title`` over a horizontal colour bar from ``lo`` to ``hi`` with round ticks."""
+    width = max(width_px, MIN_PANEL_WIDTH_PX)
+    scale = _font_scale(width) * 0.9
+    row_h = _label_height(scale)
+    ticks = _ticks(lo, hi)
+    texts = [f"{round(float(t), 9):g}" for t in ticks]
+    margin = max(cv2.getTextSize(t, _FONT, scale, 1)[0][0] for t in texts) // 2 + 8
+    bar_w, bar_h, top = width - 2 * margin, max(10, row_h), row_h + 4
+    panel = _panel(width, top + bar_h + 4 + row_h + 4)
+    _put_label(panel, title, 4, 2, (32, 32, 32), scale)
+    ramp = (lo + (np.arange(bar_w) + 0.5) / bar_w * (hi - lo)).astype(np.float32)[None, :].repeat(bar_h, axis=0)
+    panel[top:top + bar_h, margin:margin + bar_w] = colorize(ramp)
+    for value, text in zip(ticks, texts):
+        x = margin + int(round((value - lo) / (hi - lo) * (bar_w - 1)))
+        cv2.line(panel, (x, top + bar_h), (x, top + bar_h + 3), (230, 230, 230), 1)
+        text_w = cv2.getTextSize(text, _FONT, scale, 1)[0][0]
+        _put_label(panel, text, x - text_w // 2 - 3, top + bar_h + 3, (32, 32, 32), scale)
+    return panel
+
+
+def _as_float_map(array: np.ndarray, name: str) -> np.ndarray:
+    a = np.asarray(array)
+    if a.ndim != 2 or not np.issubdtype(a.dtype, np.floating):
+        raise InvalidInputError(f"{name} must be a float (H, W) map with NaN for invalid, got {a.dtype} {a.shape}")
+    return a.astype(np.float32, copy=False)
+
+
+def _check_range(name: str, lo: float, hi: float) -> None:
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise InvalidInputError(f"{name} range must be finite with the maximum above the minimum, got [{lo}, {hi}]")
+
+
+def disparity_picture(disparity: np.ndarray, *, vmin: float | None = None, vmax: float | None = None) -> np.ndarray:
+    """Disparity in the turbo colour map (invalid black), with a colour bar in pixels under it.
+
+    Parameters
+    ----------
+    disparity
+        ``float (H, W)`` disparity in pixels, NaN where unmatched.
+    vmin, vmax
+        Range of the colour map in pixels; by default the 1st and 99th percentiles of the
+        valid disparities, rounded outwards to whole pixels. Values outside are clipped.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``uint8 (H + bar, max(W, MIN_PANEL_WIDTH_PX), 3)`` RGB picture.
+    """
+    d = _as_float_map(disparity, "disparity")
+    valid = d[np.isfinite(d)]
+    lo_auto, hi_auto = (np.percentile(valid, [1.0, 99.0]) if valid.size else (0.0, 1.0))
+    lo = float(math.floor(lo_auto)) if vmin is None else float(vmin)
+    hi = float(math.ceil(hi_auto)) if vmax is None else float(vmax)
+    if vmax is None and hi <= lo:
+        hi = lo + 1.0
+    _check_range("disparity", lo, hi)
+    share = 100.0 * valid.size / max(d.size, 1)
+    bar = _colour_bar(lambda ramp: colorize_disparity(ramp, vmin=lo, vmax=hi), lo, hi,
+                      f"disparity [px]; {share:.0f}% of pixels matched; black = no disparity", d.shape[1])
+    return _stack_with_panel(colorize_disparity(d, vmin=lo, vmax=hi), bar)
+
+
+def depth_picture(depth_m: np.ndarray, *, max_m: float | None = None) -> np.ndarray:
+    """Depth in the magma colour map, near bright and far dark (unknown black), with a colour bar in metres.
+
+    Parameters
+    ----------
+    depth_m
+        ``float (H, W)`` depth in metres, NaN where unknown.
+    max_m
+        Depth at the end of the colour map; farther depths get its colour. By default the
+        75th percentile of the known depths rounded up to a round number, so that the near
+        range, where obstacles matter and depth is accurate, gets most of the colours.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``uint8 (H + bar, max(W, MIN_PANEL_WIDTH_PX), 3)`` RGB picture.
+    """
+    z = _as_float_map(depth_m, "depth_m")
+    valid = z[np.isfinite(z) & (z > 0)]
+    if max_m is None:
+        max_m = _nice_ceil(float(np.percentile(valid, 75.0))) if valid.size else 1.0
+    _check_range("depth", 0.0, float(max_m))
+    bar = _colour_bar(lambda ramp: colorize_depth(ramp, max_m), 0.0, float(max_m),
+                      f"depth [m]; near bright, {max_m:g} m and beyond darkest; black = unknown", z.shape[1])
+    return _stack_with_panel(colorize_depth(z, max_m), bar)
+
+
+__all__ = ["OBSTACLE_COLOURS_RGB", "obstacle_colour", "obstacle_caption", "describe_detection",
+           "draw_obstacles", "labels_picture", "disparity_picture", "depth_picture"]

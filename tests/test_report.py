@@ -1,0 +1,148 @@
+"""The detection output folder: every file present and readable, the HTML report, all or nothing."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from _obstacle_scene import RIG, detection
+
+from stereo_obstacles import __version__, report
+from stereo_obstacles.depth import points_from_depth
+from stereo_obstacles.errors import InvalidInputError, OutputError
+from stereo_obstacles.fileio import read_depth, read_image, read_labels, read_pfm
+from stereo_obstacles.obstacle_json import read_obstacles_json
+from stereo_obstacles.obstacles import ObstacleList
+from stereo_obstacles.point_cloud import read_ply
+
+DETECTION = detection()
+TIMINGS = {"segmentation": 0.012, "matching": 0.05, "obstacles": 0.003}
+CONFIG = {"tau": 0.6, "corridor_width_m": 1.0}
+INPUTS = {"left": "left.png", "right": "right.png"}
+
+
+def _write(out_dir, calibrated: bool = True):
+    return report.write_detection_outputs(
+        out_dir, left=DETECTION.left, labels=DETECTION.labels, disparity=DETECTION.disparity,
+        depth_m=DETECTION.depth_m if calibrated else None,
+        obstacle_list=DETECTION.calibrated if calibrated else DETECTION.uncalibrated,
+        calibration=RIG if calibrated else None, config=CONFIG, timings=TIMINGS, inputs=INPUTS)
+
+
+def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
+    out = tmp_path / "out"
+    written = _write(out)
+    names = sorted(p.name for p in written)
+    assert names == sorted(["obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply",
+                            "obstacles.png", "disparity.png", "depth.png", "labels_picture.png", "index.html"])
+    assert sorted(p.name for p in out.iterdir()) == names  # nothing else, no staging left-overs
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    record = read_obstacles_json(out / "obstacles.json")
+    assert record.obstacles == DETECTION.calibrated.obstacles and record.calibration == RIG
+    assert record.run["timings_s"] == TIMINGS and record.run["config"] == CONFIG and record.run["inputs"] == INPUTS
+    np.testing.assert_array_equal(read_pfm(out / "disparity.pfm"), DETECTION.disparity)
+    np.testing.assert_array_equal(read_depth(out / "depth.npy"), DETECTION.depth_m)
+    np.testing.assert_array_equal(read_labels(out / "labels.png"), DETECTION.labels)
+    for picture in ("obstacles.png", "disparity.png", "depth.png", "labels_picture.png"):
+        image = read_image(out / picture, mode="color")
+        assert image.shape[0] > DETECTION.left.shape[0] and image.shape[2] == 3  # the picture and its legend
+
+
+def test_point_cloud_holds_every_pixel_with_depth_coloured_by_the_left_image(tmp_path):
+    _write(tmp_path)
+    cloud = read_ply(tmp_path / "points.ply")
+    valid = np.isfinite(DETECTION.depth_m)
+    assert len(cloud.points) == int(valid.sum())
+    np.testing.assert_array_equal(cloud.points, points_from_depth(DETECTION.depth_m, RIG)[valid])
+    np.testing.assert_array_equal(cloud.colours, DETECTION.left[valid])
+
+
+def test_index_html_shows_every_picture_obstacle_rejection_timing_and_the_version(tmp_path):
+    written = _write(tmp_path)
+    page = (tmp_path / "index.html").read_text(encoding="utf-8")
+    sources = set(re.findall(r'<img src="([^"]+)"', page))
+    assert sources == {p.name for p in written if p.suffix == ".png" and p.name != "labels.png"}
+    links = set(re.findall(r'<a href="([^"]+)"', page))
+    assert links == {"obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply"}
+    assert "://" not in page  # self-contained: no external resources
+    rows = re.findall(r"<tr><td[^>]*>(\d+)</td><td>([\d.]+)</td>", page)
+    assert rows == [(str(o.id), f"{o.distance_m:.2f}") for o in DETECTION.calibrated.obstacles]  # nearest first
+    assert DETECTION.calibrated.rejected[0].reason in page
+    assert "free for 4.00 m" in page
+    for stage in TIMINGS:
+        assert f">{stage}</td><td>{TIMINGS[stage] * 1000:.1f}</td>" in page
+    assert ">total</td><td>65.0</td>" in page
+    assert "&quot;tau&quot;: 0.6" in page and f"stereo-obstacles {__version__}" in page
+    assert "left.png" in page
+
+
+def test_uncalibrated_run_has_no_depth_files_and_says_pixels(tmp_path):
+    written = _write(tmp_path, calibrated=False)
+    names = {p.name for p in written}
+    assert not names & {"depth.npy", "points.ply", "depth.png"}
+    assert {p.name for p in tmp_path.iterdir()} == names
+    page = (tmp_path / "index.html").read_text(encoding="utf-8")
+    assert "No calibration was given" in page and "distance [m]" not in page
+    assert "disparity [px]" in page and "depth.png" not in page
+    assert read_obstacles_json(tmp_path / "obstacles.json").calibration is None
+
+
+def test_failure_midway_leaves_nothing_behind(tmp_path, monkeypatch):
+    def broken(*args, **kwargs):
+        raise OutputError("disk full")
+
+    monkeypatch.setattr(report, "write_ply", broken)
+    with pytest.raises(OutputError, match="disk full"):
+        _write(tmp_path / "out")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_failure_keeps_an_existing_folder_unchanged(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    _write(out, calibrated=False)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    monkeypatch.setattr(report, "labels_picture", lambda labels: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        _write(out)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_bad_arguments_are_refused_before_anything_is_written(tmp_path):
+    with pytest.raises(InvalidInputError, match="depth_m is needed with a calibration"):
+        report.write_detection_outputs(tmp_path / "a", left=DETECTION.left, labels=DETECTION.labels,
+                                       disparity=DETECTION.disparity, depth_m=None,
+                                       obstacle_list=DETECTION.calibrated, calibration=RIG,
+                                       config={}, timings={}, inputs={})
+    with pytest.raises(InvalidInputError, match=r"labels is \(10, 10\) but the disparity is \(240, 320\)"):
+        report.write_detection_outputs(tmp_path / "b", left=DETECTION.left, labels=np.zeros((10, 10), np.uint8),
+                                       disparity=DETECTION.disparity, depth_m=None,
+                                       obstacle_list=DETECTION.uncalibrated, calibration=None,
+                                       config={}, timings={}, inputs={})
+    with pytest.raises(InvalidInputError, match="left must be uint8 RGB"):
+        report.write_detection_outputs(tmp_path / "c", left=DETECTION.left[..., 0], labels=DETECTION.labels,
+                                       disparity=DETECTION.disparity, depth_m=None,
+                                       obstacle_list=DETECTION.uncalibrated, calibration=None,
+                                       config={}, timings={}, inputs={})
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_terminal_table_nearest_first_with_units():
+    text = report.format_obstacle_table(DETECTION.calibrated, True)
+    lines = text.splitlines()
+    assert "distance [m]" in lines[0] and "disparity [px]" in lines[0]
+    assert [line.split()[:2] for line in lines[1:4]] == [["1", "4.00"], ["2", "5.00"], ["3", "8.00"]]
+    assert "free for 4.00 m" in text and "flat on the ground" in text
+
+
+def test_terminal_table_without_calibration_says_values_are_pixels():
+    text = report.format_obstacle_table(DETECTION.uncalibrated, False)
+    assert text.startswith("No calibration was given") and "pixels" in text.splitlines()[0]
+    assert "[m]" not in text and "disparity [px]" in text
+    assert [line.split()[:2] for line in text.splitlines()[2:5]] == [["1", "10.5"], ["2", "8.4"], ["3", "5.2"]]
+
+
+def test_terminal_table_when_nothing_was_found():
+    empty = ObstacleList((), np.zeros((4, 4), np.int32))
+    assert report.format_obstacle_table(empty, True) == "No obstacles found."
