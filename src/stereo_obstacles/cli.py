@@ -23,6 +23,7 @@ from stereo_obstacles import __version__
 PROG = "stereo-obstacles"
 
 COMMAND_MODULES: tuple[str, ...] = (
+    "scene",
     "disparity",
     "segment",
     "evaluate",
