@@ -38,8 +38,14 @@ def obstacle_colour(obstacle_id: int) -> tuple[int, int, int]:
     return OBSTACLE_COLOURS_RGB[(obstacle_id - 1) % len(OBSTACLE_COLOURS_RGB)]
 
 
-def _font_scale(width_px: int) -> float:
-    return float(np.clip(width_px / 900.0, 0.4, 1.0))
+def _panel_scale(width_px: int) -> float:
+    """Font scale of the text in panels under a picture ``width_px`` wide."""
+    return float(np.clip(width_px / 1000.0, 0.4, 0.75))
+
+
+def _overlay_scale(height_px: int, width_px: int) -> float:
+    """Font scale of the captions drawn over an image: grows with its size, readable when small."""
+    return float(np.clip(math.sqrt(height_px * width_px) / 1100.0, 0.42, 0.9))
 
 
 def _text_colour_on(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
@@ -47,18 +53,32 @@ def _text_colour_on(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
     return (0, 0, 0) if luminance > 140 else (255, 255, 255)
 
 
-def _put_label(image: np.ndarray, text: str, x: int, y: int, background: tuple[int, int, int],
-               scale: float) -> None:
-    """Write ``text`` on a filled box whose top-left corner is ``(x, y)``, kept inside the image."""
+def _label_rect(text: str, x: int, y: int, scale: float, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
+    """``(x, y, width, height)`` of a caption with its top-left corner at ``(x, y)``, moved inside ``shape``."""
     (text_w, text_h), baseline = cv2.getTextSize(text, _FONT, scale, 1)
     pad = max(2, int(round(3 * scale)))
     box_w, box_h = text_w + 2 * pad, text_h + baseline + 2 * pad
-    h, w = image.shape[:2]
-    x = int(np.clip(x, 0, max(0, w - box_w)))
-    y = int(np.clip(y, 0, max(0, h - box_h)))
+    return (int(np.clip(x, 0, max(0, shape[1] - box_w))), int(np.clip(y, 0, max(0, shape[0] - box_h))), box_w, box_h)
+
+
+def _put_label(image: np.ndarray, text: str, x: int, y: int, background: tuple[int, int, int],
+               scale: float) -> tuple[int, int, int, int]:
+    """Write ``text`` on a filled box whose top-left corner is ``(x, y)``, kept inside the image.
+
+    Returns the ``(x, y, width, height)`` of the box drawn.
+    """
+    rect = _label_rect(text, x, y, scale, image.shape)
+    x, y, box_w, box_h = rect
+    (_, text_h), _ = cv2.getTextSize(text, _FONT, scale, 1)
+    pad = max(2, int(round(3 * scale)))
     cv2.rectangle(image, (x, y), (x + box_w - 1, y + box_h - 1), background, thickness=cv2.FILLED)
     cv2.putText(image, text, (x + pad, y + pad + text_h), _FONT, scale, _text_colour_on(background), 1,
                 cv2.LINE_AA)
+    return rect
+
+
+def _overlaps(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
+    return a[0] < b[0] + b[2] and b[0] < a[0] + a[2] and a[1] < b[1] + b[3] and b[1] < a[1] + a[3]
 
 
 def _label_height(scale: float) -> int:
@@ -104,8 +124,11 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
     Each obstacle's own pixels (``obstacle_list.id_map``) are tinted in its colour
     (:func:`obstacle_colour`), its box drawn and captioned ``"#1 2.35 m"`` (or
     ``"#1 d=21.0 px"`` without a calibration). The obstacle nearest in the walking corridor
-    has a doubled box. Rejected groups get a thin grey box. A panel under the image sums up:
-    count, nearest obstacle, the corridor's free distance, and whether values are pixels.
+    has a doubled box. Rejected groups get a thin grey box. Captions are placed nearest
+    obstacle first, above, inside or below its box, where they cover no other caption; when
+    there is no room the caption shrinks to ``"#3"``, and failing that it is left out (the
+    panel says how many). A panel under the image sums up: count, nearest obstacle, the
+    corridor's free distance, and whether values are pixels.
 
     Parameters
     ----------
@@ -130,14 +153,13 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
     tinted = id_map > 0
     colours = palette[(id_map[tinted] - 1) % len(OBSTACLE_COLOURS_RGB) + 1]
     out[tinted] = np.rint((1 - TINT_ALPHA) * out[tinted] + TINT_ALPHA * colours).astype(np.uint8)
-    scale = _font_scale(w)
-    thickness = max(1, int(round(w / 400)))
+    scale = _overlay_scale(h, w)
+    thickness = max(1, int(round(math.sqrt(h * w) / 400)))
     for group in obstacle_list.rejected:
         x0, y0, x1, y1 = group.box_px
         cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), REJECTED_COLOUR_RGB, 1)
     corridor = obstacle_list.corridor
     corridor_id = corridor.nearest_obstacle_id if corridor is not None else None
-    label_h = _label_height(scale)
     for obstacle in reversed(obstacle_list.obstacles):  # nearest drawn last, on top
         x0, y0, x1, y1 = obstacle.box_px
         colour = obstacle_colour(obstacle.id)
@@ -145,9 +167,24 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
         if obstacle.id == corridor_id:
             cv2.rectangle(out, (x0 - 2 * thickness, y0 - 2 * thickness),
                           (x1 - 1 + 2 * thickness, y1 - 1 + 2 * thickness), colour, thickness)
-        top = y0 - label_h if y0 - label_h >= label_h else y0 + thickness  # above the box unless at the top
-        _put_label(out, obstacle_caption(obstacle, calibrated), x0, top, colour, scale)
-    return _stack_with_panel(out, _text_panel(describe_detection(obstacle_list, calibrated), w))
+    label_h = _label_height(scale)
+    placed: list[tuple[int, int, int, int]] = []
+    left_out = 0
+    for obstacle in obstacle_list.obstacles:  # the nearest get the best places
+        x0, y0, x1, y1 = obstacle.box_px
+        spots = [(x0, y0 - label_h), (x0, y0 + thickness), (x0, y1 + thickness)]  # above, inside, below
+        for text in (obstacle_caption(obstacle, calibrated), f"#{obstacle.id}"):
+            free = [spot for spot in spots if not any(_overlaps(_label_rect(text, *spot, scale, out.shape), r)
+                                                      for r in placed)]
+            if free:
+                placed.append(_put_label(out, text, *free[0], obstacle_colour(obstacle.id), scale))
+                break
+        else:
+            left_out += 1
+    parts = describe_detection(obstacle_list, calibrated)
+    if left_out:
+        parts.append(f"{left_out} caption{'s' if left_out != 1 else ''} left out for lack of room (see the table)")
+    return _stack_with_panel(out, _text_panel(parts, w))
 
 
 def _panel(width_px: int, height_px: int) -> np.ndarray:
@@ -157,7 +194,7 @@ def _panel(width_px: int, height_px: int) -> np.ndarray:
 def _text_panel(parts: list[str], width_px: int) -> np.ndarray:
     """A panel with ``parts`` joined by " | " and wrapped into lines that fit ``width_px``."""
     width = max(width_px, MIN_PANEL_WIDTH_PX)
-    scale = _font_scale(width) * 0.9
+    scale = _panel_scale(width)
     lines: list[str] = []
     for part in parts:
         joined = f"{lines[-1]} | {part}" if lines else part
@@ -205,7 +242,7 @@ def labels_picture(labels: np.ndarray) -> np.ndarray:
     present = [label for label in Label if counts[label] > 0]
     unknown_values = int(counts.sum() - sum(counts[label] for label in Label))
     width = max(a.shape[1], MIN_PANEL_WIDTH_PX)
-    scale = _font_scale(width) * 0.9
+    scale = _panel_scale(width)
     row_h = _label_height(scale)
     entries = [(label.name.lower(), LABEL_COLOURS_RGB[label], counts[label]) for label in present]
     if unknown_values:
@@ -247,7 +284,7 @@ def _colour_bar(colorize: Callable[[np.ndarray], np.ndarray], lo: float, hi: flo
                 width_px: int) -> np.ndarray:
     """A panel with ``title`` over a horizontal colour bar from ``lo`` to ``hi`` with round ticks."""
     width = max(width_px, MIN_PANEL_WIDTH_PX)
-    scale = _font_scale(width) * 0.9
+    scale = _panel_scale(width)
     row_h = _label_height(scale)
     ticks = _ticks(lo, hi)
     texts = [f"{round(float(t), 9):g}" for t in ticks]
