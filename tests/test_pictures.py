@@ -9,6 +9,7 @@ from _obstacle_scene import detection
 from stereo_obstacles.colorize import colorize_depth, colorize_disparity
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
+from stereo_obstacles.obstacles import Obstacle, ObstacleList
 from stereo_obstacles.pictures import (
     MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, TINT_ALPHA, depth_picture, disparity_picture, draw_obstacles,
     labels_picture, obstacle_colour)
@@ -119,3 +120,20 @@ def test_depth_picture_default_range_is_a_round_number_above_most_depths():
 def test_bad_maps_and_ranges(call, message):
     with pytest.raises(InvalidInputError, match=message):
         call()
+
+
+def _stacked(count: int) -> ObstacleList:
+    """``count`` obstacles sharing one box in a 120 x 160 image."""
+    id_map = np.zeros((120, 160), np.int32)
+    id_map[40:80, 60:100] = 1
+    obstacles = tuple(Obstacle(id=i, box_px=(60, 40, 100, 80), pixel_count=1600, disparity_px=30.0 - i,
+                               confidence=0.9) for i in range(1, count + 1))
+    return ObstacleList(obstacles=obstacles, id_map=id_map)
+
+
+def test_captions_that_find_no_room_are_left_out_and_counted():
+    left = np.full((120, 160, 3), 90, np.uint8)
+    three = draw_obstacles(left, _stacked(3), calibrated=False)    # above, inside and below the box
+    many = draw_obstacles(left, _stacked(30), calibrated=False)
+    np.testing.assert_array_equal(three[:120], many[:120])  # the same three places hold captions
+    assert many.shape[0] > three.shape[0]                    # plus a line saying how many were left out

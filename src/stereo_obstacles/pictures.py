@@ -167,13 +167,13 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
         if obstacle.id == corridor_id:
             cv2.rectangle(out, (x0 - 2 * thickness, y0 - 2 * thickness),
                           (x1 - 1 + 2 * thickness, y1 - 1 + 2 * thickness), colour, thickness)
-    label_h = _label_height(scale)
     placed: list[tuple[int, int, int, int]] = []
     left_out = 0
     for obstacle in obstacle_list.obstacles:  # the nearest get the best places
         x0, y0, x1, y1 = obstacle.box_px
-        spots = [(x0, y0 - label_h), (x0, y0 + thickness), (x0, y1 + thickness)]  # above, inside, below
         for text in (obstacle_caption(obstacle, calibrated), f"#{obstacle.id}"):
+            text_h = _label_rect(text, 0, 0, scale, out.shape)[3]
+            spots = [(x0, y0 - text_h), (x0, y0 + thickness), (x0, y1 + thickness)]  # above, inside, below
             free = [spot for spot in spots if not any(_overlaps(_label_rect(text, *spot, scale, out.shape), r)
                                                       for r in placed)]
             if free:
@@ -192,16 +192,26 @@ def _panel(width_px: int, height_px: int) -> np.ndarray:
 
 
 def _text_panel(parts: list[str], width_px: int) -> np.ndarray:
-    """A panel with ``parts`` joined by " | " and wrapped into lines that fit ``width_px``."""
+    """A panel with ``parts`` joined by " | " and wrapped at spaces into lines that fit ``width_px``.
+
+    A part starts on a new line unless it fits whole after the previous one.
+    """
     width = max(width_px, MIN_PANEL_WIDTH_PX)
     scale = _panel_scale(width)
+
+    def fits(text: str) -> bool:
+        return cv2.getTextSize(text, _FONT, scale, 1)[0][0] + 12 <= width
+
     lines: list[str] = []
     for part in parts:
-        joined = f"{lines[-1]} | {part}" if lines else part
-        if lines and cv2.getTextSize(joined, _FONT, scale, 1)[0][0] + 12 <= width:
-            lines[-1] = joined
-        else:
-            lines.append(part)
+        if lines and fits(f"{lines[-1]} | {part}"):
+            lines[-1] = f"{lines[-1]} | {part}"
+            continue
+        lines.append("")
+        for word in part.split():
+            if lines[-1] and not fits(f"{lines[-1]} {word}"):
+                lines.append("")
+            lines[-1] = f"{lines[-1]} {word}".strip()
     row_h = _label_height(scale)
     panel = _panel(width, len(lines) * row_h + 6)
     for i, line in enumerate(lines):
