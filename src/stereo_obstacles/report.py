@@ -159,7 +159,8 @@ def _html_report(obstacle_list: ObstacleList, calibration: StereoCalibration | N
                  inputs: Mapping[str, Any]) -> str:
     calibrated = calibration is not None
     doc = obstacles_to_dict(obstacle_list, calibration, config=config, timings_s=timings, inputs=inputs)
-    parts = [f"<h1>Obstacles</h1>\n<p class=\"summary\">{html.escape('; '.join(describe_detection(obstacle_list, calibrated)))}.</p>"]
+    summary = "; ".join(describe_detection(obstacle_list, calibrated))
+    parts = [f'<h1>Obstacles</h1>\n<p class="summary">{html.escape(summary)}.</p>']
     if not calibrated:
         parts.append(f'<p class="note">{html.escape(UNITS_NOTE_UNCALIBRATED)}</p>')
     if "obstacles.png" in pictures:
@@ -181,17 +182,17 @@ def _html_report(obstacle_list: ObstacleList, calibration: StereoCalibration | N
     parts.extend(f'<figure><img src="{name}" alt="{html.escape(PICTURE_TITLES[name])}">'
                  f"<figcaption>{html.escape(PICTURE_TITLES[name])}</figcaption></figure>"
                  for name in pictures if name != "obstacles.png")
-    parts.append("<h2>Files</h2>\n<ul>" + "".join(
-        f'<li><a href="{name}">{name}</a>: {html.escape(DATA_DESCRIPTIONS[name])}</li>' for name in data_files) + "</ul>")
+    links = "".join(f'<li><a href="{name}">{name}</a>: {html.escape(DATA_DESCRIPTIONS[name])}</li>'
+                    for name in data_files)
+    parts.append(f"<h2>Files</h2>\n<ul>{links}</ul>")
     if timings:
         rows = [[str(stage), f"{float(seconds) * 1000:.1f}"] for stage, seconds in timings.items()]
         if "total" not in timings:
             rows.append(["total", f"{sum(float(v) for v in timings.values()) * 1000:.1f}"])
         parts.append("<h2>Timings</h2>\n" + _html_table(["stage", "time [ms]"], rows, text_columns=(0,)))
     if inputs:
-        parts.append("<h2>Inputs</h2>\n" + _html_table(["input", "value"], [[str(k), str(v)] for k, v in
-                                                                             doc["run"]["inputs"].items()],
-                                                        text_columns=(0, 1)))
+        rows = [[str(k), str(v)] for k, v in doc["run"]["inputs"].items()]
+        parts.append("<h2>Inputs</h2>\n" + _html_table(["input", "value"], rows, text_columns=(0, 1)))
     if calibrated:
         parts.append("<h2>Calibration</h2>\n<pre>" + html.escape(json.dumps(doc["calibration"], indent=2)) + "</pre>")
     parts.append("<h2>Configuration</h2>\n<pre>" + html.escape(json.dumps(doc["run"].get("config", {}), indent=2))
@@ -204,13 +205,14 @@ def _html_report(obstacle_list: ObstacleList, calibration: StereoCalibration | N
 
 
 def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, depth_m: np.ndarray | None,
-                  obstacle_list: ObstacleList, calibration: StereoCalibration | None) -> tuple[int, int]:
+                  obstacle_list: ObstacleList, calibration: StereoCalibration | None) -> None:
     shape = np.shape(disparity)
     if np.asarray(left).dtype != np.uint8 or np.ndim(left) != 3 or np.shape(left)[2] != 3:
         raise InvalidInputError(f"left must be uint8 RGB (H, W, 3), got {np.asarray(left).dtype} {np.shape(left)}")
     if len(shape) != 2:
         raise InvalidInputError(f"disparity must be (H, W), got shape {shape}")
-    arrays = {"left": np.shape(left)[:2], "labels": np.shape(labels), "obstacle_list.id_map": np.shape(obstacle_list.id_map)}
+    arrays = {"left": np.shape(left)[:2], "labels": np.shape(labels),
+              "obstacle_list.id_map": np.shape(obstacle_list.id_map)}
     if depth_m is not None:
         arrays["depth_m"] = np.shape(depth_m)
     for name, other in arrays.items():
@@ -220,7 +222,6 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
         raise InvalidInputError("depth_m is needed with a calibration (depth.npy and points.ply are written from it)")
     if calibration is None and depth_m is not None:
         raise InvalidInputError("depth_m was given without a calibration; pass the calibration it came from")
-    return shape
 
 
 def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray, labels: np.ndarray,
