@@ -124,7 +124,7 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
     Each obstacle's own pixels (``obstacle_list.id_map``) are tinted in its colour
     (:func:`obstacle_colour`), its box drawn and captioned ``"#1 2.35 m"`` (or
     ``"#1 d=21.0 px"`` without a calibration). The obstacle nearest in the walking corridor
-    has a doubled box. Rejected groups get a thin grey box. Captions are placed nearest
+    has a doubled box. Rejected groups get a thin grey box with a dark rim. Captions are placed nearest
     obstacle first, above, inside or below its box, where they cover no other caption; when
     there is no room the caption shrinks to ``"#3"``, and failing that it is left out (the
     panel says how many). A panel under the image sums up: count, nearest obstacle, the
@@ -157,6 +157,7 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
     thickness = max(1, int(round(math.sqrt(h * w) / 400)))
     for group in obstacle_list.rejected:
         x0, y0, x1, y1 = group.box_px
+        cv2.rectangle(out, (x0 - 1, y0 - 1), (x1, y1), (0, 0, 0), 1)  # dark rim: visible on light ground
         cv2.rectangle(out, (x0, y0), (x1 - 1, y1 - 1), REJECTED_COLOUR_RGB, 1)
     corridor = obstacle_list.corridor
     corridor_id = corridor.nearest_obstacle_id if corridor is not None else None
