@@ -114,7 +114,7 @@ def describe_detection(obstacle_list: ObstacleList, calibrated: bool) -> list[st
     if not calibrated:
         parts.append("no calibration: d = disparity in px, larger is nearer")
     if obstacle_list.rejected:
-        parts.append(f"{len(obstacle_list.rejected)} rejected (grey boxes)")
+        parts.append(f"{len(obstacle_list.rejected)} rejected (thin boxes without caption)")
     return parts
 
 
