@@ -11,8 +11,8 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
 from stereo_obstacles.pictures import (
-    MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, TINT_ALPHA, depth_picture, disparity_picture, draw_obstacles,
-    labels_picture, obstacle_colour)
+    MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, TINT_ALPHA, depth_picture, describe_detection, disparity_picture,
+    draw_obstacles, labels_picture, obstacle_colour)
 
 DETECTION = detection()
 
@@ -45,9 +45,17 @@ def test_caption_panel_differs_between_calibrated_and_pixels():
     h = DETECTION.left.shape[0]
     metres = draw_obstacles(DETECTION.left, DETECTION.calibrated, calibrated=True)
     pixels = draw_obstacles(DETECTION.left, DETECTION.uncalibrated, calibrated=False)
-    assert pixels.shape[0] > metres.shape[0]  # the "no calibration" line takes a row of its own
     assert (metres[h:] != metres[h, 0]).any()  # the panel holds text
+    assert not np.array_equal(metres[h:], pixels[h:])
     assert not np.array_equal(metres[:h], pixels[:h])  # "4.00 m" against "d=10.5 px"
+
+
+def test_description_names_nearest_corridor_units_and_rejections():
+    metres = describe_detection(DETECTION.calibrated, True)
+    pixels = describe_detection(DETECTION.uncalibrated, False)
+    assert metres == ["3 obstacles, nearest #1 4.00 m", "1 m corridor: free 4.00 m to #1",
+                      "1 rejected (thin boxes without caption)"]
+    assert pixels[0] == "3 obstacles, nearest #1 d=10.5 px" and "no calibration" in pixels[1]
 
 
 def test_grey_left_image_is_accepted_and_mismatched_sizes_are_refused():
