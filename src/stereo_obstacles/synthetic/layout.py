@@ -18,8 +18,8 @@ import numpy as np
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.synthetic.materials import (GROUND_MATERIALS, OBSTACLE_MATERIALS, dark_variant,
                                                   ground_material, material)
-from stereo_obstacles.synthetic.primitives import Box, Cylinder, Sphere
-from stereo_obstacles.synthetic.rig import StereoRig, camera_poses, RightCameraError
+from stereo_obstacles.synthetic.primitives import Box, Cylinder, Sphere, bounding_corners
+from stereo_obstacles.synthetic.rig import RightCameraError, StereoRig, camera_poses
 from stereo_obstacles.synthetic.scene import Lighting, Marking, Obstacle, Scene
 
 DEFAULT_SIZE = (640, 480)
@@ -86,8 +86,7 @@ def _in_view(rig: StereoRig, obstacle: Obstacle) -> bool:
     """True when the bounding box of ``obstacle`` may appear in either image."""
     for pose in camera_poses(rig, RightCameraError())[::2]:
         lo, hi = obstacle.bounds()
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        u, v, z = pose.project(corners)
+        u, v, z = pose.project(bounding_corners(Box(*(c for pair in zip(lo, hi) for c in pair))))
         if np.all(z <= 0):
             continue
         if np.any(z <= 0):
@@ -169,19 +168,23 @@ def random_scene(seed: int, *, width_px: int = DEFAULT_SIZE[0], height_px: int =
         if clear and lo[1] > 1.2 and _in_view(rig, candidate):
             obstacles.append(candidate)
 
-    # The tree stands towards the sun from a spot just ahead, far enough to be out of view.
+    # The tree stands towards the sun from the reference area (about 90 % down the image),
+    # out of view, tall enough that its trunk's shadow crosses that area and its crown's
+    # shadow falls beyond it.
     sun = lighting.sun_direction()
     horizontal = sun[:2] / np.linalg.norm(sun[:2])
-    target = np.array([0.0, rig.camera_height_m / math.tan(math.radians(rig.pitch_deg + 15.0)) + 0.5])
-    crown = float(rng.uniform(0.9, 1.5))
+    half_vfov = math.atan((rig.height_px / 2.0) / rig.focal_px)
+    target = np.array([0.0, rig.camera_height_m / math.tan(math.radians(rig.pitch_deg) + 0.8 * half_vfov)])
+    crown = float(rng.uniform(0.6, 1.1))
     tree = None
-    for reach in np.arange(2.5, 15.0, 0.5):
-        base = target + reach * horizontal
-        trunk = max(reach * math.tan(math.radians(elevation)) - 0.7 * crown, 1.5)
-        candidate = _tree(len(obstacles) + 1, float(base[0]), float(base[1]), trunk, crown)
-        if not _in_view(rig, candidate):
-            tree = candidate
-            break
+    if rng.uniform() < 0.9:
+        for reach in np.arange(2.5, 12.0, 0.5):
+            base = target + reach * horizontal
+            trunk = (reach + 1.0) * math.tan(math.radians(elevation))
+            candidate = _tree(len(obstacles) + 1, float(base[0]), float(base[1]), trunk, crown)
+            if not _in_view(rig, candidate):
+                tree = candidate
+                break
     if tree is not None:
         obstacles.append(tree)
 

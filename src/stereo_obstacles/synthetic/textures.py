@@ -62,7 +62,7 @@ class MipTexture:
         so smooth that no footprint in the scene spans a texel.
         """
         levels = [np.ascontiguousarray(image, dtype=np.float32)]
-        while len(levels) < max_levels and levels[-1].shape[0] > 4 and levels[-1].shape[0] % 2 == 0:
+        while len(levels) < max_levels and levels[-1].shape[0] > 1 and levels[-1].shape[0] % 2 == 0:
             levels.append(_halve(levels[-1]))
         return cls(tuple(levels), float(texel_m))
 

@@ -1,0 +1,90 @@
+"""The ``stereo-obstacles scene`` command: the files it writes and how it fails."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.calibration import read_calibration_json
+from stereo_obstacles.cli import main
+from stereo_obstacles.fileio import read_depth, read_disparity, read_image, read_labels
+from stereo_obstacles.labels import Label
+from stereo_obstacles.synthetic import default_scene, render_pair
+from stereo_obstacles.synthetic.scene_files import SCENE_FILES
+
+
+def test_scene_command_writes_every_file_and_says_where(tmp_path, capsys):
+    out = tmp_path / "scene"
+    assert main(["scene", "--out", str(out), "--size", "96x72"]) == 0
+    assert str(out) in capsys.readouterr().out
+    assert sorted(p.name for p in out.iterdir()) == sorted(SCENE_FILES)
+    expected = render_pair(default_scene(96, 72))
+    np.testing.assert_array_equal(read_image(out / "left.png", mode="color"), expected.left)
+    np.testing.assert_array_equal(read_image(out / "right.png", mode="color"), expected.right)
+    np.testing.assert_array_equal(read_disparity(out / "disparity.pfm"), expected.disparity)
+    np.testing.assert_array_equal(read_depth(out / "depth.npy"), expected.depth)
+    np.testing.assert_array_equal(read_labels(out / "labels.png"), expected.labels)
+    np.testing.assert_array_equal(read_labels(out / "instances.png"), expected.instances)
+    np.testing.assert_array_equal(read_labels(out / "nonocc.png") == 255, expected.nonocc)
+    np.testing.assert_array_equal(read_labels(out / "shadow.png") == 255, expected.cast_shadow)
+    assert read_calibration_json(out / "calibration.json") == expected.calibration
+    obstacles = json.loads((out / "obstacles.json").read_text())
+    assert [o["obstacle_id"] for o in obstacles["obstacles"]] == [o.obstacle_id for o in expected.obstacles]
+    scene = json.loads((out / "scene.json").read_text())
+    assert scene["seed"] == 0 and scene["labels"]["SHADOW"] == int(Label.SHADOW)
+    assert scene["right_camera"]["rectified"] is True
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_scene_command_options_reach_the_renderer(tmp_path):
+    out = tmp_path / "s"
+    assert main(["scene", "--out", str(out), "--size", "80x60", "--seed", "4", "--ground", "grass",
+                 "--noise", "2", "--gain-diff", "0.1", "--right-rotation-deg", "0.5", "0", "0",
+                 "--right-offset-px", "1.5", "--no-shadows"]) == 0
+    scene = json.loads((out / "scene.json").read_text())
+    assert scene["seed"] == 4 and scene["scene"]["ground"]["name"] == "grass"
+    assert scene["render_options"]["right_gain"] == pytest.approx(1.1)
+    assert scene["right_camera"]["vertical_offset_px"] == 1.5 and scene["right_camera"]["rectified"] is False
+    assert not np.any(read_labels(out / "labels.png") == Label.SHADOW)
+
+
+def test_scene_command_writes_a_sequence(tmp_path):
+    out = tmp_path / "seq"
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2", "--speed", "0.25"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["frame_0000", "frame_0001"]
+    second = json.loads((out / "frame_0001" / "obstacles.json").read_text())
+    assert second["forward_m"] == 0.25
+
+
+@pytest.mark.parametrize("size", ["640", "0x480", "axb", "20000x10"])
+def test_bad_size_fails_with_one_line_and_writes_nothing(tmp_path, capsys, size):
+    out = tmp_path / "scene"
+    assert main(["scene", "--out", str(out), "--size", size]) == 1
+    err = capsys.readouterr().err.strip()
+    assert "--size" in err and "\n" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_output_fails_with_one_line_and_leaves_nothing(tmp_path, capsys):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    assert main(["scene", "--out", str(blocker / "scene"), "--size", "48x36"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("stereo-obstacles: error:") and "\n" not in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="needs a non-root POSIX user")
+def test_read_only_parent_fails_cleanly(tmp_path, capsys):
+    parent = tmp_path / "ro"
+    parent.mkdir()
+    parent.chmod(0o500)
+    try:
+        assert main(["scene", "--out", str(parent / "scene"), "--size", "48x36"]) == 1
+        assert "\n" not in capsys.readouterr().err.strip()
+        assert list(parent.iterdir()) == []
+    finally:
+        parent.chmod(0o700)
