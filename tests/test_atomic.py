@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from stereo_obstacles.atomic import atomic_path, staged_directory, write_text_atomic
@@ -53,6 +55,18 @@ def test_staged_directory_into_existing_folder_keeps_other_files(tmp_path):
     with staged_directory(out) as stage:
         (stage / "left.png").write_text("new")
     assert (out / "mine.txt").read_text() == "keep" and (out / "left.png").read_text() == "new"
+
+
+def test_outputs_get_the_usual_permissions_not_private_temp_ones(tmp_path):
+    mask = os.umask(0o022)
+    try:
+        path = write_text_atomic(tmp_path / "report.html", "x")
+        with staged_directory(tmp_path / "out") as stage:
+            (stage / "a.txt").write_text("a")
+    finally:
+        os.umask(mask)
+    assert path.stat().st_mode & 0o777 == 0o644
+    assert (tmp_path / "out").stat().st_mode & 0o777 == 0o755
 
 
 def test_output_path_that_is_a_file_is_refused(tmp_path):

@@ -18,6 +18,17 @@ from pathlib import Path
 from stereo_obstacles.errors import OutputError
 
 
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _give_default_permissions(path: Path, *, folder: bool) -> None:
+    """Give ``path`` the mode a plain ``open``/``mkdir`` would (temp files are private)."""
+    os.chmod(path, (0o777 if folder else 0o666) & ~_current_umask())
+
+
 def _prepare_parent(path: Path) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -41,6 +52,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     tmp = Path(tmp_name)
     try:
         yield tmp
+        _give_default_permissions(tmp, folder=False)
         os.replace(tmp, final)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
@@ -82,6 +94,7 @@ def staged_directory(out_dir: str | os.PathLike[str]) -> Iterator[Path]:
         raise OutputError(f"cannot write to folder {final.parent}: {exc.strerror or exc}") from exc
     try:
         yield stage
+        _give_default_permissions(stage, folder=True)
         if not final.exists():
             os.replace(stage, final)
             return
