@@ -20,7 +20,7 @@ def _noisy(colour, shape=(40, 60), sigma=3.0, seed=0) -> np.ndarray:
 
 
 def _stats(rgb, **kwargs) -> ReferenceStatistics:
-    return reference_statistics(rgb_to_hsi(rgb), (0, 0, rgb.shape[1], rgb.shape[0]), **kwargs)
+    return reference_statistics(rgb, rgb_to_hsi(rgb), (0, 0, rgb.shape[1], rgb.shape[0]), **kwargs)
 
 
 def test_parse_fractions_and_pixels():
@@ -82,7 +82,8 @@ def test_too_dark_area_is_an_error():
 
 def test_varied_area_warns(caplog):
     rgb = _noisy((90, 140, 60))
-    rgb[:, 30:] = _noisy((40, 60, 160), shape=(40, 30))       # half the area is blue
+    rgb[:, 20:40] = _noisy((40, 60, 160), shape=(40, 20))     # a third blue, a third red
+    rgb[:, 40:] = _noisy((160, 40, 40), shape=(40, 20))
     with caplog.at_level(logging.WARNING, logger="stereo_obstacles.reference_area"):
         _stats(rgb)
     assert "look like one ground" in caplog.text or "very varied" in caplog.text

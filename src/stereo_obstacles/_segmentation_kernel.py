@@ -4,78 +4,106 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from stereo_obstacles._colour_kernel import hsi_pixel
 
+GROUND_MATCH, SHADOW_MATCH, SUNLIT_MATCH, VALID = 0, 1, 2, 3
+"""Channels of the flag image: colour matches for ground, shadow, sunlit ground; colour valid."""
+
 
 @njit(cache=True)
 def match_flags_kernel(rgb, inv_full_scale, min_intensity, min_saturation, grey, ref_x, ref_y,
-                       cos_ground, cos_shadow, cos_veto, max_sat_ground, max_sat_shadow,
-                       max_sat_veto, flags, intensity):
-    """Per pixel: matches the ground colour (ground tolerance, shadow tolerance), colour valid,
-    and the veto: the pixel's own colour is far outside the shadow tolerance.
+                       cos_ground, cos_veto, max_sat_ground, max_sat_veto, ref_rgb, blue_shift,
+                       chroma_band, flags, veto, intensity):
+    """Per-pixel colour tests against the ground reference.
 
-    Coloured ground: valid = hue valid; a pixel matches within ``T`` when the angle between
-    its chromaticity vector and the unit reference vector ``(ref_x, ref_y)`` is at most ``T``,
-    i.e. ``dot >= |c| cos T`` (no arctangent needed). Grey ground: valid = saturation valid;
-    a pixel matches when its saturation is at most ``max_sat_*``.
-    ``flags[y, x] = (match_ground, match_shadow, valid, veto)`` as 0/1; ``intensity`` in [0, 1].
+    Ground (same light as the reference). Coloured ground: colour valid = hue valid; the
+    pixel is within ``T`` degrees of the reference hue when the angle between its
+    chromaticity vector and the unit reference vector ``(ref_x, ref_y)`` is at most ``T``:
+    ``dot >= |c| cos T`` (no arctangent). Grey ground: colour valid = saturation valid; the
+    test is ``saturation <= max_sat_ground``.
+
+    Shadow / sunlit ground (other light). The per-channel ratios ``k = (rgb + 1) /
+    (ref_rgb + 1)`` of a surface seen under skylight alone against sun and sky (or the
+    reverse) differ along the blue-yellow axis only: a shadow has ``k_B >= blue_shift k_R``,
+    sunlit ground seen from a shadowed reference ``blue_shift k_B <= k_R``, and both keep
+    ``k_G`` near the geometric mean of ``k_R`` and ``k_B``:
+    ``k_G**2 / (k_R k_B)`` within ``[1 / chroma_band, chroma_band]``.
+
+    Outputs: ``flags[y, x, :]`` (see the channel constants) as 0/1, ``veto`` (the pixel's
+    own colour is far from the ground's) and ``intensity`` in [0, 1].
     """
     height, width = rgb.shape[0], rgb.shape[1]
+    one = np.float32(1.0)
+    inv_r = one / np.float32(ref_rgb[0] + 1.0)
+    inv_g = one / np.float32(ref_rgb[1] + 1.0)
+    inv_b = one / np.float32(ref_rgb[2] + 1.0)
+    shift = np.float32(blue_shift)
+    band = np.float32(chroma_band)
+    inv_band = one / band
     for y in range(height):
         for x in range(width):
-            i, s, cx, cy = hsi_pixel(rgb[y, x, 0], rgb[y, x, 1], rgb[y, x, 2], inv_full_scale)
+            r = rgb[y, x, 0]
+            g = rgb[y, x, 1]
+            b = rgb[y, x, 2]
+            i, s, cx, cy = hsi_pixel(r, g, b, inv_full_scale)
             intensity[y, x] = i
             valid = i >= min_intensity
-            match_ground = False
-            match_shadow = False
-            veto = False
+            near_ground = False
+            far = False
             if grey:
                 if valid:
-                    match_ground = s <= max_sat_ground
-                    match_shadow = s <= max_sat_shadow
-                    veto = s > max_sat_veto
+                    near_ground = s <= max_sat_ground
+                    far = s > max_sat_veto
             else:
                 valid = valid and s >= min_saturation
                 if valid:
                     dot = cx * ref_x + cy * ref_y
                     norm = math.sqrt(cx * cx + cy * cy)
-                    match_ground = dot >= norm * cos_ground
-                    match_shadow = dot >= norm * cos_shadow
-                    veto = dot < norm * cos_veto
-            flags[y, x, 0] = match_ground
-            flags[y, x, 1] = match_shadow
-            flags[y, x, 2] = valid
-            flags[y, x, 3] = veto
+                    near_ground = dot >= norm * cos_ground
+                    far = dot < norm * cos_veto
+            k_r = (np.float32(r) + one) * inv_r
+            k_g = (np.float32(g) + one) * inv_g
+            k_b = (np.float32(b) + one) * inv_b
+            green = k_g * k_g
+            red_blue = k_r * k_b
+            neutral = inv_band * red_blue <= green <= band * red_blue
+            flags[y, x, GROUND_MATCH] = near_ground
+            flags[y, x, SHADOW_MATCH] = neutral and k_b >= shift * k_r
+            flags[y, x, SUNLIT_MATCH] = neutral and shift * k_b <= k_r
+            flags[y, x, VALID] = valid
+            veto[y, x] = far
 
 
 @njit(cache=True)
-def classify_kernel(counts, flags, intensity, grey, min_intensity, ground_low, ground_high, shadow_low,
-                    shadow_high, shadow_rule, unknown, ground, shadow, obstacle, labels):
+def classify_kernel(counts, n_window, veto, intensity, min_intensity, ground_low, ground_high,
+                    shadow_low, shadow_high, sunlit_low, sunlit_high, shadow_rule, unknown,
+                    ground, shadow, obstacle, labels):
     """Label every pixel from its window counts (see ``match_flags_kernel``) and its intensity.
 
-    The colour test is the median filter: at least half of the window's valid pixels match,
-    and the pixel itself is not vetoed (so that the filter cannot erase a thin pole).
+    A ground colour test passes when at least half of the window's colour-valid pixels pass
+    it (the median filter), and the pixel itself is not vetoed (so that the filter cannot
+    erase a thin pole). The shadow and sunlit tests are ratios, defined for every pixel, so
+    their majority is over the whole window (``n_window``).
     """
     height, width = intensity.shape
     for y in range(height):
         for x in range(width):
             i = intensity[y, x]
-            n_valid = counts[y, x, 2]
-            in_shadow_range = shadow_rule and shadow_low <= i <= shadow_high
-            if n_valid == 0:
-                # No colour anywhere in the window: a grey object on coloured ground, or dark.
-                if (not grey and i >= min_intensity) or not in_shadow_range:
-                    labels[y, x] = obstacle
-                else:
-                    labels[y, x] = unknown
-                continue
-            if flags[y, x, 3]:
-                labels[y, x] = obstacle
-            elif 2 * counts[y, x, 0] >= n_valid and ground_low <= i <= ground_high:
+            n_valid = counts[y, x, VALID]
+            half_window = n_window[y, x]
+            if (n_valid > 0 and not veto[y, x] and ground_low <= i <= ground_high
+                    and 2 * counts[y, x, GROUND_MATCH] >= n_valid):
                 labels[y, x] = ground
-            elif in_shadow_range and 2 * counts[y, x, 1] >= n_valid:
+            elif (shadow_rule and shadow_low <= i <= shadow_high
+                  and 2 * counts[y, x, SHADOW_MATCH] >= half_window):
                 labels[y, x] = shadow
+            elif (shadow_rule and sunlit_low <= i <= sunlit_high
+                  and 2 * counts[y, x, SUNLIT_MATCH] >= half_window):
+                labels[y, x] = ground
+            elif shadow_rule and i < min_intensity and shadow_low <= i:
+                labels[y, x] = unknown  # too dark to measure colour, yet bright enough for a shadow
             else:
                 labels[y, x] = obstacle

@@ -6,9 +6,10 @@ the rectangle, and a plain mean of hue angles is wrong across 0/360. Here:
 
 * hue: circular mean as a start, then the median of the hue differences to it (a circular
   median); pixels farther than ``outlier_mads`` robust deviations (1.4826 MAD) are rejected;
-* the hue spread is the ``spread_percentile``..``100 - spread_percentile`` range of the
-  remaining hues, and the hue threshold is ``hue_threshold_factor`` times it (the paper's
-  "20 % of the hue difference in the reference area"), clipped to a sensible interval;
+* the hue spread is the ``100 - spread_percentile`` percentile of the remaining pixels'
+  circular distance to the median hue, and the hue threshold is ``hue_threshold_factor``
+  times it (the paper's "20 % of the hue difference in the reference area" is far too tight
+  once the hue is median-filtered: see docs/segmentation.md), clipped to an interval;
 * intensity: median and MAD over the colour-consistent pixels, outliers rejected the same
   way (a shadow or a dark object inside the rectangle), then a percentile range;
 * grey ground (asphalt, concrete: fewer than ``min_hue_fraction`` of the pixels have a hue)
@@ -122,11 +123,10 @@ class ReferenceParameters:
         Floors of those rejection distances, so that a perfectly uniform area rejects nothing
         of its noise: degrees, and fraction of full scale.
     spread_percentile
-        The hue spread and intensity range are taken between this percentile and
-        ``100 -`` it of the kept pixels.
+        The hue spread is the ``100 -`` this percentile of the kept pixels' hue distance to
+        the median; the intensity range runs from this percentile to ``100 -`` it.
     hue_threshold_factor
-        Hue threshold = this times the hue spread (the paper's 20 %; see docs/segmentation.md
-        for the measured default).
+        Hue threshold = this times the hue spread (measured default; docs/segmentation.md).
     min_hue_threshold_deg, max_hue_threshold_deg
         Clip of the hue threshold, degrees.
     saturation_margin
@@ -146,7 +146,7 @@ class ReferenceParameters:
     min_outlier_hue_deg: float = 3.0
     min_outlier_intensity: float = 0.02
     spread_percentile: float = 1.0
-    hue_threshold_factor: float = 0.2
+    hue_threshold_factor: float = 1.0
     min_hue_threshold_deg: float = 4.0
     max_hue_threshold_deg: float = 45.0
     saturation_margin: float = 0.03
@@ -189,13 +189,16 @@ class ReferenceStatistics:
     hue_deg
         Circular median hue of the ground, degrees in ``[0, 360)``; None for grey ground.
     hue_spread_deg
-        Robust hue range of the kept pixels, degrees (0 for grey ground).
+        Robust hue spread: high percentile of the kept pixels' distance to ``hue_deg``,
+        degrees (0 for grey ground).
     hue_threshold_deg
         Hue threshold used by the classifier, degrees (0 for grey ground).
     max_saturation
         Grey ground: saturation up to which a pixel matches (None for coloured ground).
     intensity_median, intensity_low, intensity_high
         Median and robust range of ground intensity, fractions of full scale.
+    rgb_median
+        Per-channel median colour of the kept pixels, fractions of full scale.
     n_pixels, n_measurable, n_kept
         Pixels in the area, pixels bright enough to measure colour, pixels kept after rejection.
     """
@@ -208,6 +211,7 @@ class ReferenceStatistics:
     intensity_median: float
     intensity_low: float
     intensity_high: float
+    rgb_median: tuple[float, float, float]
     n_pixels: int
     n_measurable: int
     n_kept: int
@@ -233,6 +237,7 @@ class ReferenceStatistics:
                 "hue_spread_deg": self.hue_spread_deg, "hue_threshold_deg": self.hue_threshold_deg,
                 "max_saturation": self.max_saturation, "intensity_median": self.intensity_median,
                 "intensity_low": self.intensity_low, "intensity_high": self.intensity_high,
+                "rgb_median": list(self.rgb_median),
                 "n_pixels": self.n_pixels, "n_measurable": self.n_measurable, "n_kept": self.n_kept}
 
 
@@ -256,14 +261,16 @@ def _keep_close(values: np.ndarray, centre: float, floor: float, mads: float) ->
     return deviation <= limit
 
 
-def reference_statistics(hsi: HSI, box_px: tuple[int, int, int, int], *,
+def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int, int], *,
                          params: ReferenceParameters = ReferenceParameters()) -> ReferenceStatistics:
     """Robust statistics of the ground in the reference area.
 
     Parameters
     ----------
+    rgb
+        The reference area (the crop ``image[y0:y1, x0:x1]``), ``uint8``/``uint16 (h, w, 3)``.
     hsi
-        HSI of the reference area (the crop ``image[y0:y1, x0:x1]``).
+        Its HSI (:func:`~stereo_obstacles.colour.rgb_to_hsi` of ``rgb``).
     box_px
         ``(x0, y0, x1, y1)`` of the crop in the full image, for the record and messages.
     params
@@ -278,6 +285,8 @@ def reference_statistics(hsi: HSI, box_px: tuple[int, int, int, int], *,
     InvalidInputError
         Too few measurable pixels (too dark) or too few left after outlier rejection.
     """
+    if rgb.shape[:2] != hsi.intensity.shape or rgb.ndim != 3:
+        raise InvalidInputError(f"rgb {rgb.shape} and hsi {hsi.intensity.shape} must cover the same area")
     hue = hsi.hue.ravel()
     saturation = hsi.saturation.ravel()
     intensity = hsi.intensity.ravel()
@@ -311,13 +320,14 @@ def reference_statistics(hsi: HSI, box_px: tuple[int, int, int, int], *,
     q = params.spread_percentile
     kept_intensity = intensity[keep]
     low, median, high = (float(v) for v in np.percentile(kept_intensity, [q, 50.0, 100.0 - q]))
+    full_scale = float(np.iinfo(rgb.dtype).max)
+    rgb_median = tuple(float(v) / full_scale for v in np.median(rgb.reshape(-1, 3)[keep], axis=0))
     max_saturation = None
     if grey:
         max_saturation = min(1.0, float(np.percentile(saturation[keep], 100.0 - q))
                              + params.saturation_margin)
     else:
-        lo_h, hi_h = np.percentile(offsets[keep], [q, 100.0 - q])
-        spread = float(hi_h - lo_h)
+        spread = float(np.percentile(np.abs(offsets[keep]), 100.0 - q))
         threshold = float(np.clip(params.hue_threshold_factor * spread,
                                   params.min_hue_threshold_deg, params.max_hue_threshold_deg))
     if median <= 0.0:
@@ -333,7 +343,8 @@ def reference_statistics(hsi: HSI, box_px: tuple[int, int, int, int], *,
     return ReferenceStatistics(box_px=tuple(int(v) for v in box_px), hue_deg=hue_deg,
                                hue_spread_deg=spread, hue_threshold_deg=threshold,
                                max_saturation=max_saturation, intensity_median=median,
-                               intensity_low=low, intensity_high=high, n_pixels=n_pixels,
+                               intensity_low=low, intensity_high=high, rgb_median=rgb_median,
+                               n_pixels=n_pixels,
                                n_measurable=n_measurable, n_kept=n_kept)
 
 

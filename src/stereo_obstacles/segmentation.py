@@ -8,19 +8,23 @@ The paper's rule, corrected (docs/segmentation.md has the reasoning and the meas
 3. Colour match to the ground, median-filtered over a 7x7 window counting valid pixels only
    (:mod:`stereo_obstacles.hue_filter`): the circular hue distance to the reference is within
    the hue threshold ``T`` (coloured ground), or the saturation is low (grey ground).
-4. Per pixel, with ``I`` its intensity and ``I_ref`` the reference median:
+4. Per pixel, with ``I`` its intensity (mean over ``intensity_smoothing_px``) and ``I_ref``
+   the reference median:
 
-   * **ground**: colour matches and ``I`` is within the reference intensity range
-     (widened by ``ground_intensity_margin``);
-   * **shadow** (when ``shadow_rule``): colour matches within the wider shadow tolerance
-     (``T + shadow_hue_margin_deg``: skylight makes shadows bluish) and
-     ``shadow_min_ratio <= I / I_ref <= shadow_max_ratio``. The paper says "above the
-     average", a typo: a cast shadow is darker; the lower bound keeps a dark object of
-     the ground's hue from being taken for a shadow;
-   * a pixel whose own colour is farther than ``veto_factor`` times the shadow tolerance
-     from the ground is an obstacle whatever its window says: the median removes noise
-     but would otherwise erase obstacles thinner than half the window (poles);
-   * **unknown**: a window without any measurable colour whose darkness fits a shadow;
+   * **ground**: the colour matches (median-filtered hue within ``T``, or low saturation on
+     grey ground), the pixel's own colour is not far off (``veto_factor``), and ``I`` is
+     within the reference intensity range (widened by ``ground_intensity_margin``);
+   * **shadow** (when ``shadow_rule``): ``shadow_min_ratio <= I / I_ref <= shadow_max_ratio``
+     and the colour is the ground's seen under skylight alone: per-channel ratios to the
+     reference colour bluer by at least ``shadow_blue_shift`` and otherwise balanced
+     (``shadow_chroma_band``), for the majority of the window. The paper says "above the
+     average", a typo: a cast shadow is darker. Its "hue close to the reference" is replaced
+     by this ratio test because skylight shifts the hue of a shadow by tens of degrees on
+     weakly coloured ground (measured in docs/segmentation.md), and because a dark object
+     of exactly the ground's hue is then told from a shadow: it is not bluer;
+   * **ground** again when the reference itself lies in shadow: ``1 / shadow_max_ratio <=
+     I / I_ref <= 1 / shadow_min_ratio`` and the reverse (yellower) colour shift;
+   * **unknown**: too dark to measure colour but bright enough for a shadow;
    * **obstacle**: everything else (including grey objects on coloured ground).
 5. Clean-up: obstacle specks smaller than ``min_obstacle_area_px`` become ground (or shadow
    when darker than the ground range), and non-obstacle holes smaller than
@@ -68,16 +72,27 @@ class SegmentationParameters:
         (False, the ablation of the paper's Figs. 13-14).
     shadow_min_ratio, shadow_max_ratio
         Shadow brightness ratio bounds ``alpha <= I / I_ref <= beta``, ``0 < alpha < beta < 1``.
-    shadow_hue_margin_deg
-        Extra hue tolerance for shadows, degrees (skylight shifts the hue of shadows).
-    shadow_saturation_margin
-        Grey ground: extra saturation tolerance for shadows (bluish shadows are more saturated).
+    shadow_blue_shift
+        Skylight test: a shadow's blue/red ratio must be at least this times the reference's
+        (a cast shadow is lit by the blue sky alone; a dark object of the ground's colour is
+        not bluer). When the reference itself lies in shadow, ground brighter by
+        ``1 / shadow_max_ratio .. 1 / shadow_min_ratio`` with at most ``1 /`` this times the
+        reference's blue/red ratio is sunlit ground. 0 disables the blue test (a dark object
+        of the ground's colour then reads as shadow).
+    shadow_chroma_band
+        The green ratio must be within this factor of the geometric mean of the red and blue
+        ratios (``k_G**2 / (k_R k_B)`` in ``[1 / band, band]``): the light changed, not the
+        material.
     veto_factor
-        A pixel whose own hue is farther than this times the shadow hue tolerance from the
-        reference (grey ground: whose saturation exceeds this times the shadow saturation
-        limit) is an obstacle, whatever the median says.
+        A pixel whose own hue is farther than this times the hue threshold from the reference
+        (grey ground: whose saturation exceeds this times the ground's saturation limit) is
+        not ground, whatever the median says: the median removes noise but would otherwise
+        erase obstacles thinner than half the window (poles).
     ground_intensity_margin
         The reference intensity range is widened by this on both sides (fraction of full scale).
+    intensity_smoothing_px
+        The intensity tests use the mean over a window of this side (1: the pixel itself),
+        so that texture and sensor noise do not speckle the ground with obstacles.
     min_obstacle_area_px
         Obstacle regions (8-connected) smaller than this are specks and become ground.
     max_hole_area_px
@@ -89,12 +104,13 @@ class SegmentationParameters:
     filter_size: int = DEFAULT_FILTER_SIZE
     reference: ReferenceParameters = field(default_factory=ReferenceParameters)
     shadow_rule: bool = True
-    shadow_min_ratio: float = 0.25
-    shadow_max_ratio: float = 0.95
-    shadow_hue_margin_deg: float = 25.0
-    shadow_saturation_margin: float = 0.1
+    shadow_min_ratio: float = 0.4
+    shadow_max_ratio: float = 0.8
+    shadow_blue_shift: float = 1.1
+    shadow_chroma_band: float = 1.25
     veto_factor: float = 3.0
     ground_intensity_margin: float = 0.02
+    intensity_smoothing_px: int = 3
     min_obstacle_area_px: int = 16
     max_hole_area_px: int = 16
 
@@ -107,13 +123,18 @@ class SegmentationParameters:
         if not 0.0 < self.shadow_min_ratio < self.shadow_max_ratio < 1.0:
             raise InvalidInputError("need 0 < shadow_min_ratio < shadow_max_ratio < 1, got "
                                     f"{self.shadow_min_ratio!r} and {self.shadow_max_ratio!r}")
+        if not (math.isfinite(self.shadow_blue_shift) and self.shadow_blue_shift >= 0.0):
+            raise InvalidInputError(f"shadow_blue_shift must be >= 0, got {self.shadow_blue_shift!r}")
         if not (math.isfinite(self.veto_factor) and self.veto_factor >= 1.0):
             raise InvalidInputError(f"veto_factor must be >= 1, got {self.veto_factor!r}")
-        for name in ("shadow_hue_margin_deg", "shadow_saturation_margin", "ground_intensity_margin"):
+        if not (math.isfinite(self.shadow_chroma_band) and self.shadow_chroma_band >= 1.0):
+            raise InvalidInputError(f"shadow_chroma_band must be >= 1, got {self.shadow_chroma_band!r}")
+        for name in ("ground_intensity_margin",):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise InvalidInputError(f"{name} must be >= 0, got {value!r}")
-        for name in ("filter_size", "min_obstacle_area_px", "max_hole_area_px"):
+        for name in ("filter_size", "min_obstacle_area_px", "max_hole_area_px",
+                     "intensity_smoothing_px"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 0:
                 raise InvalidInputError(f"{name} must be a non-negative integer, got {value!r}")
@@ -156,29 +177,40 @@ class SegmentationResult:
 
 
 def _match_flags(rgb: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
-                 params: SegmentationParameters) -> tuple[np.ndarray, np.ndarray]:
+                 params: SegmentationParameters) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     shape = rgb.shape[:2]
     flags = np.empty(shape + (4,), dtype=np.uint8)
+    veto = np.empty(shape, dtype=np.bool_)
     intensity = np.empty(shape, dtype=np.float32)
-    ref_x = ref_y = cos_ground = cos_shadow = cos_veto = 0.0
-    max_sat_ground = max_sat_shadow = max_sat_veto = 0.0
+    ref_x = ref_y = cos_ground = cos_veto = max_sat_ground = max_sat_veto = 0.0
     if ref.is_grey:
         max_sat_ground = ref.max_saturation
-        max_sat_shadow = ref.max_saturation + params.shadow_saturation_margin
-        max_sat_veto = params.veto_factor * max_sat_shadow
+        max_sat_veto = params.veto_factor * ref.max_saturation
     else:
         angle = math.radians(ref.hue_deg)
         ref_x, ref_y = math.cos(angle), math.sin(angle)
-        shadow_deg = ref.hue_threshold_deg + params.shadow_hue_margin_deg
         cos_ground = math.cos(math.radians(ref.hue_threshold_deg))
-        cos_shadow = math.cos(math.radians(min(180.0, shadow_deg)))
-        cos_veto = math.cos(math.radians(min(180.0, params.veto_factor * shadow_deg)))
+        cos_veto = math.cos(math.radians(min(180.0, params.veto_factor * ref.hue_threshold_deg)))
+    full_scale = 1.0 / inv_full_scale
+    ref_rgb = np.array(ref.rgb_median, dtype=np.float64) * full_scale
     match_flags_kernel(rgb, inv_full_scale, np.float32(params.min_intensity),
                        np.float32(params.min_saturation), ref.is_grey, np.float32(ref_x),
-                       np.float32(ref_y), np.float32(cos_ground), np.float32(cos_shadow),
-                       np.float32(cos_veto), np.float32(max_sat_ground), np.float32(max_sat_shadow),
-                       np.float32(max_sat_veto), flags, intensity)
-    return flags, intensity
+                       np.float32(ref_y), np.float32(cos_ground), np.float32(cos_veto),
+                       np.float32(max_sat_ground), np.float32(max_sat_veto), ref_rgb,
+                       float(params.shadow_blue_shift), float(params.shadow_chroma_band), flags,
+                       veto, intensity)
+    return flags, veto, intensity
+
+
+def _window_sizes(height: int, width: int, size: int) -> np.ndarray:
+    """Number of image pixels in the ``size x size`` window around each pixel, ``int32``."""
+    r = size // 2
+
+    def along(n: int) -> np.ndarray:
+        i = np.arange(n)
+        return np.minimum(i + r, n - 1) - np.maximum(i - r, 0) + 1
+
+    return np.outer(along(height), along(width)).astype(np.int32)
 
 
 def _clean_up(labels: np.ndarray, intensity: np.ndarray, ground_low: float,
@@ -230,7 +262,7 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     >>> image = np.zeros((60, 80, 3), dtype=np.uint8)
     >>> image[:] = (90, 140, 60)                  # green ground
     >>> image[10:30, 30:40] = (200, 40, 40)       # a red box
-    >>> image[40:50, 5:25] = (45, 70, 30)         # its shadow: half as bright
+    >>> image[40:50, 5:25] = (40, 70, 37)         # its shadow: darker and bluer (skylight)
     >>> labels = segment(image).labels
     >>> [int(labels[20, 35]), int(labels[45, 15]), int(labels[55, 40])]
     [3, 2, 1]
@@ -243,16 +275,23 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     x0, y0, x1, y1 = box = reference.to_pixels(a.shape[0], a.shape[1])
     area_hsi = rgb_to_hsi(a[y0:y1, x0:x1], min_intensity=params.min_intensity,
                           min_saturation=params.min_saturation)
-    ref = reference_statistics(area_hsi, box, params=params.reference)
-    flags, intensity = _match_flags(a, inv_full_scale, ref, params)
-    counts = window_counts(flags[..., :3], size=params.filter_size)
+    ref = reference_statistics(a[y0:y1, x0:x1], area_hsi, box, params=params.reference)
+    flags, veto, intensity = _match_flags(a, inv_full_scale, ref, params)
+    counts = window_counts(flags, size=params.filter_size)
     ground_low = max(0.0, ref.intensity_low - params.ground_intensity_margin)
     ground_high = ref.intensity_high + params.ground_intensity_margin
+    if params.intensity_smoothing_px > 1:
+        k = params.intensity_smoothing_px
+        intensity = cv2.blur(intensity, (k, k), borderType=cv2.BORDER_REFLECT)
     labels = np.empty(a.shape[:2], dtype=np.uint8)
-    classify_kernel(counts, flags, intensity, ref.is_grey, np.float32(params.min_intensity),
+    median = ref.intensity_median
+    classify_kernel(counts, _window_sizes(a.shape[0], a.shape[1], params.filter_size), veto,
+                    intensity, np.float32(params.min_intensity),
                     np.float32(ground_low), np.float32(ground_high),
-                    np.float32(params.shadow_min_ratio * ref.intensity_median),
-                    np.float32(params.shadow_max_ratio * ref.intensity_median), params.shadow_rule,
+                    np.float32(params.shadow_min_ratio * median),
+                    np.float32(params.shadow_max_ratio * median),
+                    np.float32(median / params.shadow_max_ratio),
+                    np.float32(median / params.shadow_min_ratio), params.shadow_rule,
                     int(Label.UNKNOWN), int(Label.GROUND), int(Label.SHADOW), int(Label.OBSTACLE),
                     labels)
     _clean_up(labels, intensity, ground_low, params)
