@@ -14,11 +14,12 @@ from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import group_obstacle_pixels
-from stereo_obstacles.obstacles import DisparityPlane, ObstacleList, measure_obstacles
+from stereo_obstacles.ground_plane import GroundPlane
+from stereo_obstacles.obstacles import ObstacleList, measure_obstacles
 
 RIG = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12, width_px=320, height_px=240)
 CAMERA_HEIGHT_M = 1.2
-GROUND = DisparityPlane(a=0.0, b=RIG.baseline_m / CAMERA_HEIGHT_M, c=-RIG.baseline_m / CAMERA_HEIGHT_M * RIG.cy_px)
+GROUND = GroundPlane(a=0.0, b=RIG.baseline_m / CAMERA_HEIGHT_M, c=-RIG.baseline_m / CAMERA_HEIGHT_M * RIG.cy_px)
 TRUE_DISTANCES_M = (4.0, 5.0, 8.0)
 
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.ground_plane import GroundPlane
 
 DISTANCE_PERCENTILE = 10.0
 """Percentile of an obstacle's pixel depths reported as its distance."""
@@ -29,30 +30,17 @@ EXTENT_PERCENTILES = (1.0, 99.0)
 """Percentiles of the pixels' 3-D coordinates taken as an obstacle's extent (robust min/max)."""
 
 
-@dataclass(frozen=True)
-class DisparityPlane:
-    """The ground as a plane in disparity space: ``d = a x + b y + c`` (pixels)."""
+def height_above_ground_m(ground: GroundPlane, points_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
+    """Signed height of 3-D points (``(..., 3)`` metres) above the ground; camera side positive.
 
-    a: float
-    b: float
-    c: float
-
-    def disparity_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Disparity of the ground at pixel columns ``x`` and rows ``y``."""
-        return self.a * np.asarray(x, dtype=np.float64) + self.b * np.asarray(y, dtype=np.float64) + self.c
-
-    def height_above_m(self, points_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
-        """Signed height of 3-D points (``(..., 3)`` metres) above the plane; camera side positive.
-
-        Substituting ``x = f X / Z + cx``, ``y = f Y / Z + cy`` and ``d + doffs = f B / Z`` into
-        the disparity plane gives the 3-D plane ``n . P = f B`` with
-        ``n = (a f, b f, a cx + b cy + c + doffs)``; the camera centre lies on the positive side.
-        """
-        f = calibration.focal_px
-        normal = np.array([self.a * f, self.b * f,
-                           self.a * calibration.cx_px + self.b * calibration.cy_px + self.c + calibration.doffs_px])
-        norm = float(np.linalg.norm(normal))
-        return (calibration.focal_baseline_px_m - np.asarray(points_m, dtype=np.float64) @ normal) / norm
+    Substituting ``x = f X / Z + cx``, ``y = f Y / Z + cy`` and ``d + doffs = f B / Z`` into
+    the disparity plane ``d = a x + b y + c`` gives the 3-D plane ``n . P = f B`` with
+    ``n = (a f, b f, a cx + b cy + c + doffs)``; the camera centre lies on the positive side.
+    """
+    f = calibration.focal_px
+    normal = np.array([ground.a * f, ground.b * f,
+                       ground.a * calibration.cx_px + ground.b * calibration.cy_px + ground.c + calibration.doffs_px])
+    return (calibration.focal_baseline_px_m - np.asarray(points_m, dtype=np.float64) @ normal) / np.linalg.norm(normal)
 
 
 @dataclass(frozen=True)
@@ -154,7 +142,7 @@ def _confidence(pixel_count: int, disparities: np.ndarray) -> float:
 
 
 def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
-                      calibration: StereoCalibration | None, ground: DisparityPlane | None,
+                      calibration: StereoCalibration | None, ground: GroundPlane | None,
                       params: ObstacleParameters = ObstacleParameters()) -> ObstacleList:
     """Measure each group of obstacle pixels; reject flat and far ones; sort nearest first.
 
@@ -207,7 +195,7 @@ def _flat(box, count: int, above: float, unit: str) -> RejectedGroup:
 
 
 def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
-                   calibration: StereoCalibration | None, ground: DisparityPlane | None,
+                   calibration: StereoCalibration | None, ground: GroundPlane | None,
                    params: ObstacleParameters) -> Obstacle | RejectedGroup:
     """Measure one group of pixels (columns ``xs``, rows ``ys``) or say why it is rejected."""
     box, count = _box(xs, ys), int(len(xs))
@@ -230,7 +218,7 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
                        (ys - calibration.cy_px) * z / calibration.focal_px, z], axis=-1)
     height_above = None
     if ground is not None:
-        height_above = float(np.percentile(ground.height_above_m(points, calibration), EXTENT_PERCENTILES[1]))
+        height_above = float(np.percentile(height_above_ground_m(ground, points, calibration), EXTENT_PERCENTILES[1]))
         if height_above < params.flat_tolerance_m:
             return _flat(box, count, height_above, "m")
         height_above = round(height_above, 3)
