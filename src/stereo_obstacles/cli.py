@@ -26,6 +26,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "scene",
     "disparity",
     "segment",
+    "evaluate_segmentation",
     "evaluate",
 )
 """Sub-command modules in the order ``--help`` lists them."""
