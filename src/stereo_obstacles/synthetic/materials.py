@@ -178,7 +178,7 @@ def _m(name: str, colour: str, rgb: tuple, alt: tuple, pattern: str, cell: float
 
 
 GROUND_MATERIALS: dict[str, Material] = {
-    "pavement": _m("pavement", "light grey-beige", (0.30, 0.275, 0.245), (0.25, 0.25, 0.245), "slabs", 0.6, 0.22),
+    "pavement": _m("pavement", "light grey-beige", (0.32, 0.28, 0.225), (0.26, 0.25, 0.235), "slabs", 0.6, 0.22),
     "asphalt": _m("asphalt", "dark grey", (0.085, 0.083, 0.08), (0.10, 0.095, 0.088), "speckle", 0.002, 0.35),
     "grass": _m("grass", "green", (0.05, 0.14, 0.025), (0.15, 0.19, 0.05), "grass", 0.003, 0.45),
     "tiles": _m("tiles", "red-brown", (0.30, 0.11, 0.07), (0.20, 0.16, 0.14), "pavers", 0.2, 0.2),

@@ -63,7 +63,7 @@ class RenderOptions:
     noise_sigma: float = 0.0
     right_gain: float = 1.0
     right_bias: float = 0.0
-    exposure: float = 2.2
+    exposure: float = 2.0
     right_error: RightCameraError = field(default_factory=RightCameraError)
 
     def __post_init__(self) -> None:
