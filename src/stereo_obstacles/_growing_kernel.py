@@ -154,7 +154,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                                     acc += np.float64(lp[py + ii, px + jj]) * np.float64(rp[py + ii, pxr + jj])
                             cov = acc / (side * side) - np.float64(ml[py, px]) * np.float64(mr[py, pxr])
                             c = cov * a * b if kind == KIND_NCC else 2.0 * cov / (a + b)
-                            c = min(max(c, -1.0), 1.0)
+                            c = np.float64(np.float32(min(max(c, -1.0), 1.0)))  # as stored
                         counters[COUNT_COMPUTED] += 1
                         n = fill[py, px]
                         if n < n_slots:

@@ -28,7 +28,7 @@ SEED_SOURCES = ("canny", "sobel", "random")
 """Seed sources chosen by name (a user list is passed as points instead)."""
 
 EDGE_PERCENTILE = 80.0
-"""Percentile of the Sobel gradient magnitude used as the edge threshold (Canny: high one)."""
+"""Percentile of the non-zero Sobel gradient magnitudes used as the edge threshold (Canny: high one)."""
 
 
 @dataclass(frozen=True)
@@ -76,7 +76,7 @@ def edge_pixels(grey: np.ndarray, method: str = "canny") -> tuple[np.ndarray, np
     grey : ndarray of float32, shape (H, W)
     method : {"canny", "sobel"}
         ``"canny"``: Canny edges (L2 gradient, high threshold the :data:`EDGE_PERCENTILE`
-        percentile of the Sobel magnitude, low threshold half of it). ``"sobel"``: every
+        percentile of the non-zero Sobel magnitudes, low threshold half of it). ``"sobel"``: every
         pixel whose Sobel magnitude reaches that percentile (thicker, more pixels).
 
     Returns
@@ -85,9 +85,10 @@ def edge_pixels(grey: np.ndarray, method: str = "canny") -> tuple[np.ndarray, np
         Edge pixels in raster order. Empty for a flat image.
     """
     mag = _gradient_magnitude(grey)
-    high = float(np.percentile(mag, EDGE_PERCENTILE))
-    if high <= 0.0:
+    textured = mag[mag > 1e-3 * max(float(mag.max()), 1e-12)]
+    if textured.size == 0:
         return np.empty(0, np.int32), np.empty(0, np.int32)
+    high = float(np.percentile(textured, EDGE_PERCENTILE))
     if method == "canny":
         lo, hi = float(grey.min()), float(grey.max())
         scale = 255.0 / (hi - lo)

@@ -1,0 +1,113 @@
+"""The compiled growth and stable matching against the slow reference (tests/gcs_reference.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import gcs_reference as ref
+from stereo_obstacles.growing import grow
+from stereo_obstacles.seeds import Seeds, find_seeds
+from stereo_obstacles.similarity import prepare_similarity, similarity_at
+from stereo_obstacles.stable_matching import stable_matching
+
+
+def _scene(seed=0, shape=(18, 34)):
+    """Two fronto-parallel layers (disparity 3 behind, 6 in front) with noise: occlusions included."""
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    back = rng.uniform(0, 255, (h, w + 12))
+    front = rng.uniform(0, 255, (h, w + 12))
+    left = back[:, 0:w].copy()
+    right = back[:, 3:w + 3].copy()
+    left[:, 12:22] = front[:, 12:22]
+    right[:, 6:16] = front[:, 12:22]
+    left += rng.normal(0, 2, left.shape)
+    right += rng.normal(0, 2, right.shape)
+    return left.astype(np.float32), right.astype(np.float32)
+
+
+@pytest.mark.parametrize("kind", ["ncc", "mncc"])
+@pytest.mark.parametrize("greedy, use_max, k_max", [(False, True, 10), (False, False, 3), (True, True, 10)])
+def test_growth_matches_reference(kind, greedy, use_max, k_max):
+    left, right = _scene(seed=7)
+    inputs = prepare_similarity(left, right, kind=kind)
+    seeds = find_seeds(inputs, left, "random", d_min=0, d_max=9, tau=0.6, margin=0.1, random_fraction=0.02)
+    assert len(seeds) > 0
+    growth = grow(inputs, seeds, d_min=0, d_max=9, tau=0.6, mu=0.1, max_candidates=k_max,
+                  margin_reference="max" if use_max else "min", greedy=greedy)
+    assert growth.n_overflow == 0
+    order = np.argsort(-seeds.similarity, kind="stable")
+    seed_list = [(int(seeds.y[i]), int(seeds.x[i]), int(seeds.x_right[i]), float(seeds.similarity[i]))
+                 for i in order]
+    expected = ref.grow(left, right, seed_list, d_min=0, d_max=9, tau=0.6, mu=0.1, k_max=k_max,
+                        use_max=use_max, greedy=greedy, kind=kind)
+    got = {(int(y), int(x), int(xr)): float(c)
+           for y, x, xr, c in zip(growth.y, growth.x, growth.x_right, growth.similarity)}
+    assert set(got) == set(expected)
+    for q, c in expected.items():
+        assert got[q] == pytest.approx(c, abs=1e-5)
+    if not greedy:
+        won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, left.shape, margin=0.1)
+        winners = {(int(growth.y[i]), int(growth.x[i]), int(growth.x_right[i])) for i in np.flatnonzero(won)}
+        assert winners == ref.stable_matching(got, margin=0.1)
+
+
+def test_growth_recovers_layers_and_leaves_occlusion():
+    left, right = _scene(seed=3, shape=(24, 40))
+    inputs = prepare_similarity(left, right)
+    seeds = find_seeds(inputs, left, "canny", d_min=0, d_max=9, tau=0.6, margin=0.1)
+    growth = grow(inputs, seeds, d_min=0, d_max=9)
+    won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, left.shape)
+    d = np.full(left.shape, -1)
+    d[growth.y[won], growth.x[won]] = growth.x[won] - growth.x_right[won]
+    assert np.mean(d[:, 14:20] == 6) > 0.9       # front layer, away from its edges
+    assert np.mean(d[:, 26:36] == 3) > 0.9       # background
+    # left columns 9..11 see background hidden in the right image (occluded): mostly unmatched
+    assert np.mean(d[2:-2, 9:11] == 3) < 0.5
+
+
+def test_candidate_cap_limits_table_on_repetitive_texture():
+    rng = np.random.default_rng(0)
+    stripe = np.tile(rng.uniform(0, 255, 4), 20)            # period 4 px: every 4th disparity fits
+    img = np.tile(stripe, (20, 1)).astype(np.float32) + rng.normal(0, 1, (20, 80)).astype(np.float32)
+    inputs = prepare_similarity(img, img)
+    seeds = Seeds(np.array([10], np.int32), np.array([40], np.int32), np.array([40], np.int32),
+                  np.array([1.0], np.float32), 1, 1)
+    for k in (1, 3):
+        g = grow(inputs, seeds, d_min=0, d_max=30, max_candidates=k, mu=1.0)
+        _, per_pixel = np.unique(g.y.astype(np.int64) * 1000 + g.x, return_counts=True)
+        assert per_pixel.max() <= k
+
+
+def test_memo_side_similarities_equal_direct_ones():
+    left, right = _scene(seed=5)
+    inputs = prepare_similarity(left, right)
+    seeds = find_seeds(inputs, left, "canny", d_min=0, d_max=9, tau=0.6, margin=0.1)
+    g = grow(inputs, seeds, d_min=0, d_max=9)
+    d = g.x - g.x_right
+    inside = (d >= 1) & (d <= 8) & (g.x_right >= 1) & (g.x_right < left.shape[1] - 1)
+    c_minus, c_plus = g.side_similarities(g.y[inside], g.x[inside], d[inside])
+    direct_minus = similarity_at(inputs, g.y[inside], g.x[inside], g.x_right[inside] + 1)
+    direct_plus = similarity_at(inputs, g.y[inside], g.x[inside], g.x_right[inside] - 1)
+    np.testing.assert_allclose(c_minus, direct_minus, atol=1e-5)
+    np.testing.assert_allclose(c_plus, direct_plus, atol=1e-5)
+    np.testing.assert_allclose(g.similarity, similarity_at(inputs, g.y, g.x, g.x_right), atol=1e-5)
+
+
+def test_stable_matching_uniqueness_and_errors():
+    rng = np.random.default_rng(2)
+    n = 400
+    y = rng.integers(0, 5, n)
+    x = rng.integers(0, 30, n)
+    xr = rng.integers(0, 30, n)
+    keys = np.unique(np.stack([y, x, xr], 1), axis=0)
+    c = rng.uniform(0.6, 1.0, len(keys)).astype(np.float32)
+    won = stable_matching(keys[:, 0], keys[:, 1], keys[:, 2], c, (5, 30), margin=0.05)
+    w = keys[won]
+    assert len(np.unique(w[:, [0, 1]], axis=0)) == len(w)
+    assert len(np.unique(w[:, [0, 2]], axis=0)) == len(w)
+    table = {tuple(int(v) for v in k): float(ci) for k, ci in zip(keys, c)}
+    assert {tuple(int(v) for v in k) for k in w} == ref.stable_matching(table, margin=0.05)
+    with pytest.raises(ValueError, match="inside"):
+        stable_matching(np.array([9]), np.array([1]), np.array([1]), np.array([0.9]), (5, 30))

@@ -1,0 +1,75 @@
+"""Seeds: edge pixels, random pixels, scanline matching and user lists."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import gcs_reference as ref
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.seeds import edge_pixels, find_seeds, match_pixels, random_pixels, user_seeds
+from stereo_obstacles.similarity import prepare_similarity
+
+
+def _pair(shift=4, shape=(20, 40), seed=0):
+    rng = np.random.default_rng(seed)
+    base = rng.uniform(0, 255, (shape[0], shape[1] + shift)).astype(np.float32)
+    return base[:, :shape[1]].copy(), base[:, shift:].copy()   # left x matches right x - shift
+
+
+def test_edges_on_a_step():
+    img = np.zeros((20, 30), np.float32)
+    img[:, 15:] = 200
+    for method in ("canny", "sobel"):
+        ys, xs = edge_pixels(img, method)
+        assert len(xs) > 0 and np.all(np.abs(xs - 14.5) <= 2)
+    assert len(edge_pixels(np.zeros((20, 30), np.float32))[0]) == 0
+    with pytest.raises(InvalidInputError, match="method"):
+        edge_pixels(img, "laplace")
+
+
+def test_random_pixels_reproducible_and_distinct():
+    a = random_pixels((10, 10), 30, rng_seed=5)
+    b = random_pixels((10, 10), 30, rng_seed=5)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    assert len(set(zip(a[0].tolist(), a[1].tolist()))) == 30
+
+
+def test_scanline_matching_finds_the_shift_and_equals_brute_force():
+    left, right = _pair(shift=4)
+    inputs = prepare_similarity(left, right)
+    ys = np.array([5, 10, 15, 3], np.int32)
+    xs = np.array([20, 30, 10, 2], np.int32)
+    seeds = match_pixels(inputs, ys, xs, d_min=0, d_max=8, tau=0.6, margin=0.1)
+    assert seeds.n_candidates == 4
+    assert seeds.n_evaluated == 9 + 9 + 9 + 3       # x=2 admits only d <= 2
+    assert np.all(seeds.x - seeds.x_right == 4)      # x=2 cannot reach d=4 and is dropped
+    assert len(seeds) == 3
+    for y, x, c in zip(seeds.y, seeds.x, seeds.similarity):
+        brute = max(ref.similarity(left, right, y, x, x - d) for d in range(0, min(8, x) + 1))
+        assert c == pytest.approx(brute, abs=1e-5)
+
+
+def test_ambiguous_pixels_are_not_seeds():
+    stripe = np.tile(np.array([0, 200, 50, 120], np.float32), 10)
+    img = np.tile(stripe, (12, 1))
+    inputs = prepare_similarity(img, img)
+    seeds = match_pixels(inputs, np.array([6], np.int32), np.array([30], np.int32), d_min=0, d_max=10,
+                         tau=0.6, margin=0.1)
+    assert len(seeds) == 0          # d = 0, 4 and 8 all fit perfectly
+
+
+def test_find_seeds_sources_and_user_list():
+    left, right = _pair(shift=3, seed=1)
+    inputs = prepare_similarity(left, right)
+    for source in ("canny", "sobel", "random"):
+        s = find_seeds(inputs, left, source, d_min=0, d_max=8, tau=0.6, margin=0.1)
+        assert len(s) > 0 and np.median(s.x - s.x_right) == 3
+    with pytest.raises(InvalidInputError, match="seeds"):
+        find_seeds(inputs, left, "harris", d_min=0, d_max=8, tau=0.6, margin=0.1)
+    u = user_seeds(inputs, np.array([[10, 5, 3], [20, 6, 1]]), d_min=0, d_max=8)
+    assert u.similarity[0] > 0.99 > u.similarity[1]
+    with pytest.raises(InvalidInputError, match="shape"):
+        user_seeds(inputs, np.array([1, 2, 3]), d_min=0, d_max=8)
+    with pytest.raises(InvalidInputError, match="outside"):
+        user_seeds(inputs, np.array([[1, 5, 3]]), d_min=0, d_max=8)

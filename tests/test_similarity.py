@@ -1,0 +1,61 @@
+"""Window similarity (NCC/MNCC) against the definition, and its guards."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import gcs_reference as ref
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.similarity import UNDEFINED, prepare_similarity, similarity_at, to_grey
+
+
+@pytest.mark.parametrize("kind", ["ncc", "mncc"])
+def test_similarity_equals_definition_including_borders(kind):
+    rng = np.random.default_rng(0)
+    left = rng.uniform(0, 255, (12, 15)).astype(np.float32)
+    right = rng.uniform(0, 255, (12, 15)).astype(np.float32)
+    inputs = prepare_similarity(left, right, kind=kind)
+    ys, xs, xrs = np.meshgrid(np.arange(12), np.arange(15), np.arange(0, 15, 4), indexing="ij")
+    got = similarity_at(inputs, ys, xs, xrs)
+    expected = np.vectorize(lambda y, x, xr: ref.similarity(left, right, y, x, xr, kind))(ys, xs, xrs)
+    np.testing.assert_allclose(got, expected, atol=2e-5)
+
+
+def test_ncc_invariant_to_gain_and_offset_mncc_not_to_gain():
+    rng = np.random.default_rng(1)
+    img = rng.uniform(0, 100, (10, 10)).astype(np.float32)
+    for kind, expected in (("ncc", 1.0), ("mncc", 2 * 2 / (1 + 4))):
+        s = prepare_similarity(img, 2 * img + 30, kind=kind)
+        assert float(similarity_at(s, np.array(5), np.array(5), np.array(5))) == pytest.approx(expected, abs=1e-5)
+
+
+def test_flat_windows_are_undefined():
+    img = np.zeros((10, 20), np.float32)
+    img[:, 10:] = np.random.default_rng(2).uniform(0, 255, (10, 10))
+    s = prepare_similarity(img, img, min_std=1.0)
+    assert similarity_at(s, np.array(5), np.array(3), np.array(3)) == UNDEFINED
+    assert similarity_at(s, np.array(5), np.array(15), np.array(15)) == pytest.approx(1.0)
+
+
+def test_large_offsets_do_not_lose_precision():
+    rng = np.random.default_rng(3)
+    img = (60000 + rng.uniform(0, 4, (10, 10))).astype(np.float32)   # uint16-like, tiny contrast
+    s = prepare_similarity(img, img)
+    assert float(similarity_at(s, np.array(5), np.array(5), np.array(5))) == pytest.approx(1.0, abs=1e-3)
+
+
+def test_to_grey_and_errors():
+    rgb = np.zeros((4, 5, 3), np.uint8)
+    rgb[..., 1] = 100
+    assert to_grey(rgb).shape == (4, 5)
+    assert to_grey(rgb)[0, 0] == pytest.approx(58.7)
+    with pytest.raises(InvalidInputError, match="shape"):
+        to_grey(np.zeros((4, 5, 2)))
+    with pytest.raises(InvalidInputError, match="NaN"):
+        to_grey(np.full((4, 5), np.nan))
+    with pytest.raises(InvalidInputError, match="similarity"):
+        prepare_similarity(np.zeros((5, 5), np.float32), np.zeros((5, 5), np.float32), kind="sad")
+    s = prepare_similarity(np.zeros((5, 5), np.float32), np.zeros((5, 5), np.float32))
+    with pytest.raises(InvalidInputError, match="points"):
+        similarity_at(s, np.array(0), np.array(5), np.array(0))
