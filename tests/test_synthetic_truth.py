@@ -139,3 +139,28 @@ def test_nonocc_marks_background_hidden_from_the_right_camera(pair):
     # The leftmost columns cannot be seen by the right camera at all (u - d < 0).
     assert not pair.nonocc[:, 0].any()
     assert pair.nonocc[pair.labels == Label.SKY].sum() == 0
+
+
+def test_nonocc_agrees_with_the_right_views_own_depth(pair):
+    """Independent check: trace the rectified right camera and compare depths at u - d."""
+    from stereo_obstacles.synthetic.raycast import trace
+    from stereo_obstacles.synthetic.rig import RightCameraError, camera_poses
+
+    scene = pair.scene
+    _, _, rectified = camera_poses(scene.rig, RightCameraError())
+    right_depth = trace(rectified, [(p, oid) for p, oid, _ in scene.primitives()]).depth
+    h, w = pair.depth.shape
+    v, u = np.nonzero(np.isfinite(pair.depth))
+    ur = u - pair.disparity[v, u]
+    inside = (ur >= 0) & (ur <= w - 1)
+    v, u, ur = v[inside], u[inside], ur[inside]
+    # The right depth at both neighbours of u - d (rows are shared in the rectified pair).
+    z = pair.depth[v, u].astype(np.float64)
+    z_lo, z_hi = right_depth[v, np.floor(ur).astype(int)], right_depth[v, np.ceil(ur).astype(int)]
+    same = (np.abs(z_lo - z) < 0.02 * z) | (np.abs(z_hi - z) < 0.02 * z)
+    # An occluder edge may pass between the two neighbours, so one nearer neighbour suffices.
+    nearer = (z_lo < 0.98 * z) | (z_hi < 0.98 * z)
+    visible = pair.nonocc[v, u]
+    assert np.mean(same[visible]) > 0.99
+    assert (~visible).sum() > 50
+    assert np.mean(nearer[~visible]) > 0.99
