@@ -3,7 +3,9 @@
 Semi-dense disparity has holes, so pixels are grouped through a coarse grid of square cells:
 a cell holding enough obstacle pixels with a disparity gets their median disparity, and two
 4-adjacent cells belong to the same object when their disparities agree within a tolerance
-(``max(abs_tolerance_px, rel_tolerance * d)``). A near pole in front of a far wall therefore
+(``max(abs_tolerance_px, rel_tolerance * d)``) and both cells are *pure* (most of their pixels
+agree with their median): a cell straddling a depth edge has a median between the two
+depths and would otherwise chain a near object to the far one behind it. A near pole in front of a far wall therefore
 splits from the wall even where they touch in the image. Each pixel then joins its cell's
 group only when its own disparity agrees with the cell's, which keeps stray background pixels
 out of an object.
@@ -31,6 +33,9 @@ class GroupingParameters:
     abs_tolerance_px, rel_tolerance : float
         Two neighbouring cells (or a pixel and its cell) are consistent when their
         disparities differ by at most ``max(abs_tolerance_px, rel_tolerance * d)`` pixels.
+    min_pure_fraction : float
+        A cell links to its neighbours only when at least this fraction of its pixels agree
+        with its median disparity.
     min_object_pixels : int
         Objects with fewer pixels are dropped as noise.
     """
@@ -39,7 +44,8 @@ class GroupingParameters:
     min_cell_pixels: int = 6
     abs_tolerance_px: float = 1.5
     rel_tolerance: float = 0.08
-    min_object_pixels: int = 60
+    min_pure_fraction: float = 0.7
+    min_object_pixels: int = 120
 
     def __post_init__(self) -> None:
         if self.cell_px < 2:
@@ -48,6 +54,8 @@ class GroupingParameters:
             raise InvalidInputError(f"min_cell_pixels must be in [1, {self.cell_px ** 2}], got {self.min_cell_pixels}")
         if self.abs_tolerance_px <= 0 or self.rel_tolerance < 0:
             raise InvalidInputError("abs_tolerance_px must be > 0 and rel_tolerance >= 0")
+        if not 0.0 <= self.min_pure_fraction <= 1.0:
+            raise InvalidInputError(f"min_pure_fraction must be in [0, 1], got {self.min_pure_fraction}")
         if self.min_object_pixels < 1:
             raise InvalidInputError(f"min_object_pixels must be >= 1, got {self.min_object_pixels}")
 
@@ -56,8 +64,10 @@ def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:
     return np.maximum(params.abs_tolerance_px, params.rel_tolerance * np.abs(d))
 
 
-def _cell_disparities(disparity: np.ndarray, mask: np.ndarray, params: GroupingParameters) -> np.ndarray:
-    """Median disparity of each cell's masked valid pixels, NaN for cells with too few."""
+def _cell_disparities(disparity: np.ndarray, mask: np.ndarray,
+                      params: GroupingParameters) -> tuple[np.ndarray, np.ndarray]:
+    """Median disparity of each cell's masked valid pixels (NaN for cells with too few) and
+    whether each cell is pure (``min_pure_fraction`` of its pixels agree with the median)."""
     h, w = disparity.shape
     c = params.cell_px
     gh, gw = -(-h // c), -(-w // c)
@@ -66,14 +76,20 @@ def _cell_disparities(disparity: np.ndarray, mask: np.ndarray, params: GroupingP
     blocks = padded.reshape(gh, c, gw, c).transpose(0, 2, 1, 3).reshape(gh, gw, c * c)
     counts = np.isfinite(blocks).sum(axis=2)
     medians = np.full((gh, gw), np.nan, dtype=np.float32)
+    pure = np.zeros((gh, gw), dtype=bool)
     enough = counts >= params.min_cell_pixels
     if enough.any():
-        medians[enough] = np.nanmedian(blocks[enough], axis=1)
-    return medians
+        values = blocks[enough]
+        medians[enough] = np.nanmedian(values, axis=1)
+        tol = _tolerance(medians[enough], params)[:, None]
+        with np.errstate(invalid="ignore"):
+            agree = (np.abs(values - medians[enough][:, None]) <= tol).sum(axis=1)
+        pure[enough] = agree >= params.min_pure_fraction * counts[enough]
+    return medians, pure
 
 
-def _label_cells(cells: np.ndarray, params: GroupingParameters) -> np.ndarray:
-    """Connected components of valid cells joined where disparities agree (union-find)."""
+def _label_cells(cells: np.ndarray, pure: np.ndarray, params: GroupingParameters) -> np.ndarray:
+    """Connected components of valid cells, pure cells joined where disparities agree (union-find)."""
     gh, gw = cells.shape
     parent = np.arange(gh * gw)
 
@@ -88,7 +104,7 @@ def _label_cells(cells: np.ndarray, params: GroupingParameters) -> np.ndarray:
     for dy, dx in ((0, 1), (1, 0)):
         a = cells[: gh - dy, : gw - dx]
         b = cells[dy:, dx:]
-        joined = valid[: gh - dy, : gw - dx] & valid[dy:, dx:] & (
+        joined = pure[: gh - dy, : gw - dx] & pure[dy:, dx:] & (
             np.abs(a - b) <= np.minimum(tol[: gh - dy, : gw - dx], tol[dy:, dx:]))
         ys, xs = np.nonzero(joined)
         for y, x in zip(ys.tolist(), xs.tolist()):
@@ -127,8 +143,8 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         raise InvalidInputError(f"disparity {d.shape} and obstacle_mask {m.shape} must be the same 2-D shape")
     h, w = d.shape
     usable = m & np.isfinite(d)
-    cells = _cell_disparities(d, usable, params)
-    cell_labels = _label_cells(cells, params)
+    cells, pure = _cell_disparities(d, usable, params)
+    cell_labels = _label_cells(cells, pure, params)
     c = params.cell_px
     pixel_cell = cell_labels[np.arange(h)[:, None] // c, np.arange(w)[None, :] // c]
     pixel_cell_d = cells[np.arange(h)[:, None] // c, np.arange(w)[None, :] // c]

@@ -1,0 +1,210 @@
+"""The whole system: two rectified colour images in, obstacles with distances out.
+
+This module only wires the stages; each lives in its own module:
+
+1. :func:`stereo_obstacles.segmentation.segment` — phase 1, ground / shadow / obstacle labels;
+2. :func:`stereo_obstacles.matching.match` — phase 2, GCS disparity;
+3. :func:`stereo_obstacles.ground_plane.fit_ground_plane` on the ground pixels' disparities,
+   :func:`stereo_obstacles.depth.disparity_to_depth`, then
+   :func:`stereo_obstacles.obstacle_grouping.group_obstacle_pixels` and
+   :func:`stereo_obstacles.obstacles.measure_obstacles` — phase 3, obstacles as objects.
+
+Beyond the paper, pixels that phase 1 calls ground but whose disparity puts them clearly above
+the fitted ground plane (``geometric_min_height_m``) are obstacle candidates too: a dark
+object of the ground's hue would otherwise pass for a shadow.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.depth import disparity_to_depth
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.labels import Label
+from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane
+from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, height_above_ground_m,
+                                       measure_obstacles)
+from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
+from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class MatchingOptions:
+    """Options passed to :func:`stereo_obstacles.matching.match`; ``None`` keeps its default."""
+
+    seeds: str | None = None
+    max_disparity: int | None = None
+    tau: float | None = None
+    mu: float | None = None
+    max_candidates: int | None = None
+    variant: str | None = None
+
+    def to_kwargs(self) -> dict:
+        """Keyword arguments for ``match`` with the unset options left out."""
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+
+@dataclass(frozen=True)
+class DetectionConfig:
+    """Every option of the pipeline, grouped by stage; saved next to every output.
+
+    ``geometric_min_height_m``: ground-labelled pixels this far above the ground plane become
+    obstacle candidates (needs a calibration; ``0`` switches it off).
+    """
+
+    reference: ReferenceArea = DEFAULT_REFERENCE_AREA
+    segmentation: SegmentationParameters = field(default_factory=SegmentationParameters)
+    matching: MatchingOptions = field(default_factory=MatchingOptions)
+    grouping: GroupingParameters = field(default_factory=GroupingParameters)
+    obstacles: ObstacleParameters = field(default_factory=ObstacleParameters)
+    geometric_min_height_m: float = 0.15
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
+            raise InvalidInputError(f"geometric_min_height_m must be >= 0, got {self.geometric_min_height_m}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready nested mapping of every option."""
+        return asdict(self)
+
+
+@dataclass(frozen=True, eq=False)
+class DetectionResult:
+    """Everything the pipeline computed for one pair.
+
+    Attributes
+    ----------
+    segmentation
+        Phase-1 result (``labels`` uint8 (H, W)).
+    disparity
+        ``float32 (H, W)`` left disparity in pixels, NaN where unmatched.
+    match_stats
+        Statistics of the matcher (:class:`stereo_obstacles.matching.MatchStats`).
+    depth_m
+        ``float32 (H, W)`` depth in metres, NaN where unknown; ``None`` without calibration.
+    ground
+        The ground plane in disparity space, ``None`` when too few ground pixels matched.
+    obstacles
+        Obstacles nearest first, rejected groups, corridor summary.
+    calibration
+        The calibration used, or ``None`` (then lengths are not known).
+    config
+        The resolved configuration.
+    timings_s
+        Seconds spent in each stage and in total.
+    """
+
+    segmentation: SegmentationResult
+    disparity: np.ndarray
+    match_stats: object
+    depth_m: np.ndarray | None
+    ground: GroundPlane | None
+    obstacles: ObstacleList
+    calibration: StereoCalibration | None
+    config: DetectionConfig
+    timings_s: dict
+
+
+def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
+    for name, image in (("left", left), ("right", right)):
+        if not isinstance(image, np.ndarray) or image.ndim != 3 or image.shape[2] != 3:
+            raise InvalidInputError(f"{name} must be an RGB (H, W, 3) image, got "
+                                    f"{getattr(image, 'shape', type(image).__name__)}")
+    if left.shape != right.shape:
+        raise ImageMismatchError(f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} "
+                                 f"and {right.shape[1]}x{right.shape[0]}")
+
+
+def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray) -> GroundPlane | None:
+    try:
+        return fit_ground_plane(disparity, mask=ground_mask)
+    except InvalidInputError as exc:
+        logger.warning("no ground plane (%s); flat markings cannot be told from obstacles", exc)
+        return None
+
+
+def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray, ground: GroundPlane | None,
+                         calibration: StereoCalibration | None, min_height_m: float) -> np.ndarray:
+    """Phase-1 obstacle pixels, plus ground-coloured pixels standing clearly above the plane."""
+    candidates = segmentation.labels == Label.OBSTACLE
+    if ground is None or calibration is None or min_height_m <= 0:
+        return candidates
+    ys, xs = np.nonzero(segmentation.ground_mask & np.isfinite(disparity))
+    d = disparity[ys, xs].astype(np.float64) + calibration.doffs_px
+    positive = d > 0
+    ys, xs, d = ys[positive], xs[positive], d[positive]
+    z = calibration.focal_baseline_px_m / d
+    points = np.stack([(xs - calibration.cx_px) * z / calibration.focal_px,
+                       (ys - calibration.cy_px) * z / calibration.focal_px, z], axis=-1)
+    raised = height_above_ground_m(ground, points, calibration) > min_height_m
+    candidates = candidates.copy()
+    candidates[ys[raised], xs[raised]] = True
+    return candidates
+
+
+def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration | None = None, *,
+           config: DetectionConfig = DetectionConfig()) -> DetectionResult:
+    """Find the obstacles in a rectified colour stereo pair.
+
+    Parameters
+    ----------
+    left, right
+        ``uint8`` RGB images ``(H, W, 3)`` of the same size, rectified (rows correspond).
+    calibration
+        The rectified calibration; without it distances stay in pixels and disparities.
+    config
+        Options of every stage.
+
+    Returns
+    -------
+    DetectionResult
+
+    Raises
+    ------
+    InvalidInputError, ImageMismatchError, CalibrationError
+        Images that are not RGB or differ in size; a calibration of another image size.
+
+    Examples
+    --------
+    >>> from stereo_obstacles.synthetic import default_scene, render_scene
+    >>> scene = render_scene(default_scene(), size=(320, 240))           # doctest: +SKIP
+    >>> result = detect(scene.left, scene.right, scene.calibration)     # doctest: +SKIP
+    >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]     # doctest: +SKIP
+    """
+    from stereo_obstacles.matching import match
+
+    _check_pair(left, right)
+    if calibration is not None:
+        calibration.check_image_size(left.shape[1], left.shape[0])
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+
+    t = time.perf_counter()
+    segmentation = segment(left, reference=config.reference, params=config.segmentation)
+    timings["segmentation"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    matched = match(left, right, **config.matching.to_kwargs())
+    timings["matching"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    disparity = matched.disparity
+    ground = _ground_plane(disparity, segmentation.ground_mask)
+    depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
+    candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m)
+    groups = group_obstacle_pixels(disparity, candidates, config.grouping)
+    obstacles = measure_obstacles(groups, disparity, calibration, ground, config.obstacles)
+    timings["obstacles"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - start
+    return DetectionResult(segmentation=segmentation, disparity=disparity, match_stats=matched.stats,
+                           depth_m=depth, ground=ground, obstacles=obstacles, calibration=calibration,
+                           config=config, timings_s=timings)
