@@ -115,19 +115,24 @@ def seed_ablation(data: Path, names: tuple[str, ...], repeat: int) -> tuple[str,
             continue
         pair = load_pair(folder)
         max_d = math.ceil(pair.max_gt_disparity)
-        for kind in SEED_KINDS:
-            match(pair.left, pair.right, seeds=kind, max_disparity=max_d)  # first call
-            walls, runs = [], []
-            for _ in range(repeat):
+        for kind in SEED_KINDS:  # first calls, not in the medians
+            match(pair.left, pair.right, seeds=kind, max_disparity=max_d)
+        walls: dict[str, list[float]] = {kind: [] for kind in SEED_KINDS}
+        runs: dict[str, list] = {kind: [] for kind in SEED_KINDS}
+        for _ in range(repeat):  # interleaved, so that load from other processes hits all alike
+            for kind in SEED_KINDS:
                 t0 = time.perf_counter()
                 result = match(pair.left, pair.right, seeds=kind, max_disparity=max_d)
-                walls.append(time.perf_counter() - t0)
-                runs.append(result.stats)
+                walls[kind].append(time.perf_counter() - t0)
+                runs[kind].append(result)
+        for kind in SEED_KINDS:
+            result = runs[kind][-1]
             stats = result.stats
             m = evaluate_disparity(result.disparity, pair.gt_disparity, mask=pair.nonocc)
             record = {"pair": pair.name, "seeds": kind,
-                      "median_seconds": statistics.median(walls),
-                      "median_match_seconds": statistics.median(s.match_seconds for s in runs),
+                      "median_seconds": statistics.median(walls[kind]),
+                      "median_match_seconds": statistics.median(
+                          r.stats.match_seconds for r in runs[kind]),
                       "n_seeds": stats.n_seeds, "n_visited": stats.n_visited,
                       "visited_fraction_range": stats.visited_fraction_range,
                       "metrics": m.to_dict()}
@@ -137,7 +142,8 @@ def seed_ablation(data: Path, names: tuple[str, ...], repeat: int) -> tuple[str,
                          f"{stats.n_visited:,}", _fmt(100 * stats.visited_fraction_range, 2),
                          _fmt(m.density_pct, 1), _fmt(m.bad1_matched_pct)])
     text = "\n\n".join([
-        f"GCS with each seed source (median of {repeat} calls after a first call; `match s` is "
+        f"GCS with each seed source (median of {repeat} calls after a first call, the seed kinds "
+        "interleaved; `match ms` is "
         "seeds + growth + final matching as reported by the matcher, `total` the whole call). "
         "Visited: distinct disparity-space points whose similarity was computed; % of range: "
         "as a share of an exhaustive search over the same disparity range.",
@@ -231,6 +237,16 @@ def closing_note(comparison_records: list[dict], ablation_records: list[dict]) -
     return "\n".join(lines) if lines else "No GCS figures in this run."
 
 
+def _source_version() -> str:
+    """``git describe`` of the checkout (``-dirty`` when files differ from the commit)."""
+    try:
+        out = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=REPO, check=True,
+                             capture_output=True, text=True)
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return out.stdout.strip()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="shared data folder")
@@ -278,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
         f"logical CPUs, {machine['system']}; Python {machine['python']}, NumPy "
         f"{machine['numpy']}, OpenCV {machine['opencv']} ({machine['opencv_threads']} threads), "
         f"numba {machine['numba']} ({machine['numba_threads']} threads); stereo-obstacles "
-        f"{machine['stereo_obstacles']}. Methods: "
+        f"{machine['stereo_obstacles']} (source {_source_version()}). Methods: "
         + "; ".join(f"`{m.name}` {m.description}" for m in METHODS.values()) + ".\n\n"
         "Wall-clock times on a shared virtual machine: compare ratios within one run, not "
         "absolute figures across runs."
