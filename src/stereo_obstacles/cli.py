@@ -23,6 +23,8 @@ from stereo_obstacles import __version__
 PROG = "stereo-obstacles"
 
 COMMAND_MODULES: tuple[str, ...] = (
+    "demo",
+    "detect",
     "scene",
     "disparity",
     "segment",

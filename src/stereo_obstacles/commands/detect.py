@@ -1,0 +1,102 @@
+"""``stereo-obstacles detect``: obstacles with distances from a rectified colour stereo pair."""
+
+from __future__ import annotations
+
+import argparse
+
+from stereo_obstacles.commands._calibration_options import add_calibration_options
+
+
+def add_detection_options(parser: argparse.ArgumentParser) -> None:
+    """Options of the pipeline stages, shared by ``detect`` and ``demo``."""
+    group = parser.add_argument_group("detection")
+    group.add_argument("--max-disparity", type=int, default=None, metavar="PX",
+                       help="largest disparity to search, pixels (default: a third of the width)")
+    group.add_argument("--seeds", choices=("canny", "sobel", "random"), default=None,
+                       help="where the matcher's seeds come from (default canny)")
+    group.add_argument("--reference", default=None, metavar="X0,Y0,X1,Y1",
+                       help="rectangle assumed to be ground, in fractions of the image (all <= 1) "
+                            "or pixels (default: bottom centre)")
+    group.add_argument("--corridor-width", type=float, default=None, metavar="M",
+                       help="width of the walking corridor straight ahead, metres (default 1.0)")
+    group.add_argument("--max-distance", type=float, default=None, metavar="M",
+                       help="report obstacles up to this distance, metres (default 30)")
+
+
+def config_from_args(args: argparse.Namespace):
+    """The :class:`~stereo_obstacles.pipeline.DetectionConfig` the options describe."""
+    from dataclasses import replace
+
+    from stereo_obstacles.pipeline import DetectionConfig, MatchingOptions
+    from stereo_obstacles.reference_area import ReferenceArea
+
+    config = DetectionConfig(matching=MatchingOptions(seeds=args.seeds, max_disparity=args.max_disparity))
+    if args.reference is not None:
+        config = replace(config, reference=ReferenceArea.parse(args.reference))
+    obstacle_changes = {name: value for name, value in (("corridor_width_m", args.corridor_width),
+                                                        ("max_distance_m", args.max_distance)) if value is not None}
+    if obstacle_changes:
+        config = replace(config, obstacles=replace(config.obstacles, **obstacle_changes))
+    return config
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``detect`` sub-command."""
+    parser = subparsers.add_parser(
+        "detect", help="obstacles with distances from a rectified colour stereo pair",
+        description="Find the obstacles in a rectified colour stereo pair: phase-1 ground/shadow/obstacle "
+                    "segmentation, GCS matching, depth, obstacles grouped and measured. Prints the "
+                    "obstacles nearest first and writes obstacles.json, disparity.pfm, depth.npy, labels.png, "
+                    "points.ply, pictures and index.html to the output folder.")
+    parser.add_argument("left", help="left (reference) colour image")
+    parser.add_argument("right", help="right colour image")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    add_calibration_options(parser)
+    add_detection_options(parser)
+    parser.set_defaults(handler=run)
+
+
+def run_detection(left, right, calibration, config, out_dir, inputs: dict):
+    """Detect, write every output into ``out_dir``, and return the detection result."""
+    from stereo_obstacles.pipeline import detect
+    from stereo_obstacles.report import write_detection_outputs
+
+    result = detect(left, right, calibration, config=config)
+    write_detection_outputs(out_dir, left=left, labels=result.segmentation.labels, disparity=result.disparity,
+                            depth_m=result.depth_m, obstacle_list=result.obstacles, calibration=calibration,
+                            config=config.to_dict(), timings=result.timings_s, inputs=inputs)
+    return result
+
+
+def timing_line(result) -> str:
+    """One line with the seconds spent per stage."""
+    stages = ", ".join(f"{name} {seconds * 1000:.0f} ms" for name, seconds in result.timings_s.items())
+    return f"time: {stages}"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Read the pair, detect, write the outputs, print the table."""
+    from pathlib import Path
+
+    from stereo_obstacles.errors import ImageMismatchError
+    from stereo_obstacles.fileio import read_image
+    from stereo_obstacles.report import format_obstacle_table
+
+    left = read_image(args.left, mode="color")
+    right = read_image(args.right, mode="color")
+    if left.shape != right.shape:
+        raise ImageMismatchError(f"{args.left} is {left.shape[1]}x{left.shape[0]} but {args.right} is "
+                                 f"{right.shape[1]}x{right.shape[0]}; a stereo pair needs one size")
+    if left.dtype != right.dtype:
+        raise ImageMismatchError(f"{args.left} is {left.dtype} but {args.right} is {right.dtype}")
+    from stereo_obstacles.commands._calibration_options import calibration_from_args
+
+    calibration = calibration_from_args(args, left.shape[1], left.shape[0])
+    config = config_from_args(args)
+    result = run_detection(left, right, calibration, config, args.out,
+                           inputs={"left": str(args.left), "right": str(args.right),
+                                   "calibration": args.calib})
+    print(format_obstacle_table(result.obstacles, calibration is not None))
+    print(timing_line(result))
+    print(f"wrote {Path(args.out) / 'index.html'} and the data files beside it")
+    return 0
