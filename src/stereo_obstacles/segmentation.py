@@ -295,6 +295,8 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
                     int(Label.UNKNOWN), int(Label.GROUND), int(Label.SHADOW), int(Label.OBSTACLE),
                     labels)
     _clean_up(labels, intensity, ground_low, params)
+    logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
+                 100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
     return SegmentationResult(labels=labels, reference=ref, params=params)
 
 
