@@ -13,7 +13,7 @@ the rectangle, and a plain mean of hue angles is wrong across 0/360. Here:
 * intensity: median and MAD over the colour-consistent pixels, outliers rejected the same
   way (a shadow or a dark object inside the rectangle), then a percentile range;
 * grey ground (asphalt, concrete: fewer than ``min_hue_fraction`` of the pixels have a hue)
-  is described by its saturation instead of its hue.
+  is described by its saturation instead of its hue, and cleaned by saturation outliers.
 
 An unusable area (too few pixels bright enough to measure colour, or too few left after
 rejection) raises :class:`~stereo_obstacles.errors.InvalidInputError`; a suspicious one (most
@@ -119,9 +119,10 @@ class ReferenceParameters:
     outlier_mads
         Pixels farther than this many robust standard deviations from the median (hue, then
         intensity) are rejected as not ground (an object or a shadow inside the area).
-    min_outlier_hue_deg, min_outlier_intensity
+    min_outlier_hue_deg, min_outlier_intensity, min_outlier_saturation
         Floors of those rejection distances, so that a perfectly uniform area rejects nothing
-        of its noise: degrees, and fraction of full scale.
+        of its noise: degrees, fraction of full scale, and saturation (grey ground is
+        cleaned by saturation, as coloured ground is by hue).
     spread_percentile
         The hue spread is the ``100 -`` this percentile of the kept pixels' hue distance to
         the median; the intensity range runs from this percentile to ``100 -`` it.
@@ -145,6 +146,7 @@ class ReferenceParameters:
     outlier_mads: float = 3.0
     min_outlier_hue_deg: float = 3.0
     min_outlier_intensity: float = 0.02
+    min_outlier_saturation: float = 0.03
     spread_percentile: float = 1.0
     hue_threshold_factor: float = 1.0
     min_hue_threshold_deg: float = 4.0
@@ -156,7 +158,7 @@ class ReferenceParameters:
 
     def __post_init__(self) -> None:
         fractions = ("min_valid_fraction", "min_hue_fraction", "warn_kept_fraction",
-                     "saturation_margin", "min_outlier_intensity")
+                     "saturation_margin", "min_outlier_intensity", "min_outlier_saturation")
         for name in fractions:
             value = getattr(self, name)
             if not (math.isfinite(value) and 0.0 <= value <= 1.0):
@@ -303,6 +305,8 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
     grey = hue_valid.sum() < params.min_hue_fraction * n_measurable
     if grey:
         keep = measurable.copy()
+        keep[measurable] = _keep_close(saturation[measurable], float(np.median(saturation[measurable])),
+                                       params.min_outlier_saturation, params.outlier_mads)
         hue_deg = None
         spread = threshold = 0.0
     else:
