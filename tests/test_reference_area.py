@@ -94,3 +94,12 @@ def test_parameters_are_validated():
         ReferenceParameters(min_hue_fraction=2.0)
     with pytest.raises(InvalidInputError, match="max_hue_threshold_deg"):
         ReferenceParameters(min_hue_threshold_deg=50.0, max_hue_threshold_deg=10.0)
+
+
+def test_grey_ground_rejects_a_coloured_object_inside():
+    rgb = _noisy((120, 120, 122))
+    rgb[:, :18] = _noisy((170, 40, 50), shape=(40, 18))      # 30 % of the area is a red object
+    s = _stats(rgb)
+    assert s.is_grey and s.max_saturation < 0.2
+    assert s.rgb_median[0] == pytest.approx(120 / 255, abs=0.02)
+    assert s.n_kept < 0.75 * s.n_pixels
