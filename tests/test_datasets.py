@@ -301,3 +301,16 @@ def test_pair_validates_itself(tmp_path):
         StereoPair(name="x", left=image, right=image, gt_disparity=None,
                    nonocc=np.ones((4, 5), np.uint8), calibration=None, source=tmp_path,
                    layout="synthetic")
+
+
+def test_scene_command_output_loads(tmp_path):
+    from stereo_obstacles.cli import COMMAND_MODULES, main
+
+    if "scene" not in COMMAND_MODULES:
+        pytest.skip("the scene command is not available")
+    out = tmp_path / "scene"
+    assert main(["scene", "--out", str(out), "--size", "160x120"]) == 0
+    pair = load_pair(out)
+    assert pair.layout == "synthetic" and pair.left.shape == (120, 160, 3)
+    assert (pair.calibration.width_px, pair.calibration.height_px) == (160, 120)
+    assert pair.nonocc.mean() > 0.5 and not np.any(pair.nonocc & np.isnan(pair.gt_disparity))
