@@ -30,3 +30,7 @@ class CalibrationError(InvalidInputError):
 
 class OutputError(StereoObstaclesError, OSError):
     """An output file or folder cannot be written."""
+
+
+class RectificationError(InvalidInputError):
+    """A pair cannot be rectified: too few feature matches, or a degenerate camera motion."""

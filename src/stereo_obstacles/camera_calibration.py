@@ -1,0 +1,245 @@
+"""The full calibration of an unrectified stereo pair, and its JSON and OpenCV YAML files.
+
+A :class:`CameraPairCalibration` holds what ``cv2.stereoCalibrate`` finds: each camera's
+matrix and lens distortion, the rotation ``R`` and translation ``T`` from the left to the
+right camera (a left-camera point ``X`` is ``R @ X + T`` in the right camera, OpenCV's
+convention) and the image size. The rectification it implies is in
+:mod:`stereo_obstacles.rectification`; :class:`~stereo_obstacles.calibration.StereoCalibration`
+stays the type of a *rectified* pair.
+
+Files:
+
+* the project's JSON (``format`` ``"stereo-obstacles/camera-pair-calibration"``, version 1),
+  translation in metres;
+* OpenCV ``FileStorage`` YAML with ``cameraMatrix1/2``, ``distCoeffs1/2``, ``R``, ``T``,
+  ``imageSize`` (the names of OpenCV's ``stereo_calib.cpp`` sample), plus the rectification
+  ``R1``, ``R2``, ``P1``, ``P2``, ``Q`` when written by :func:`write_opencv_yaml`, so other
+  tools can reuse the file. ``T`` is written in metres.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from stereo_obstacles.atomic import atomic_path, write_text_atomic
+from stereo_obstacles.errors import CalibrationError, InputFileError, OutputError
+
+CAMERA_PAIR_FORMAT = "stereo-obstacles/camera-pair-calibration"
+CAMERA_PAIR_VERSION = 1
+
+DISTORTION_LENGTHS = (4, 5, 8, 12, 14)
+"""Numbers of distortion coefficients OpenCV accepts."""
+
+
+def _matrix(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CalibrationError(f"calibration {name} must be numbers, got {value!r}") from exc
+    if array.size == math.prod(shape):
+        array = array.reshape(shape)
+    if array.shape != shape:
+        raise CalibrationError(f"calibration {name} must have shape {shape}, got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise CalibrationError(f"calibration {name} must be finite, got {array.tolist()}")
+    array.setflags(write=False)
+    return array
+
+
+def _distortion(name: str, value) -> np.ndarray:
+    array = np.array(value if value is not None else [], dtype=np.float64).ravel()
+    if array.size == 0:
+        array = np.zeros(5)
+    if array.size not in DISTORTION_LENGTHS:
+        raise CalibrationError(f"calibration {name} must have one of {DISTORTION_LENGTHS} coefficients, "
+                               f"got {array.size}")
+    return _matrix(name, array, (array.size,))
+
+
+@dataclass(frozen=True, eq=False)
+class CameraPairCalibration:
+    """Calibration of a stereo pair before rectification (OpenCV conventions).
+
+    Attributes
+    ----------
+    camera_matrix_left, camera_matrix_right : ndarray, shape (3, 3)
+        Camera matrices ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]``, pixels.
+    distortion_left, distortion_right : ndarray, shape (N,)
+        OpenCV distortion coefficients ``(k1, k2, p1, p2[, k3[, k4, k5, k6[, ...]]])``,
+        ``N`` in :data:`DISTORTION_LENGTHS`; zeros for an ideal lens.
+    rotation : ndarray, shape (3, 3)
+        ``R``: a left-camera point ``X`` is ``R @ X + T`` in the right camera.
+    translation_m : ndarray, shape (3,)
+        ``T`` in metres; for a side-by-side rig ``T[0]`` is about minus the baseline.
+    width_px, height_px : int
+        Image size the calibration belongs to.
+    rms_px : float or None
+        RMS reprojection error of the calibration, pixels, when known.
+    """
+
+    camera_matrix_left: np.ndarray
+    distortion_left: np.ndarray
+    camera_matrix_right: np.ndarray
+    distortion_right: np.ndarray
+    rotation: np.ndarray
+    translation_m: np.ndarray
+    width_px: int
+    height_px: int
+    rms_px: float | None = None
+
+    def __post_init__(self) -> None:
+        for side in ("left", "right"):
+            k = _matrix(f"camera_matrix_{side}", getattr(self, f"camera_matrix_{side}"), (3, 3))
+            if k[0, 0] <= 0 or k[1, 1] <= 0 or not np.allclose(k[2], (0.0, 0.0, 1.0)) or k[1, 0] != 0:
+                raise CalibrationError(f"calibration camera_matrix_{side} is not a camera matrix "
+                                       f"(positive focal lengths, last row 0 0 1): {k.tolist()}")
+            object.__setattr__(self, f"camera_matrix_{side}", k)
+            object.__setattr__(self, f"distortion_{side}",
+                               _distortion(f"distortion_{side}", getattr(self, f"distortion_{side}")))
+        r = _matrix("rotation", self.rotation, (3, 3))
+        if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+            raise CalibrationError(f"calibration rotation is not a rotation matrix: {r.tolist()}")
+        object.__setattr__(self, "rotation", r)
+        t = _matrix("translation_m", self.translation_m, (3,))
+        baseline = float(np.linalg.norm(t))
+        if not 0 < baseline <= 100:
+            raise CalibrationError(f"calibration baseline |T| = {baseline:.4g} m is not in (0, 100] metres "
+                                   f"(millimetres given as metres?)")
+        object.__setattr__(self, "translation_m", t)
+        for name in ("width_px", "height_px"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value <= 0:
+                raise CalibrationError(f"calibration {name} must be a positive integer, got {value!r}")
+            object.__setattr__(self, name, int(value))
+        if self.rms_px is not None and not (math.isfinite(self.rms_px) and self.rms_px >= 0):
+            raise CalibrationError(f"calibration rms_px must be a finite number >= 0, got {self.rms_px!r}")
+
+    @property
+    def baseline_m(self) -> float:
+        """Distance between the optical centres, metres."""
+        return float(np.linalg.norm(self.translation_m))
+
+    @property
+    def image_size(self) -> tuple[int, int]:
+        """``(width, height)`` in pixels, as OpenCV functions take it."""
+        return self.width_px, self.height_px
+
+    def check_image_size(self, width_px: int, height_px: int) -> None:
+        """Raise :class:`CalibrationError` when the images are not the calibrated size."""
+        if (width_px, height_px) != self.image_size:
+            raise CalibrationError(f"calibration is for {self.width_px}x{self.height_px} images, "
+                                   f"the images are {width_px}x{height_px}")
+
+    def to_dict(self) -> dict:
+        """JSON-ready mapping with the format name and version."""
+        return {"format": CAMERA_PAIR_FORMAT, "version": CAMERA_PAIR_VERSION,
+                "camera_matrix_left": self.camera_matrix_left.tolist(),
+                "distortion_left": self.distortion_left.tolist(),
+                "camera_matrix_right": self.camera_matrix_right.tolist(),
+                "distortion_right": self.distortion_right.tolist(),
+                "rotation": self.rotation.tolist(), "translation_m": self.translation_m.tolist(),
+                "width_px": self.width_px, "height_px": self.height_px, "rms_px": self.rms_px}
+
+    @classmethod
+    def from_dict(cls, data: dict, *, source: str = "calibration") -> CameraPairCalibration:
+        """Build from :meth:`to_dict` output; raise :class:`CalibrationError` on bad content."""
+        if not isinstance(data, dict) or data.get("format") != CAMERA_PAIR_FORMAT:
+            raise CalibrationError(f"{source} is not a {CAMERA_PAIR_FORMAT} file")
+        if data.get("version") != CAMERA_PAIR_VERSION:
+            raise CalibrationError(f"{source}: unsupported version {data.get('version')!r}")
+        fields = ("camera_matrix_left", "distortion_left", "camera_matrix_right", "distortion_right",
+                  "rotation", "translation_m", "width_px", "height_px")
+        missing = [f for f in fields if f not in data]
+        if missing:
+            raise CalibrationError(f"{source} lacks {', '.join(missing)}")
+        return cls(**{f: data[f] for f in fields}, rms_px=data.get("rms_px"))
+
+
+def is_camera_pair_json(data: object) -> bool:
+    """True when a parsed JSON document claims to be a :class:`CameraPairCalibration`."""
+    return isinstance(data, dict) and data.get("format") == CAMERA_PAIR_FORMAT
+
+
+def write_camera_pair_json(path: str | os.PathLike[str], calibration: CameraPairCalibration) -> None:
+    """Write ``calibration`` as the project's JSON (atomically)."""
+    write_text_atomic(path, json.dumps(calibration.to_dict(), indent=2) + "\n")
+
+
+def read_camera_pair_json(path: str | os.PathLike[str]) -> CameraPairCalibration:
+    """Read the project's JSON camera-pair calibration."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError as exc:
+        raise InputFileError(f"calibration file {path} does not exist") from exc
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CalibrationError(f"calibration file {path} does not parse: {exc}") from exc
+    return CameraPairCalibration.from_dict(data, source=str(path))
+
+
+def write_opencv_yaml(path: str | os.PathLike[str], calibration: CameraPairCalibration,
+                      rectified: dict[str, np.ndarray] | None = None) -> None:
+    """Write ``calibration`` as OpenCV ``FileStorage`` YAML (atomically).
+
+    Parameters
+    ----------
+    path
+        Output file; its name must end in ``.yml``, ``.yaml`` or ``.xml`` (OpenCV picks the
+        syntax from it).
+    calibration
+        What to write; ``T`` goes out in metres.
+    rectified
+        Extra matrices to store beside it, e.g. ``R1``, ``R2``, ``P1``, ``P2``, ``Q``.
+    """
+    import cv2
+
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".yml", ".yaml", ".xml"):
+        raise OutputError(f"OpenCV calibration file {path} must end in .yml, .yaml or .xml, not {suffix!r}")
+    with atomic_path(path) as temporary:  # the temporary name ends in the real suffix, as OpenCV needs
+        storage = cv2.FileStorage(str(temporary), cv2.FILE_STORAGE_WRITE)
+        try:
+            storage.write("imageSize", np.array(calibration.image_size, dtype=np.int32).reshape(1, 2))
+            storage.write("cameraMatrix1", calibration.camera_matrix_left)
+            storage.write("distCoeffs1", calibration.distortion_left.reshape(1, -1))
+            storage.write("cameraMatrix2", calibration.camera_matrix_right)
+            storage.write("distCoeffs2", calibration.distortion_right.reshape(1, -1))
+            storage.write("R", calibration.rotation)
+            storage.write("T", calibration.translation_m.reshape(3, 1))
+            if calibration.rms_px is not None:
+                storage.write("rms", float(calibration.rms_px))
+            for name, matrix in (rectified or {}).items():
+                storage.write(name, np.asarray(matrix, dtype=np.float64))
+        finally:
+            storage.release()
+
+
+def camera_pair_from_opencv_storage(storage, source: str, length_scale_m: float) -> CameraPairCalibration | None:
+    """The calibration in an open ``cv2.FileStorage``, or ``None`` when it lacks the matrices.
+
+    ``length_scale_m`` converts the file's translation unit to metres.
+    """
+    names = ("cameraMatrix1", "cameraMatrix2", "R", "T")
+    nodes = {name: storage.getNode(name) for name in (*names, "distCoeffs1", "distCoeffs2", "imageSize")}
+    if any(nodes[name].empty() for name in names):
+        return None
+    mats = {name: node.mat() for name, node in nodes.items() if not node.empty() and node.isMap()}
+    size_node = nodes["imageSize"]
+    if size_node.empty():
+        raise CalibrationError(f"{source} has no imageSize; the rectification needs the image size")
+    size = (mats["imageSize"].ravel().tolist() if "imageSize" in mats
+            else [size_node.at(i).real() for i in range(size_node.size())])
+    if len(size) != 2:
+        raise CalibrationError(f"{source}: imageSize must hold 2 numbers, got {size}")
+    if any(name not in mats for name in names):
+        raise CalibrationError(f"{source}: {', '.join(names)} must be opencv-matrix entries")
+    return CameraPairCalibration(
+        camera_matrix_left=mats["cameraMatrix1"], distortion_left=mats.get("distCoeffs1"),
+        camera_matrix_right=mats["cameraMatrix2"], distortion_right=mats.get("distCoeffs2"),
+        rotation=mats["R"], translation_m=np.asarray(mats["T"], dtype=np.float64).ravel() * length_scale_m,
+        width_px=int(size[0]), height_px=int(size[1]))

@@ -1,0 +1,302 @@
+"""Uncalibrated rectification: rectifying homographies from the images alone.
+
+Steps of :func:`rectify_uncalibrated`:
+
+1. feature matches (:func:`stereo_obstacles.feature_matching.match_features`);
+2. a robust fundamental matrix ``F`` (``cv2.findFundamentalMat``, MAGSAC++), keeping its inliers;
+3. refusal of degenerate input (:class:`~stereo_obstacles.errors.RectificationError`): too few
+   inliers, a motion without parallax (a pure rotation, or a single plane: one homography
+   explains nearly every match, so ``F`` is not determined), or an epipole inside the image
+   (forward motion: no rectification keeps the image whole);
+4. Hartley's rectifying homographies ``H1``, ``H2`` (``cv2.stereoRectifyUncalibrated``);
+5. the least distortion: rows may be remapped by any common ``y' = a y + c`` and each
+   image's columns by its own affine ``x' = d x + e y + g`` without undoing the
+   rectification, so those are chosen (least squares over a grid of pixels) to keep each
+   rectified image as close as possible to the original -- no shear, no flip, no needless
+   scaling or shift. Left pixels then stay near where they were, and disparities keep their
+   sign and size.
+
+The quality is reported as the vertical offsets of the inlier matches after rectification.
+Without a calibration the rectified pair has no metric scale: depth needs a calibration.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles.errors import RectificationError
+from stereo_obstacles.feature_matching import check_same_size, match_features
+from stereo_obstacles.rectification import PairMaps
+from stereo_obstacles.rectification_quality import VerticalOffsetStats, vertical_offset_stats
+
+logger = logging.getLogger(__name__)
+
+MIN_INLIERS = 30
+"""Fewest fundamental-matrix inliers accepted."""
+
+PRIOR_WEIGHT = 1.0
+"""Weight of the zero prior on the quasi-Euclidean parameters, pixels of offset per radian."""
+
+MODELS = ("quasi-euclidean", "hartley")
+"""Rectifying homographies: rotations of the cameras fitted to the matches, or OpenCV's Hartley method."""
+
+MIN_PARALLAX_FRACTION = 0.05
+"""Fewest fundamental-matrix inliers, as a fraction, that a single homography must fail to explain."""
+
+
+@dataclass(frozen=True, eq=False)
+class UncalibratedRectification:
+    """Rectifying homographies of one uncalibrated pair, with their quality.
+
+    Attributes
+    ----------
+    h_left, h_right : ndarray, shape (3, 3)
+        Homographies from original to rectified pixel coordinates.
+    fundamental : ndarray, shape (3, 3)
+        ``F`` with ``x_right^T F x_left = 0``.
+    n_matches, n_inliers : int
+        Putative feature matches and inliers of ``F``.
+    quality : VerticalOffsetStats
+        Vertical offsets of the inliers after rectification.
+    disparity_range_px : tuple of float
+        1st and 99th percentiles of the inliers' disparities after rectification (a search range).
+    maps : PairMaps
+        Look-up maps for :meth:`apply`.
+    """
+
+    h_left: np.ndarray
+    h_right: np.ndarray
+    fundamental: np.ndarray
+    n_matches: int
+    n_inliers: int
+    quality: VerticalOffsetStats
+    disparity_range_px: tuple[float, float]
+    maps: PairMaps
+
+    def apply(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rectify the pair (or another frame of the same rig); see :meth:`PairMaps.apply`."""
+        return self.maps.apply(left, right)
+
+    def left_points(self, points_px: np.ndarray) -> np.ndarray:
+        """Rectified coordinates ``(N, 2)`` of original left image points ``(N, 2)``."""
+        return _transform(self.h_left, points_px)
+
+    def right_points(self, points_px: np.ndarray) -> np.ndarray:
+        """Rectified coordinates ``(N, 2)`` of original right image points ``(N, 2)``."""
+        return _transform(self.h_right, points_px)
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary: homographies, counts, quality."""
+        return {"method": "uncalibrated", "h_left": self.h_left.tolist(), "h_right": self.h_right.tolist(),
+                "fundamental": self.fundamental.tolist(), "n_matches": self.n_matches,
+                "n_inliers": self.n_inliers, "vertical_offset": self.quality.to_dict(),
+                "disparity_range_px": list(self.disparity_range_px)}
+
+
+def _transform(h: np.ndarray, points_px: np.ndarray) -> np.ndarray:
+    points = np.asarray(points_px, dtype=np.float64).reshape(-1, 2)
+    mapped = np.c_[points, np.ones(len(points))] @ h.T
+    return mapped[:, :2] / mapped[:, 2:3]
+
+
+def _grid(width: int, height: int, n: int = 9) -> np.ndarray:
+    xs, ys = np.meshgrid(np.linspace(0, width - 1, n), np.linspace(0, height - 1, n))
+    return np.c_[xs.ravel(), ys.ravel()]
+
+
+def _least_distortion(h_left: np.ndarray, h_right: np.ndarray, width: int, height: int
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Compose each homography with the row-preserving affine that keeps the image closest to itself."""
+    grid = _grid(width, height)
+    mapped_left, mapped_right = _transform(h_left, grid), _transform(h_right, grid)
+    ones = np.ones(len(grid))
+    # Rows: one y' = a y + c for both images (a term in x would add a multiple of the disparity).
+    design_y = np.r_[np.c_[mapped_left[:, 1], ones], np.c_[mapped_right[:, 1], ones]]
+    row = np.linalg.lstsq(design_y, np.r_[grid[:, 1], grid[:, 1]], rcond=None)[0]
+    adjusted = []
+    for h, mapped in ((h_left, mapped_left), (h_right, mapped_right)):
+        column = np.linalg.lstsq(np.c_[mapped[:, 0], mapped[:, 1], ones], grid[:, 0], rcond=None)[0]
+        affine = np.array([column, [0.0, row[0], row[1]], [0.0, 0.0, 1.0]])
+        adjusted.append(affine @ h)
+    return adjusted[0] / adjusted[0][2, 2], adjusted[1] / adjusted[1][2, 2]
+
+
+def _rotation(rx: float, ry: float, rz: float) -> np.ndarray:
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    return (np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+            @ np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]))
+
+
+def _quasi_euclidean_homographies(params: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """``H = K R K^-1`` per camera (shared ``K``), the right one also shifted down by ``params[6]`` pixels.
+
+    ``params``: left yaw, left roll, right pitch, right yaw, right roll (radians), log focal
+    factor, right vertical shift (pixels).
+    """
+    focal = (width + height) / 2.0 * np.exp(params[5])
+    k = np.array([[focal, 0.0, (width - 1) / 2.0], [0.0, focal, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
+    k_inv = np.linalg.inv(k)
+    shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, params[6]], [0.0, 0.0, 1.0]])
+    return (k @ _rotation(0.0, params[0], params[1]) @ k_inv,
+            shift @ k @ _rotation(params[2], params[3], params[4]) @ k_inv)
+
+
+def _quasi_euclidean(left: np.ndarray, right: np.ndarray, width: int, height: int,
+                     iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation-only rectifying homographies minimising the inliers' vertical offsets (Gauss-Newton).
+
+    A weak prior (:data:`PRIOR_WEIGHT`) pulls every angle and the focal factor to zero, so the
+    directions the matches barely constrain (a far epipole, pitch against vertical shift) stay
+    at no rotation instead of wandering off.
+    """
+    prior = PRIOR_WEIGHT * np.sqrt(len(left))
+
+    def residuals(params: np.ndarray) -> np.ndarray:
+        h_left, h_right = _quasi_euclidean_homographies(params, width, height)
+        dy = _transform(h_left, left)[:, 1] - _transform(h_right, right)[:, 1]
+        return np.r_[dy, prior * params[:6]]
+
+    params = np.zeros(7)
+    current = residuals(params)
+    for _ in range(iterations):
+        jacobian = np.empty((current.size, params.size))
+        for j in range(params.size):
+            step = np.zeros_like(params)
+            step[j] = 1e-7
+            jacobian[:, j] = (residuals(params + step) - residuals(params - step)) / 2e-7
+        update = np.linalg.lstsq(jacobian, -current, rcond=None)[0]
+        scale = 1.0
+        while scale > 1e-3:
+            trial = residuals(params + scale * update)
+            if trial @ trial < current @ current:
+                break
+            scale /= 2
+        else:
+            break
+        gain = current @ current - trial @ trial
+        params, current = params + scale * update, trial
+        if gain < 1e-6 * (current @ current):
+            break
+    return _quasi_euclidean_homographies(params, width, height)
+
+
+def _homography_maps(h: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    xs, ys = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
+    source = _transform(np.linalg.inv(h), np.c_[xs.ravel(), ys.ravel()])
+    return (source[:, 0].reshape(height, width).astype(np.float32),
+            source[:, 1].reshape(height, width).astype(np.float32))
+
+
+def _check_parallax(left: np.ndarray, right: np.ndarray, threshold_px: float) -> None:
+    import cv2
+
+    _, plane = cv2.findHomography(left, right, cv2.USAC_MAGSAC, threshold_px)
+    off_plane = 1.0 - float(np.count_nonzero(plane)) / len(left) if plane is not None else 1.0
+    if off_plane < MIN_PARALLAX_FRACTION:
+        raise RectificationError(
+            f"degenerate motion: one homography explains {100 * (1 - off_plane):.1f} % of the matches (a pure "
+            f"rotation, no baseline, or a single flat surface), so the epipolar geometry is not determined; "
+            f"move the cameras apart or show a scene with depth")
+
+
+def _check_epipole(fundamental: np.ndarray, width: int, height: int) -> None:
+    # The left epipole is the right null vector of F; inside the image the motion is forward.
+    epipole = np.linalg.svd(fundamental)[2][-1]
+    if abs(epipole[2]) > 1e-12:
+        x, y = epipole[:2] / epipole[2]
+        if -0.5 * width <= x <= 1.5 * width and -0.5 * height <= y <= 1.5 * height:
+            raise RectificationError(
+                f"degenerate motion: the epipole ({x:.0f}, {y:.0f}) px is in or near the image, so the cameras "
+                f"are not side by side (forward motion); such a pair cannot be rectified for stereo matching")
+
+
+def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "sift", ratio: float = 0.75,
+                         threshold_px: float = 1.0, min_inliers: int = MIN_INLIERS,
+                         model: str = "quasi-euclidean") -> UncalibratedRectification:
+    """Rectify a pair from unknown cameras by feature matching and its epipolar geometry.
+
+    Parameters
+    ----------
+    left, right : ndarray, shape (H, W) or (H, W, 3)
+        The original images, same size.
+    method : {"sift", "orb"}
+        Feature detector.
+    ratio : float
+        Lowe's ratio test of the matching.
+    threshold_px : float
+        Largest distance from its epipolar line, pixels, for a match to be an inlier of ``F``.
+    min_inliers : int
+        Fewest inliers accepted (at least 8).
+    model : {"quasi-euclidean", "hartley"}
+        How the rectifying homographies are found (see the module docstring).
+
+    Returns
+    -------
+    UncalibratedRectification
+
+    Raises
+    ------
+    RectificationError
+        Too few matches or inliers, or a degenerate motion (see the module docstring).
+    ImageMismatchError
+        The images differ in size.
+    InvalidInputError
+        Not images, or an option out of range.
+
+    Examples
+    --------
+    >>> from stereo_obstacles.synthetic import RenderOptions, RightCameraError, default_scene, render_pair
+    >>> pair = render_pair(default_scene(320, 240), RenderOptions(right_error=RightCameraError(
+    ...     rotation_deg=(0.5, 0.0, 0.5), vertical_offset_px=2.0)))       # doctest: +SKIP
+    >>> rectify_uncalibrated(pair.left, pair.right).quality.median_px < 0.5  # doctest: +SKIP
+    True
+    """
+    import cv2
+
+    from stereo_obstacles.errors import InvalidInputError
+
+    if model not in MODELS:
+        raise InvalidInputError(f"model: expected one of {list(MODELS)}, got {model!r}")
+    if not threshold_px > 0:
+        raise InvalidInputError(f"threshold_px: expected > 0, got {threshold_px}")
+    if int(min_inliers) != min_inliers or min_inliers < 8:
+        raise InvalidInputError(f"min_inliers: expected an integer >= 8, got {min_inliers}")
+    check_same_size(left, right)
+    height, width = left.shape[:2]
+    matches = match_features(left, right, method=method, ratio=ratio)
+    if len(matches) < min_inliers:
+        raise RectificationError(f"too few feature matches to rectify: {len(matches)} (need {min_inliers}); "
+                                 f"the images may not overlap, be too plain, or be too different")
+    fundamental, mask = cv2.findFundamentalMat(matches.left_px, matches.right_px, cv2.USAC_MAGSAC, threshold_px,
+                                               0.999)
+    inlier = mask.ravel().astype(bool) if mask is not None else np.zeros(len(matches), bool)
+    if fundamental is None or fundamental.shape != (3, 3) or np.count_nonzero(inlier) < min_inliers:
+        raise RectificationError(f"too few matches agree on one epipolar geometry: {np.count_nonzero(inlier)} "
+                                 f"of {len(matches)} (need {min_inliers})")
+    left_in, right_in = matches.left_px[inlier], matches.right_px[inlier]
+    _check_parallax(left_in, right_in, threshold_px)
+    _check_epipole(fundamental, width, height)
+    if model == "hartley":
+        ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
+                                                            threshold=threshold_px)
+        if not ok:
+            raise RectificationError("OpenCV found no rectifying homographies for this epipolar geometry")
+    else:
+        h_left, h_right = _quasi_euclidean(left_in, right_in, width, height)
+    h_left, h_right = _least_distortion(h_left, h_right, width, height)
+    rect_left, rect_right = _transform(h_left, left_in), _transform(h_right, right_in)
+    quality = vertical_offset_stats(rect_left, rect_right)
+    disparities = rect_left[:, 0] - rect_right[:, 0]
+    low, high = np.percentile(disparities, [1, 99])
+    if np.median(disparities) < 0:
+        raise RectificationError(f"after rectification the disparities are negative (median "
+                                 f"{np.median(disparities):.1f} px): the left and right images look swapped")
+    maps = PairMaps(*_homography_maps(h_left, width, height), *_homography_maps(h_right, width, height))
+    logger.info("uncalibrated rectification: %d inliers of %d matches, %s", len(left_in), len(matches),
+                quality.describe())
+    return UncalibratedRectification(h_left=h_left, h_right=h_right, fundamental=fundamental,
+                                     n_matches=len(matches), n_inliers=int(len(left_in)), quality=quality,
+                                     disparity_range_px=(float(low), float(high)), maps=maps)
