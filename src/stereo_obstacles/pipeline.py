@@ -31,6 +31,7 @@ from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacl
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane
 from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, height_above_ground_m,
                                        measure_obstacles)
+from stereo_obstacles.rectification_check import check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 
@@ -101,6 +102,9 @@ class DetectionResult:
         The resolved configuration.
     timings_s
         Seconds spent in each stage and in total.
+    rectification_check
+        :class:`stereo_obstacles.rectification_check.RectificationCheck` of the input pair
+        (a warning is logged when it is not rectified).
     """
 
     segmentation: SegmentationResult
@@ -112,6 +116,7 @@ class DetectionResult:
     calibration: StereoCalibration | None
     config: DetectionConfig
     timings_s: dict
+    rectification_check: object = None
 
 
 def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
@@ -193,6 +198,10 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     timings["segmentation"] = time.perf_counter() - t
 
     t = time.perf_counter()
+    rectification = check_rectification(left, right)
+    timings["rectification_check"] = time.perf_counter() - t
+
+    t = time.perf_counter()
     matched = match(left, right, **config.matching.to_kwargs())
     timings["matching"] = time.perf_counter() - t
 
@@ -207,4 +216,4 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     timings["total"] = time.perf_counter() - start
     return DetectionResult(segmentation=segmentation, disparity=disparity, match_stats=matched.stats,
                            depth_m=depth, ground=ground, obstacles=obstacles, calibration=calibration,
-                           config=config, timings_s=timings)
+                           config=config, timings_s=timings, rectification_check=rectification)

@@ -1,0 +1,110 @@
+"""A check that a supposedly rectified pair really is rectified, before matching it.
+
+The most common silent failure of stereo with real cameras is a pair that is not rectified:
+the matcher then searches the wrong rows and returns a blank or garbage disparity map. This
+check matches sparse features, keeps the matches that agree with a robust fundamental matrix,
+and measures their vertical offsets; above :data:`MAX_MEDIAN_OFFSET_PX` (median) the pair is
+reported as not rectified and a warning is logged.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles.feature_matching import check_same_size, match_features
+from stereo_obstacles.rectification_quality import VerticalOffsetStats, vertical_offset_stats
+
+logger = logging.getLogger(__name__)
+
+MAX_MEDIAN_OFFSET_PX = 1.0
+"""Median ``|vertical offset|`` of matched features above which a pair is called not rectified."""
+
+MIN_MATCHES = 12
+"""Fewer consistent matches than this and the check cannot say anything."""
+
+
+@dataclass(frozen=True)
+class RectificationCheck:
+    """Outcome of :func:`check_rectification`.
+
+    Attributes
+    ----------
+    offsets : VerticalOffsetStats
+        Vertical offsets of the consistent feature matches, pixels.
+    rectified : bool or None
+        ``True`` when the median offset is at most ``threshold_px``, ``False`` above it,
+        ``None`` when too few features matched to tell.
+    threshold_px : float
+        The limit used, pixels.
+    """
+
+    offsets: VerticalOffsetStats
+    rectified: bool | None
+    threshold_px: float
+
+    def to_dict(self) -> dict:
+        """JSON-ready mapping."""
+        return {"rectified": self.rectified, "threshold_px": self.threshold_px,
+                "vertical_offset": self.offsets.to_dict()}
+
+
+def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: float = MAX_MEDIAN_OFFSET_PX,
+                        method: str = "sift", warn: bool = True) -> RectificationCheck:
+    """Measure whether ``left`` and ``right`` are rectified, warning when they are not.
+
+    Parameters
+    ----------
+    left, right : ndarray, shape (H, W) or (H, W, 3)
+        The pair as it will be matched, same size.
+    threshold_px : float
+        Largest acceptable median ``|vertical offset|`` of matched features, pixels (> 0).
+    method : {"sift", "orb"}
+        Feature detector.
+    warn : bool
+        Log a warning (``logging.warning``) when the pair is not rectified.
+
+    Returns
+    -------
+    RectificationCheck
+
+    Raises
+    ------
+    InvalidInputError, ImageMismatchError
+        Not images, images of different sizes, or ``threshold_px <= 0``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> image = (rng.uniform(0, 255, (120, 160)) > 128).astype(np.uint8) * 255
+    >>> check_rectification(image, np.roll(image, (3, -5), axis=(0, 1)), warn=False).rectified
+    False
+    """
+    import cv2
+
+    from stereo_obstacles.errors import InvalidInputError
+
+    if not threshold_px > 0:
+        raise InvalidInputError(f"threshold_px: expected > 0, got {threshold_px}")
+    check_same_size(left, right)
+    matches = match_features(left, right, method=method)
+    left_px, right_px = matches.left_px, matches.right_px
+    if len(matches) >= 8:
+        # Keep the matches consistent with one epipolar geometry (an unrectified pair has one too).
+        _, mask = cv2.findFundamentalMat(left_px, right_px, cv2.USAC_MAGSAC, 1.0, 0.999)
+        if mask is not None:
+            keep = mask.ravel().astype(bool)
+            left_px, right_px = left_px[keep], right_px[keep]
+    offsets = vertical_offset_stats(left_px, right_px)
+    rectified = None if offsets.n_points < MIN_MATCHES else bool(offsets.median_px <= threshold_px)
+    if rectified is False and warn:
+        logger.warning("the pair does not look rectified: matched features are %.1f px apart vertically "
+                       "(median; 95th percentile %.1f px, %d matches); the disparity will be poor -- rectify "
+                       "it first (stereo-obstacles rectify, or --uncalibrated)", offsets.median_px,
+                       offsets.p95_px, offsets.n_points)
+    elif rectified is None:
+        logger.info("rectification check: only %d consistent feature matches, cannot tell", offsets.n_points)
+    return RectificationCheck(offsets=offsets, rectified=rectified, threshold_px=float(threshold_px))
