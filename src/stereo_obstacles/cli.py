@@ -30,6 +30,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "segment",
     "evaluate_segmentation",
     "evaluate",
+    "video",
+    "batch",
 )
 """Sub-command modules in the order ``--help`` lists them."""
 

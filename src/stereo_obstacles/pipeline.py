@@ -157,7 +157,7 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
 
 
 def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration | None = None, *,
-           config: DetectionConfig = DetectionConfig()) -> DetectionResult:
+           config: DetectionConfig = DetectionConfig(), seed_points: np.ndarray | None = None) -> DetectionResult:
     """Find the obstacles in a rectified colour stereo pair.
 
     Parameters
@@ -168,6 +168,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         The rectified calibration; without it distances stay in pixels and disparities.
     config
         Options of every stage.
+    seed_points
+        ``(N, 3)`` rows of ``(x, y, d)`` seeding the matcher instead of its edge seeds (for
+        example the previous frame's matches, :mod:`stereo_obstacles.temporal_seeds`).
 
     Returns
     -------
@@ -202,7 +205,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     timings["rectification_check"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    matched = match(left, right, **config.matching.to_kwargs())
+    matched = match(left, right, seed_points=seed_points, **config.matching.to_kwargs())
     timings["matching"] = time.perf_counter() - t
 
     t = time.perf_counter()

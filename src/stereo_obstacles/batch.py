@@ -1,0 +1,346 @@
+"""Many stereo pairs at once: discovery, one job per pair, local processes or a Dask cluster, resume.
+
+:func:`find_pairs` lists the pairs under a folder:
+
+* every sub-folder that :func:`stereo_obstacles.datasets.load_pair` reads (a KITTI 2015
+  folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair;
+* image files in the folder itself paired by name: ``<key>left<rest>`` with
+  ``<key>right<rest>`` (any case), or ``<key>L.<ext>`` with ``<key>R.<ext>`` where the
+  letter follows a non-letter (``0001_L.png``);
+* ``left/`` and ``right/`` sub-folders holding images of the same names.
+
+:func:`run_batch` runs :func:`process_pair` on every pair whose output folder lacks a done
+file (``done.json``, written atomically after every other output of the pair), in this
+process, in a pool of local processes, or on a Dask scheduler; a failing pair is recorded
+with its reason and the others go on. The summary is written atomically as
+``batch_summary.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import re
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from stereo_obstacles.errors import InputFileError, InvalidInputError
+
+__all__ = ["DONE_FILE", "SUMMARY_FILE", "TASKS", "BatchJob", "PairOutcome", "PairSpec", "find_pairs",
+           "process_pair", "run_batch", "write_summary"]
+
+logger = logging.getLogger(__name__)
+
+TASKS = ("detect", "disparity")
+"""What :func:`process_pair` can do with a pair."""
+
+DONE_FILE = "done.json"
+"""Written last in a pair's output folder; its presence means the pair is complete."""
+
+SUMMARY_FILE = "batch_summary.json"
+"""Name of the summary written in the output folder."""
+
+_IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".bmp", ".tif", ".tiff")
+
+
+@dataclass(frozen=True)
+class PairSpec:
+    """Where one pair is: a dataset ``folder`` (with ``frame`` for KITTI) or ``left``/``right`` files."""
+
+    name: str
+    folder: str | None = None
+    frame: str | None = None
+    left: str | None = None
+    right: str | None = None
+
+    def __post_init__(self) -> None:
+        if (self.folder is None) == (self.left is None or self.right is None):
+            raise InvalidInputError(f"pair {self.name}: give either a folder or left and right files")
+
+
+@dataclass(frozen=True)
+class BatchJob:
+    """One unit of work, picklable for worker processes and Dask.
+
+    Attributes
+    ----------
+    pair : PairSpec
+    out_dir : str
+        The pair's own output folder.
+    task : {"detect", "disparity"}
+    config : DetectionConfig
+        Options of the pipeline (``disparity`` uses its matching options).
+    calib_file : str or None
+        Calibration file for every pair; without it a dataset folder's own calibration is
+        used, and file pairs stay uncalibrated.
+    calib_unit : str or None
+        Length unit of an OpenCV calibration file.
+    """
+
+    pair: PairSpec
+    out_dir: str
+    task: str
+    config: object
+    calib_file: str | None = None
+    calib_unit: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise InvalidInputError(f"task must be one of {list(TASKS)}, got {self.task!r}")
+
+
+@dataclass(frozen=True)
+class PairOutcome:
+    """What happened to one pair: ``status`` is ``"done"``, ``"skipped"`` (done before) or ``"failed"``."""
+
+    name: str
+    status: str
+    seconds: float = 0.0
+    reason: str | None = None
+    details: dict = field(default_factory=dict)
+
+
+def _side_key(stem: str) -> tuple[str, str] | None:
+    """``(key, side)`` for a file stem naming a left or right image, else ``None``."""
+    word = re.fullmatch(r"(.*?)(left|right)(.*)", stem, flags=re.IGNORECASE)
+    if word:
+        return f"{word.group(1)}\0{word.group(3)}", word.group(2).lower()
+    letter = re.fullmatch(r"(.*[^A-Za-z]|)([LR])", stem)
+    if letter:
+        return f"{letter.group(1)}\0", "left" if letter.group(2) == "L" else "right"
+    return None
+
+
+def _pair_name(key: str) -> str:
+    name = re.sub(r"[_\-. ]+$", "", re.sub(r"^[_\-. ]+", "", key.replace("\0", "_")))
+    return re.sub(r"[_\-. ]{2,}", "_", name) or "pair"
+
+
+def _image_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in _IMAGE_EXTENSIONS)
+
+
+def find_pairs(input_dir: str | os.PathLike[str]) -> list[PairSpec]:
+    """Every stereo pair under ``input_dir`` (see the module docstring), sorted by name.
+
+    Raises
+    ------
+    InputFileError
+        ``input_dir`` is not a folder, or holds no pair.
+    """
+    from stereo_obstacles.datasets import list_frames
+
+    root = Path(input_dir)
+    if not root.is_dir():
+        raise InputFileError(f"input folder {root} does not exist or is not a folder")
+    pairs: list[PairSpec] = []
+    subfolders = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
+    sides = {p.name.lower(): p for p in subfolders if p.name.lower() in ("left", "right")}
+    if len(sides) == 2:
+        right_names = {p.name for p in _image_files(sides["right"])}
+        for left in _image_files(sides["left"]):
+            if left.name in right_names:
+                pairs.append(PairSpec(left.stem, left=str(left), right=str(sides["right"] / left.name)))
+            else:
+                logger.warning("%s has no partner in %s", left, sides["right"])
+    for folder in subfolders:
+        if folder in sides.values():
+            continue
+        try:
+            frames = list_frames(folder)
+        except InputFileError:
+            frames = (None,)
+        for frame in frames:
+            name = folder.name if frame is None else f"{folder.name}_{frame}"
+            pairs.append(PairSpec(name, folder=str(folder), frame=frame))
+    found: dict[str, dict[str, Path]] = {}
+    for path in _image_files(root):
+        keyed = _side_key(path.stem)
+        if keyed is None:
+            continue
+        key, side = keyed
+        found.setdefault(key + path.suffix.lower(), {})[side] = path
+    for key, by_side in sorted(found.items()):
+        if set(by_side) == {"left", "right"}:
+            pairs.append(PairSpec(_pair_name(os.path.splitext(key)[0]), left=str(by_side["left"]),
+                                  right=str(by_side["right"])))
+        else:
+            logger.warning("%s has no %s partner", next(iter(by_side.values())),
+                           "right" if "left" in by_side else "left")
+    names = [p.name for p in pairs]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise InputFileError(f"{root}: several pairs would share the output name(s) {', '.join(duplicates)}")
+    if not pairs:
+        raise InputFileError(f"{root}: no stereo pairs found (sub-folders of a known layout, <name>_left/"
+                             f"<name>_right images, or left/ and right/ folders)")
+    return sorted(pairs, key=lambda p: p.name)
+
+
+def _load(job: BatchJob):
+    """``(left, right, calibration, inputs)`` of a job's pair."""
+    from stereo_obstacles.calibration_files import read_calibration
+    from stereo_obstacles.datasets import load_pair
+    from stereo_obstacles.errors import ImageMismatchError
+    from stereo_obstacles.fileio import read_image
+
+    pair = job.pair
+    if pair.folder is not None:
+        stereo = load_pair(pair.folder, frame=pair.frame)
+        left, right, calibration = stereo.left, stereo.right, stereo.calibration
+        inputs = {"folder": pair.folder, "frame": pair.frame, "layout": stereo.layout}
+    else:
+        left, right = read_image(pair.left, mode="color"), read_image(pair.right, mode="color")
+        if left.shape != right.shape or left.dtype != right.dtype:
+            raise ImageMismatchError(f"{pair.left} is {left.shape[1]}x{left.shape[0]} {left.dtype} but "
+                                     f"{pair.right} is {right.shape[1]}x{right.shape[0]} {right.dtype}")
+        calibration = None
+        inputs = {"left": pair.left, "right": pair.right}
+    if job.calib_file is not None:
+        calibration = read_calibration(job.calib_file, length_unit=job.calib_unit)
+        inputs["calibration"] = job.calib_file
+    if calibration is not None:
+        calibration.check_image_size(left.shape[1], left.shape[0])
+    return left, right, calibration, inputs
+
+
+def _run_task(job: BatchJob) -> dict:
+    """Do the job's task, writing its outputs; returns details for the summary."""
+    import numpy as np
+
+    from stereo_obstacles.atomic import staged_directory
+    from stereo_obstacles.colorize import colorize_disparity
+    from stereo_obstacles.fileio import write_image, write_pfm
+    from stereo_obstacles.matching import match
+
+    left, right, calibration, inputs = _load(job)
+    if job.task == "detect":
+        from stereo_obstacles.commands.detect import run_detection
+
+        result = run_detection(left, right, calibration, job.config, job.out_dir, inputs=inputs)
+        nearest = result.obstacles.obstacles[0] if result.obstacles.obstacles else None
+        return {"obstacles": len(result.obstacles.obstacles), "density": result.match_stats.density,
+                "nearest_distance_m": nearest.distance_m if nearest is not None else None, "inputs": inputs}
+    result = match(left, right, **job.config.matching.to_kwargs())
+    with staged_directory(job.out_dir) as stage:
+        write_pfm(stage / "disparity.pfm", result.disparity)
+        write_image(stage / "disparity.png", colorize_disparity(result.disparity, 0, result.stats.d_max))
+    finite = result.disparity[np.isfinite(result.disparity)]
+    return {"density": result.stats.density, "median_disparity_px": float(np.median(finite)) if finite.size else None,
+            "inputs": inputs}
+
+
+def process_pair(job: BatchJob) -> PairOutcome:
+    """Run one job; any failure is returned as a ``"failed"`` outcome with its reason, never raised.
+
+    On success the pair's ``done.json`` (task, seconds, details) is written last, atomically.
+    """
+    from stereo_obstacles.atomic import write_text_atomic
+    from stereo_obstacles.obstacle_json import _jsonable
+
+    start = time.perf_counter()
+    try:
+        details = _jsonable(_run_task(job))
+        seconds = time.perf_counter() - start
+        write_text_atomic(Path(job.out_dir) / DONE_FILE, json.dumps(
+            {"name": job.pair.name, "task": job.task, "seconds": round(seconds, 4), **details}, indent=1) + "\n")
+    except Exception as exc:  # noqa: BLE001 - a batch reports every failure and goes on
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        logger.debug("pair %s failed: %s", job.pair.name, reason)
+        return PairOutcome(job.pair.name, "failed", time.perf_counter() - start, f"{type(exc).__name__}: {reason}")
+    return PairOutcome(job.pair.name, "done", seconds, None, details)
+
+
+def _local_results(jobs: list[BatchJob], workers: int) -> Iterable[PairOutcome]:
+    if workers == 1:
+        yield from (process_pair(job) for job in jobs)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(process_pair, job) for job in jobs]
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            for future in futures:
+                future.cancel()
+
+
+def _dask_results(jobs: list[BatchJob], scheduler: str) -> Iterable[PairOutcome]:
+    try:
+        from distributed import Client, as_completed
+    except ImportError as exc:
+        raise InvalidInputError("--scheduler needs Dask: pip install 'stereo-obstacles[dask]'") from exc
+    try:
+        client = Client(scheduler, timeout=30)
+    except (OSError, TimeoutError) as exc:
+        raise InputFileError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
+    with client:
+        futures = client.map(process_pair, jobs, pure=False)
+        try:
+            for future in as_completed(futures):
+                yield future.result()
+        finally:
+            client.cancel(futures)
+
+
+def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None = None,
+              on_outcome: Callable[[PairOutcome], None] | None = None) -> list[PairOutcome]:
+    """Run every job whose output folder has no done file; return one outcome per job.
+
+    Parameters
+    ----------
+    jobs : list of BatchJob
+    workers : int
+        Local processes (1: in this process). Ignored with ``scheduler``.
+    scheduler : str, optional
+        Address of a Dask scheduler (``tcp://host:8786``); the jobs run on its workers, which
+        must see the same input and output paths.
+    on_outcome : callable, optional
+        Called with each outcome as it arrives (skipped pairs first).
+
+    Returns
+    -------
+    list of PairOutcome
+        Skipped pairs, then the others in order of completion. A Ctrl-C stops the batch
+        (``KeyboardInterrupt`` propagates; finished pairs keep their done files).
+    """
+    if int(workers) != workers or workers < 1:
+        raise InvalidInputError(f"workers must be an integer >= 1, got {workers}")
+    outcomes: list[PairOutcome] = []
+
+    def record(outcome: PairOutcome) -> None:
+        outcomes.append(outcome)
+        if on_outcome is not None:
+            on_outcome(outcome)
+
+    todo = []
+    for job in jobs:
+        if (Path(job.out_dir) / DONE_FILE).is_file():
+            record(PairOutcome(job.pair.name, "skipped", 0.0, "done in an earlier run"))
+        else:
+            todo.append(job)
+    if todo:
+        results = _dask_results(todo, scheduler) if scheduler else _local_results(todo, int(workers))
+        for outcome in results:
+            record(outcome)
+    return outcomes
+
+
+def write_summary(out_dir: str | os.PathLike[str], outcomes: list[PairOutcome], *, seconds: float,
+                  interrupted: bool, settings: dict) -> Path:
+    """Write ``batch_summary.json`` atomically: counts, throughput, and every pair's status and reason."""
+    from stereo_obstacles import __version__
+    from stereo_obstacles.atomic import write_text_atomic
+
+    counts = {status: sum(o.status == status for o in outcomes) for status in ("done", "skipped", "failed")}
+    summary = {"format": "stereo-obstacles/batch-summary", "version": 1, "package_version": __version__,
+               "interrupted": interrupted, "seconds": round(seconds, 3), "counts": counts,
+               "pairs_per_second": round(counts["done"] / seconds, 4) if seconds > 0 else None,
+               "settings": settings, "pairs": [asdict(o) for o in sorted(outcomes, key=lambda o: o.name)]}
+    return write_text_atomic(Path(out_dir) / SUMMARY_FILE, json.dumps(summary, indent=1) + "\n")

@@ -1,0 +1,88 @@
+"""``stereo-obstacles batch``: detect (or match) every stereo pair under a folder, in parallel, resumable."""
+
+from __future__ import annotations
+
+import argparse
+
+from stereo_obstacles.commands.detect import add_detection_options
+
+DESCRIPTION = """\
+Run 'detect' (or 'disparity') on every stereo pair under INPUT_DIR: sub-folders of a known dataset
+layout (as 'evaluate' reads them; KITTI folders give one pair per frame), <name>_left/<name>_right
+(or <name>_L/<name>_R) images, or left/ and right/ folders of same-named images. Each pair's
+outputs go to OUT/<name>/, and a done.json written last marks it complete: a second run skips
+completed pairs. A failing pair is reported with its reason and the batch goes on. The summary
+is written to OUT/batch_summary.json. Exit code 0 when every pair is done, 1 when some failed,
+130 on Ctrl-C."""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``batch`` sub-command."""
+    parser = subparsers.add_parser("batch", help="detect or match every pair under a folder, in parallel",
+                                   description=DESCRIPTION)
+    parser.add_argument("input_dir", metavar="INPUT_DIR", help="folder of stereo pairs")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    parser.add_argument("--task", choices=("detect", "disparity"), default="detect",
+                        help="what to run on each pair (default detect)")
+    parser.add_argument("--workers", type=int, default=None, metavar="N",
+                        help="local worker processes (default: the number of CPUs; 1 runs in this process)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="run on a Dask cluster, e.g. tcp://host:8786 (needs the [dask] extra; workers "
+                             "must see the same paths)")
+    parser.add_argument("--calib", metavar="FILE",
+                        help="calibration file for every pair (default: each dataset folder's own, if any)")
+    parser.add_argument("--calib-unit", choices=["m", "cm", "mm"],
+                        help="length unit of an OpenCV calibration's translation")
+    add_detection_options(parser)
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Find the pairs, run them, print and write the summary."""
+    import os
+    import sys
+    import time
+    from pathlib import Path
+
+    from stereo_obstacles.batch import BatchJob, find_pairs, run_batch, write_summary
+    from stereo_obstacles.commands.detect import config_from_args
+    from stereo_obstacles.errors import InvalidInputError
+    from stereo_obstacles.progress import Progress
+
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    if workers < 1:
+        raise InvalidInputError(f"--workers must be >= 1, got {workers}")
+    config = config_from_args(args)
+    pairs = find_pairs(args.input_dir)
+    out = Path(args.out)
+    jobs = [BatchJob(pair, str(out / pair.name), args.task, config, args.calib, args.calib_unit) for pair in pairs]
+    progress = Progress(len(jobs), label="pair")
+
+    def report(outcome) -> None:
+        if outcome.status == "failed":
+            if progress.enabled:
+                sys.stderr.write("\r\033[K")
+            print(f"{outcome.name}: failed: {outcome.reason}", file=sys.stderr)
+        progress.update(note=outcome.name)
+
+    start = time.monotonic()
+    outcomes: list = []
+    interrupted = False
+    try:
+        run_batch(jobs, workers=workers, scheduler=args.scheduler,
+                  on_outcome=lambda o: (outcomes.append(o), report(o)))
+    except KeyboardInterrupt:
+        interrupted = True
+    finally:
+        progress.close()
+    seconds = time.monotonic() - start
+    settings = {"input_dir": str(args.input_dir), "task": args.task, "workers": None if args.scheduler else workers,
+                "scheduler": args.scheduler, "calib": args.calib, "config": config.to_dict()}
+    summary = write_summary(out, outcomes, seconds=seconds, interrupted=interrupted, settings=settings)
+    counts = {s: sum(o.status == s for o in outcomes) for s in ("done", "skipped", "failed")}
+    print(f"{len(jobs)} pairs: {counts['done']} done, {counts['skipped']} skipped (done before), "
+          f"{counts['failed']} failed{', interrupted' if interrupted else ''} in {seconds:.1f} s "
+          f"({counts['done'] / seconds if seconds > 0 else 0:.2f} pairs/s); summary {summary}")
+    if interrupted:
+        return 130
+    return 1 if counts["failed"] else 0

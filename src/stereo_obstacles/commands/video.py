@@ -1,0 +1,192 @@
+"""``stereo-obstacles video``: obstacles in every frame of a stereo stream, tracked across frames."""
+
+from __future__ import annotations
+
+import argparse
+
+from stereo_obstacles.commands._calibration_options import add_calibration_options
+from stereo_obstacles.commands.detect import add_detection_options
+
+DESCRIPTION = """\
+Detect obstacles in every frame of a rectified stereo stream and track them: the same obstacle
+keeps its id, its distance is smoothed, and obstacles coming nearer are flagged with their time
+to contact. SOURCE is one side-by-side video (left view in the left half), two video files, two
+folders or glob patterns of images (paired by file name, else by sorted order), or two camera
+device indices. With --jsonl every frame is one line of JSON, written and synced line by line:
+a run stopped by Ctrl-C (exit 130) or killed leaves only complete lines (the first line is a
+header, the last one, after a clean or Ctrl-C stop, a summary)."""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``video`` sub-command."""
+    parser = subparsers.add_parser("video", help="obstacles in a stereo video, image sequences or live cameras",
+                                   description=DESCRIPTION)
+    parser.add_argument("source", nargs="+", metavar="SOURCE",
+                        help="side-by-side video | LEFT_VIDEO RIGHT_VIDEO | LEFT_IMAGES RIGHT_IMAGES | CAM CAM")
+    parser.add_argument("--kind", choices=("auto", "videos", "images", "side-by-side", "cameras"), default="auto",
+                        help="what SOURCE is (default: guessed from the arguments)")
+    parser.add_argument("--fps", type=float, default=30.0,
+                        help="frame rate of image sequences, for timestamps (default 30)")
+    parser.add_argument("--jsonl", metavar="FILE", help="write one JSON line per frame ('-' for stdout)")
+    parser.add_argument("--video-out", metavar="FILE", help="write an annotated video (mp4v)")
+    parser.add_argument("--frames-out", metavar="DIR",
+                        help="write every frame's full detection outputs (as 'detect --out') to DIR/<frame>/")
+    parser.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
+    seeds = parser.add_argument_group("temporal seeds")
+    seeds.add_argument("--temporal-seeds", action=argparse.BooleanOptionalAction, default=True,
+                       help="seed each frame's matching from the previous frame's matches (default on)")
+    seeds.add_argument("--seed-step", type=int, default=8, metavar="PX",
+                       help="grid step of the temporal seeds, pixels (default 8)")
+    seeds.add_argument("--refresh-every", type=int, default=30, metavar="N",
+                       help="use edge seeds every N frames (default 30; 0: only when too few seeds)")
+    seeds.add_argument("--forward-speed", type=float, default=0.0, metavar="M",
+                       help="expected forward motion per frame in metres, to move the seeds (needs a calibration)")
+    add_calibration_options(parser)
+    add_detection_options(parser)
+    parser.set_defaults(handler=run)
+
+
+def _frame_line(record: dict, calibrated: bool) -> str:
+    """One short line per frame for the terminal when no --jsonl is written."""
+    parts = []
+    for o in record["obstacles"]:
+        if calibrated and o["distance_m"] is not None:
+            text = f"#{o['track_id']} {o['distance_m']:.2f} m"
+            if o["approaching"]:
+                text += f" approaching ({o['time_to_contact_s']:.1f} s)"
+        else:
+            text = f"#{o['track_id']} d={o['disparity_px']:.1f} px"
+        parts.append(text)
+    return f"frame {record['frame']} t={record['timestamp_s']:.2f} s: " + ("; ".join(parts) or "no obstacles")
+
+
+class _VideoOut:
+    """An mp4v video written beside its final name and renamed into place when closed."""
+
+    def __init__(self, path: str, fps: float, size: tuple[int, int]) -> None:
+        import os
+        import tempfile
+        from pathlib import Path
+
+        import cv2
+
+        from stereo_obstacles.atomic import _prepare_parent
+        from stereo_obstacles.errors import OutputError
+
+        self.final = Path(path)
+        _prepare_parent(self.final)
+        fd, name = tempfile.mkstemp(prefix=f".{self.final.name}.", suffix=".part" + (self.final.suffix or ".mp4"),
+                                    dir=self.final.parent)
+        os.close(fd)
+        self.tmp = Path(name)
+        self.writer = cv2.VideoWriter(str(self.tmp), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+        if not self.writer.isOpened():
+            self.tmp.unlink(missing_ok=True)
+            raise OutputError(f"cannot write video {self.final} (OpenCV has no mp4v writer for it)")
+        self.frames = 0
+
+    def write(self, rgb) -> None:
+        import cv2
+
+        self.writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+        self.frames += 1
+
+    def close(self) -> None:
+        """Finish the file; keep it when it holds at least one frame."""
+        import os
+
+        self.writer.release()
+        if self.frames:
+            os.replace(self.tmp, self.final)
+        else:
+            self.tmp.unlink(missing_ok=True)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C."""
+    import itertools
+    import sys
+    import time
+    from contextlib import ExitStack
+    from pathlib import Path
+
+    from stereo_obstacles.commands._calibration_options import calibration_from_args
+    from stereo_obstacles.commands.detect import config_from_args
+    from stereo_obstacles.errors import InputFileError, InvalidInputError
+    from stereo_obstacles.jsonl import JsonLinesWriter
+    from stereo_obstacles.progress import Progress
+    from stereo_obstacles.report import write_detection_outputs
+    from stereo_obstacles.stream_detection import (annotate_frame, detect_stream, frame_record,
+                                                   header_record)
+    from stereo_obstacles.streams import open_source
+    from stereo_obstacles.temporal_seeds import TemporalSeedParameters
+    from stereo_obstacles.tracking import TrackingParameters
+
+    if args.max_frames is not None and args.max_frames < 1:
+        raise InvalidInputError(f"--max-frames must be >= 1, got {args.max_frames}")
+    config = config_from_args(args)
+    tracking = TrackingParameters()
+    interrupted = False
+    count = 0
+    start = time.monotonic()
+    with ExitStack() as stack:
+        source = stack.enter_context(open_source(args.source, kind=args.kind, fps=args.fps))
+        frames = iter(source)
+        first = next(frames, None)
+        if first is None:
+            raise InputFileError(f"{source.description}: no frames")
+        height, width = first.left.shape[:2]
+        calibration = calibration_from_args(args, width, height)
+        temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
+                                           forward_m_per_frame=args.forward_speed if calibration else 0.0)
+                    if args.temporal_seeds else None)
+        jsonl = None
+        if args.jsonl:
+            jsonl = stack.enter_context(JsonLinesWriter("/dev/stdout" if args.jsonl == "-" else args.jsonl,
+                                                        sync=args.jsonl != "-"))
+            jsonl.write(header_record(source=source.description, calibration=calibration, config=config,
+                                      temporal=temporal, tracking=tracking))
+        video = None
+        if args.video_out:
+            video = _VideoOut(args.video_out, source.fps, (width, height))
+            stack.callback(video.close)
+        total = None if source.is_live else source.total_frames
+        if total is not None and args.max_frames is not None:
+            total = min(total, args.max_frames)
+        progress = Progress(total, label="frame")
+        stack.callback(progress.close)
+        stream = detect_stream(itertools.chain([first], frames), calibration, config=config, temporal=temporal,
+                               tracking=tracking)
+        try:
+            for detection in stream:
+                record = frame_record(detection)
+                if jsonl is not None:
+                    jsonl.write(record)
+                elif not progress.enabled:
+                    print(_frame_line(record, calibration is not None), flush=True)
+                if video is not None:
+                    video.write(annotate_frame(detection))
+                if args.frames_out:
+                    result = detection.result
+                    write_detection_outputs(Path(args.frames_out) / detection.frame.name, left=detection.frame.left,
+                                            labels=result.segmentation.labels, disparity=result.disparity,
+                                            depth_m=result.depth_m, obstacle_list=result.obstacles,
+                                            calibration=calibration, config=config.to_dict(),
+                                            timings=result.timings_s,
+                                            inputs={"source": source.description, "frame": detection.frame.index})
+                count += 1
+                near = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
+                progress.update(note=f"approaching #{near[0].track_id}" if near else "")
+                if args.max_frames is not None and count >= args.max_frames:
+                    break
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            stream.close()
+        elapsed = time.monotonic() - start
+        if jsonl is not None:
+            jsonl.write({"type": "end", "frames": count, "interrupted": interrupted, "seconds": round(elapsed, 3),
+                         "frames_per_second": round(count / elapsed, 3) if elapsed > 0 else None})
+    print(f"{'interrupted after' if interrupted else 'processed'} {count} frame{'s' if count != 1 else ''} "
+          f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s)", file=sys.stderr)
+    return 130 if interrupted else 0

@@ -1,0 +1,176 @@
+"""Detection over a stream of stereo frames: temporal seeds, tracking, one JSON record per frame.
+
+:func:`detect_stream` runs :func:`stereo_obstacles.pipeline.detect` on every frame, seeding
+the matcher from the previous frame's matches (:mod:`stereo_obstacles.temporal_seeds`) when
+asked, and passes the obstacles to an :class:`~stereo_obstacles.tracking.ObstacleTracker`.
+:func:`frame_record` turns one frame's outcome into the JSON-ready record that
+``stereo-obstacles video --jsonl`` writes as one line; :func:`annotate_frame` draws it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.obstacle_json import _jsonable
+from stereo_obstacles.obstacles import ObstacleList
+from stereo_obstacles.pictures import draw_obstacles
+from stereo_obstacles.pipeline import DetectionConfig, DetectionResult, detect
+from stereo_obstacles.streams import StereoFrame
+from stereo_obstacles.temporal_seeds import TemporalSeeder, TemporalSeedParameters
+from stereo_obstacles.tracking import ObstacleTracker, Track, TrackingParameters
+
+__all__ = ["STREAM_FORMAT", "FrameDetection", "annotate_frame", "detect_stream", "frame_record", "header_record",
+           "tracked_list"]
+
+logger = logging.getLogger(__name__)
+
+STREAM_FORMAT = "stereo-obstacles/stream"
+"""``format`` of the header line of a JSON-lines stream file."""
+
+
+@dataclass(frozen=True, eq=False)
+class FrameDetection:
+    """What the stream detection found in one frame.
+
+    Attributes
+    ----------
+    frame : StereoFrame
+    result : DetectionResult
+    tracks : tuple of Track
+        Tracks seen in this frame first (in the order of ``result.obstacles.obstacles``,
+        nearest first), then tracks missed in this frame.
+    seeds : str
+        ``"temporal"`` or ``"edge"``: what seeded the matcher.
+    n_seed_points : int
+        Temporal seed points passed to the matcher (0 for edge seeds).
+    """
+
+    frame: StereoFrame
+    result: DetectionResult
+    tracks: tuple[Track, ...]
+    seeds: str
+    n_seed_points: int
+
+
+def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration | None, *,
+                  config: DetectionConfig = DetectionConfig(),
+                  temporal: TemporalSeedParameters | None = TemporalSeedParameters(),
+                  tracking: TrackingParameters = TrackingParameters()) -> Iterator[FrameDetection]:
+    """Detect obstacles in every frame of a stream and track them.
+
+    Parameters
+    ----------
+    frames : iterable of StereoFrame
+        Rectified pairs in time order (timestamps increasing).
+    calibration : StereoCalibration, optional
+        Calibration of every frame; without it there are no metres (tracks by box overlap).
+    config : DetectionConfig
+        Options of the pipeline.
+    temporal : TemporalSeedParameters or None
+        Seed each frame from the previous one; ``None`` always uses the edge seeds.
+    tracking : TrackingParameters
+
+    Yields
+    ------
+    FrameDetection
+    """
+    seeder = TemporalSeeder(temporal, calibration) if temporal is not None else None
+    tracker = ObstacleTracker(tracking)
+    for frame in frames:
+        points = seeder.seeds() if seeder is not None else None
+        result = detect(frame.left, frame.right, calibration, config=config, seed_points=points)
+        if seeder is not None:
+            seeder.observe(result.disparity, d_min=result.match_stats.d_min, d_max=result.match_stats.d_max)
+        tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
+        yield FrameDetection(frame, result, tuple(tracks), "edge" if points is None else "temporal",
+                             0 if points is None else len(points))
+
+
+def header_record(*, source: str, calibration: StereoCalibration | None, config: DetectionConfig,
+                  temporal: TemporalSeedParameters | None, tracking: TrackingParameters) -> dict:
+    """The first line of a stream file: format, version, units, source, calibration, options."""
+    from stereo_obstacles import __version__
+
+    return {"type": "header", "format": STREAM_FORMAT, "version": 1, "package_version": __version__,
+            "units": "metres" if calibration is not None else "pixels",
+            "frame": "rectified left camera: x right, y down, z forward",
+            "source": source, "calibration": calibration.to_dict() if calibration is not None else None,
+            "config": _jsonable(config.to_dict()),
+            "temporal_seeds": _jsonable(temporal) if temporal is not None else None,
+            "tracking": _jsonable(tracking)}
+
+
+def frame_record(detection: FrameDetection) -> dict:
+    """One frame as a JSON-ready dict: index, time, seeds, timings and tracked obstacles.
+
+    Each obstacle has its stable ``track_id``, the smoothed ``distance_m``, the
+    ``measured_distance_m`` of this frame, ``closing_speed_mps``, ``time_to_contact_s``,
+    ``approaching``, and the detection's fields (box, centre, size, confidence). Tracks missed
+    in this frame are listed under ``missed`` with their predicted distance.
+    """
+    obstacles, missed = [], []
+    for track in detection.tracks:
+        entry = {"track_id": track.track_id, "distance_m": track.distance_m,
+                 "closing_speed_mps": track.closing_speed_mps, "time_to_contact_s": track.time_to_contact_s,
+                 "approaching": track.approaching, "age_frames": track.age_frames}
+        if track.obstacle is None:
+            missed.append({**entry, "missed_frames": track.missed_frames})
+            continue
+        detected = dataclasses.asdict(track.obstacle)
+        detected["measured_distance_m"] = detected.pop("distance_m")
+        detected["detection_id"] = detected.pop("id")
+        obstacles.append({**entry, **detected})
+    stats = detection.result.match_stats
+    return _jsonable({"type": "frame", "frame": detection.frame.index, "timestamp_s": detection.frame.timestamp_s,
+                      "name": detection.frame.name, "seeds": detection.seeds,
+                      "n_seed_points": detection.n_seed_points, "density": stats.density,
+                      "timings_s": detection.result.timings_s, "obstacles": obstacles, "missed": missed})
+
+
+def tracked_list(detection: FrameDetection) -> ObstacleList:
+    """The frame's obstacles renumbered by track id, distances smoothed (for pictures)."""
+    obstacle_list = detection.result.obstacles
+    lookup = np.zeros(max((o.id for o in obstacle_list.obstacles), default=0) + 1, np.int32)
+    renamed = []
+    for track in detection.tracks:
+        if track.obstacle is None:
+            continue
+        lookup[track.obstacle.id] = track.track_id
+        renamed.append(dataclasses.replace(track.obstacle, id=track.track_id, distance_m=track.distance_m))
+    corridor = obstacle_list.corridor
+    if corridor is not None and corridor.nearest_obstacle_id is not None:
+        corridor = dataclasses.replace(corridor, nearest_obstacle_id=int(lookup[corridor.nearest_obstacle_id]))
+    id_map = np.asarray(obstacle_list.id_map)
+    return ObstacleList(tuple(renamed), lookup[np.clip(id_map, 0, len(lookup) - 1)], obstacle_list.rejected,
+                        corridor)
+
+
+def annotate_frame(detection: FrameDetection) -> np.ndarray:
+    """The left image with tracked obstacles drawn and a status line; ``uint8 (H, W, 3)`` RGB.
+
+    The size is the frame's own (a video needs one size): boxes and captions as in
+    :func:`~stereo_obstacles.pictures.draw_obstacles` with track ids and smoothed distances,
+    and at the top the frame index and the nearest approaching obstacle with its time to contact.
+    """
+    left = detection.frame.left
+    h, w = left.shape[:2]
+    calibrated = detection.result.calibration is not None
+    picture = np.ascontiguousarray(draw_obstacles(left, tracked_list(detection), calibrated=calibrated)[:h, :w])
+    status = f"frame {detection.frame.index}  {len(detection.result.obstacles.obstacles)} obstacles"
+    approaching = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
+    if approaching:
+        nearest = min(approaching, key=lambda t: t.distance_m)
+        status += f"  APPROACHING #{nearest.track_id} {nearest.distance_m:.1f} m, contact in {nearest.time_to_contact_s:.1f} s"
+    scale = max(0.35, h / 960)
+    origin = (4, int(18 * scale / 0.5))
+    cv2.putText(picture, status, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(picture, status, origin, cv2.FONT_HERSHEY_SIMPLEX, scale,
+                (255, 80, 60) if approaching else (255, 255, 255), 1, cv2.LINE_AA)
+    return picture

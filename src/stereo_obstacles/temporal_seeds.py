@@ -1,0 +1,170 @@
+"""Temporal seeds: the previous frame's matches seed the next frame's growth.
+
+The authors of Growing Correspondence Seeds suggest it for sequences: consecutive frames of a
+video differ little, so a sparse grid of last frame's correspondences lands on or next to the
+right disparity in the new frame, and the growth fills in the rest. It replaces the edge-seed
+stage (a scanline search per edge pixel), which is the costly part of the seeds; the growth,
+the final stable matching and ``tau`` are unchanged, so a wrong seed (something moved) is not
+accepted unless its similarity passes the same test as any other candidate.
+
+With a calibration and the forward motion of the rig per frame, each seed is moved to where a
+static point is expected in the next frame: ``Z' = Z - forward_m``, ``x' = cx + (x - cx) Z / Z'``
+(the same for ``y``), ``d' = f B / Z' - doffs``.
+
+Regions that come into view are only reached by growth from their neighbours, so
+:class:`TemporalSeeder` goes back to edge seeds every ``refresh_every`` frames and whenever
+the previous frame left too few seeds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
+
+__all__ = ["TemporalSeedParameters", "TemporalSeeder", "temporal_seed_points"]
+
+
+@dataclass(frozen=True)
+class TemporalSeedParameters:
+    """How the previous frame's matches become the next frame's seeds.
+
+    Attributes
+    ----------
+    step_px : int
+        Seeds are the matched pixels on a grid of this step in x and y (pixels, >= 1).
+    refresh_every : int
+        One frame in this many uses the matcher's edge seeds (frames 0, N, 2N, ...); 0: only
+        the first frame and frames after too few temporal seeds were left.
+    min_seeds : int
+        Fewer temporal seeds than this and the frame uses edge seeds.
+    forward_m_per_frame : float
+        Expected forward motion of the rig between frames in metres (needs a calibration to
+        be used; 0 keeps the seeds where they were).
+    """
+
+    step_px: int = 8
+    refresh_every: int = 30
+    min_seeds: int = 100
+    forward_m_per_frame: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name, lowest in (("step_px", 1), ("refresh_every", 0), ("min_seeds", 0)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < lowest:
+                raise InvalidInputError(f"{name} must be an integer >= {lowest}, got {value!r}")
+        if not math.isfinite(self.forward_m_per_frame) or abs(self.forward_m_per_frame) > 5.0:
+            raise InvalidInputError(f"forward_m_per_frame must be within [-5, 5] metres, "
+                                    f"got {self.forward_m_per_frame}")
+
+
+def temporal_seed_points(disparity: np.ndarray, *, d_min: int, d_max: int, step_px: int = 8,
+                         calibration: StereoCalibration | None = None, forward_m: float = 0.0) -> np.ndarray:
+    """Seeds ``(x, y, d)`` for the next frame from this frame's disparity map.
+
+    Parameters
+    ----------
+    disparity : ndarray of float, shape (H, W)
+        This frame's left disparity in pixels, NaN where unmatched.
+    d_min, d_max : int
+        Disparity range of the next match, pixels; seeds outside it are dropped.
+    step_px : int
+        Grid step in pixels: matched pixels with ``x % step == 0`` and ``y % step == 0``.
+    calibration : StereoCalibration, optional
+        Needed to move the seeds by ``forward_m``.
+    forward_m : float
+        Expected forward motion of the rig until the next frame, metres.
+
+    Returns
+    -------
+    ndarray of float64, shape (N, 3)
+        Rows ``(x, y, d)`` with integer values, inside the image with ``x - d >= 0``.
+
+    Raises
+    ------
+    InvalidInputError
+        ``disparity`` is not 2-D, ``step_px < 1``, or ``forward_m`` is non-zero without a
+        calibration.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = np.full((4, 8), np.nan, np.float32); d[0, 4] = 2.2; d[2, 6] = 3.0
+    >>> temporal_seed_points(d, d_min=0, d_max=5, step_px=2)
+    array([[4., 0., 2.],
+           [6., 2., 3.]])
+    """
+    disparity = np.asarray(disparity)
+    if disparity.ndim != 2:
+        raise InvalidInputError(f"disparity must be 2-D (H, W), got shape {disparity.shape}")
+    if int(step_px) != step_px or step_px < 1:
+        raise InvalidInputError(f"step_px must be an integer >= 1, got {step_px}")
+    if forward_m != 0.0 and calibration is None:
+        raise InvalidInputError("forward_m needs a calibration to move the seeds")
+    h, w = disparity.shape
+    grid = disparity[::step_px, ::step_px].astype(np.float64)
+    rows, cols = np.nonzero(np.isfinite(grid))
+    y = rows * float(step_px)
+    x = cols * float(step_px)
+    d = grid[rows, cols]
+    if forward_m != 0.0:
+        x, y, d = _move_forward(x, y, d, calibration, forward_m)
+    x, y, d = np.rint(x), np.rint(y), np.rint(d)
+    keep = (x >= 0) & (x < w) & (y >= 0) & (y < h) & (d >= d_min) & (d <= d_max) & (x - d >= 0)
+    return np.stack([x[keep], y[keep], d[keep]], axis=1)
+
+
+def _move_forward(x: np.ndarray, y: np.ndarray, d: np.ndarray, calibration: StereoCalibration,
+                  forward_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where static points seen at ``(x, y, d)`` appear after the rig moved ``forward_m``."""
+    d_total = d + calibration.doffs_px
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = calibration.focal_baseline_px_m / d_total
+        z_new = z - forward_m
+        ratio = z / z_new
+    ahead = (d_total > 0) & (z_new > 0)
+    x_new = calibration.cx_px + (x - calibration.cx_px) * ratio
+    y_new = calibration.cy_px + (y - calibration.cy_px) * ratio
+    d_new = d_total * ratio - calibration.doffs_px
+    return x_new[ahead], y_new[ahead], d_new[ahead]
+
+
+class TemporalSeeder:
+    """Decides per frame between edge seeds and the previous frame's matches.
+
+    Call :meth:`seeds` before matching a frame (``None`` means: use the edge seeds) and
+    :meth:`observe` with the frame's disparity afterwards.
+
+    Parameters
+    ----------
+    params : TemporalSeedParameters
+    calibration : StereoCalibration, optional
+        Used to move the seeds by ``params.forward_m_per_frame``.
+    """
+
+    def __init__(self, params: TemporalSeedParameters = TemporalSeedParameters(),
+                 calibration: StereoCalibration | None = None) -> None:
+        self.params = params
+        self.calibration = calibration
+        self._points: np.ndarray | None = None
+        self._since_refresh = 0
+
+    def seeds(self) -> np.ndarray | None:
+        """Seed points ``(N, 3)`` for the coming frame, or ``None`` for edge seeds."""
+        refresh = self.params.refresh_every
+        if self._points is None or len(self._points) < self.params.min_seeds \
+                or (refresh and self._since_refresh + 1 >= refresh):
+            self._since_refresh = 0
+            return None
+        self._since_refresh += 1
+        return self._points
+
+    def observe(self, disparity: np.ndarray, *, d_min: int, d_max: int) -> None:
+        """Remember the seeds this frame's disparity gives the next one."""
+        forward = self.params.forward_m_per_frame if self.calibration is not None else 0.0
+        self._points = temporal_seed_points(disparity, d_min=d_min, d_max=d_max, step_px=self.params.step_px,
+                                            calibration=self.calibration, forward_m=forward)

@@ -1,0 +1,281 @@
+"""Obstacles across frames: stable ids, smoothed distances, approaching obstacles flagged.
+
+A detection numbers its obstacles nearest first, so the same object changes number from frame
+to frame and its measured distance jitters by a few per cent. :class:`ObstacleTracker` keeps
+tracks:
+
+* **association** — each frame's obstacles are matched greedily, best pair first, to the
+  existing tracks: by the distance between 3-D centres (the track's centre moved by its
+  predicted change of distance) when both have one, within ``max_centre_jump_m``; otherwise
+  by image box overlap (intersection over union of at least ``min_iou``). Unmatched obstacles
+  start new tracks; a track not seen for more than ``max_missed_frames`` frames ends.
+* **smoothing** — an alpha-beta filter (a steady-state 1-D constant-velocity Kalman filter)
+  on the distance: ``predicted = z + v dt``, ``z = predicted + alpha r``, ``v = v + beta r / dt``
+  with the residual ``r = measured - predicted``.
+* **approach** — closing speed ``-v`` (m/s, positive when the obstacle comes nearer — which
+  includes static obstacles a walking user approaches); a track at least ``min_age_frames``
+  old closing faster than ``min_closing_speed_mps`` is *approaching*, with a time to contact
+  ``distance / closing speed``.
+
+Without a calibration there are no distances: tracks keep ids by box overlap only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.obstacles import Obstacle
+
+__all__ = ["ObstacleTracker", "Track", "TrackingParameters", "box_iou"]
+
+
+@dataclass(frozen=True)
+class TrackingParameters:
+    """Options of :class:`ObstacleTracker`.
+
+    Attributes
+    ----------
+    max_centre_jump_m : float
+        Largest distance in metres between a track's predicted 3-D centre and an obstacle's
+        centre for the two to be associated.
+    min_iou : float
+        Smallest box overlap (intersection over union, in (0, 1]) for an association by boxes.
+    alpha, beta : float
+        Gains of the alpha-beta filter on distance (0 < alpha <= 1, 0 <= beta <= 2).
+    max_missed_frames : int
+        A track survives this many frames without a detection (it is then reported with
+        ``missed_frames > 0``, its distance predicted).
+    min_age_frames : int
+        Frames a track needs before it may be flagged approaching (no warning from a
+        single noisy measurement).
+    min_closing_speed_mps : float
+        Closing speed in m/s above which a track is approaching.
+    """
+
+    max_centre_jump_m: float = 1.0
+    min_iou: float = 0.2
+    alpha: float = 0.5
+    beta: float = 0.1
+    max_missed_frames: int = 3
+    min_age_frames: int = 3
+    min_closing_speed_mps: float = 0.2
+
+    def __post_init__(self) -> None:
+        checks = (("max_centre_jump_m", self.max_centre_jump_m > 0), ("min_iou", 0 < self.min_iou <= 1),
+                  ("alpha", 0 < self.alpha <= 1), ("beta", 0 <= self.beta <= 2),
+                  ("min_closing_speed_mps", self.min_closing_speed_mps >= 0))
+        for name, ok in checks:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and ok):
+                raise InvalidInputError(f"{name} is out of range: {value}")
+        for name in ("max_missed_frames", "min_age_frames"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+                raise InvalidInputError(f"{name} must be an integer >= 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class Track:
+    """The state of one tracked obstacle after a frame.
+
+    Attributes
+    ----------
+    track_id : int
+        Stable id, 1, 2, ... in order of first appearance.
+    obstacle : Obstacle or None
+        This frame's detection, ``None`` when the track was missed in this frame.
+    distance_m : float or None
+        Smoothed distance in metres (predicted when missed); ``None`` without a calibration.
+    closing_speed_mps : float or None
+        Speed at which the distance shrinks, m/s (negative: receding).
+    time_to_contact_s : float or None
+        ``distance_m / closing_speed_mps`` while approaching, else ``None``.
+    approaching : bool
+        Old enough and closing faster than the threshold.
+    age_frames : int
+        Frames since the track started (1 in its first frame).
+    missed_frames : int
+        Consecutive frames without a detection.
+    """
+
+    track_id: int
+    obstacle: Obstacle | None
+    distance_m: float | None
+    closing_speed_mps: float | None
+    time_to_contact_s: float | None
+    approaching: bool
+    age_frames: int
+    missed_frames: int
+
+
+def box_iou(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> float:
+    """Intersection over union of two ``(x0, y0, x1, y1)`` boxes (x1, y1 exclusive).
+
+    >>> box_iou((0, 0, 10, 10), (5, 0, 15, 10))
+    0.3333333333333333
+    """
+    iw = min(a[2], b[2]) - max(a[0], b[0])
+    ih = min(a[3], b[3]) - max(a[1], b[1])
+    if iw <= 0 or ih <= 0:
+        return 0.0
+    inter = iw * ih
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union
+
+
+class _State:
+    """Mutable filter state of one track."""
+
+    def __init__(self, track_id: int, obstacle: Obstacle, time_s: float) -> None:
+        self.track_id = track_id
+        self.obstacle = obstacle
+        self.box = obstacle.box_px
+        self.centre = np.asarray(obstacle.centre_m) if obstacle.centre_m is not None else None
+        self.distance = obstacle.distance_m
+        self.velocity = 0.0
+        self.time_s = time_s
+        self.age = 1
+        self.missed = 0
+
+    def predicted_distance(self, time_s: float) -> float | None:
+        if self.distance is None:
+            return None
+        return self.distance + self.velocity * (time_s - self.time_s)
+
+    def predicted_centre(self, time_s: float) -> np.ndarray | None:
+        if self.centre is None:
+            return None
+        predicted = self.predicted_distance(time_s)
+        if predicted is None or self.distance is None:
+            return self.centre
+        return self.centre + np.array([0.0, 0.0, predicted - self.distance])
+
+
+class ObstacleTracker:
+    """Tracks obstacles over a sequence of detections; feed it frame by frame.
+
+    Parameters
+    ----------
+    params : TrackingParameters
+
+    Examples
+    --------
+    >>> from stereo_obstacles.obstacles import Obstacle
+    >>> tracker = ObstacleTracker()
+    >>> def seen(z):
+    ...     return Obstacle(id=1, box_px=(10, 10, 20, 30), pixel_count=100, disparity_px=10.0,
+    ...                     confidence=1.0, distance_m=z, centre_m=(0.0, 0.0, z))
+    >>> [tracker.update([seen(5.0 - 0.1 * k)], k * 0.1)[0].track_id for k in range(5)]
+    [1, 1, 1, 1, 1]
+    >>> tracker.update([seen(4.4)], 0.6)[0].approaching
+    True
+    """
+
+    def __init__(self, params: TrackingParameters = TrackingParameters()) -> None:
+        self.params = params
+        self._tracks: list[_State] = []
+        self._next_id = 1
+        self._last_time_s: float | None = None
+
+    def update(self, obstacles, time_s: float) -> list[Track]:
+        """Associate one frame's obstacles with the tracks and return every live track.
+
+        Parameters
+        ----------
+        obstacles : sequence of Obstacle
+            This frame's detections (any order).
+        time_s : float
+            Time of the frame in seconds; must increase from frame to frame.
+
+        Returns
+        -------
+        list of Track
+            Tracks seen in this frame first (in the order of ``obstacles``), then tracks
+            missed in this frame.
+
+        Raises
+        ------
+        InvalidInputError
+            ``time_s`` is not finite or does not increase.
+        """
+        if not math.isfinite(time_s):
+            raise InvalidInputError(f"time_s must be finite, got {time_s}")
+        if self._last_time_s is not None and time_s <= self._last_time_s:
+            raise InvalidInputError(f"time_s must increase: {time_s} after {self._last_time_s}")
+        self._last_time_s = time_s
+        obstacles = list(obstacles)
+        pairs = self._associate(obstacles, time_s)
+        seen: list[Track] = []
+        for index, obstacle in enumerate(obstacles):
+            if index in pairs:
+                state = pairs[index][0]
+                self._correct(state, obstacle, time_s)
+            else:
+                state = _State(self._next_id, obstacle, time_s)
+                self._next_id += 1
+                self._tracks.append(state)
+            seen.append(self._report(state, obstacle))
+        missed: list[Track] = []
+        for state in self._tracks:
+            if state.time_s == time_s:
+                continue
+            state.missed += 1
+            state.age += 1
+            if state.missed <= self.params.max_missed_frames:
+                missed.append(self._report(state, None, time_s))
+        self._tracks = [s for s in self._tracks if s.missed <= self.params.max_missed_frames]
+        return seen + missed
+
+    def _associate(self, obstacles: list[Obstacle], time_s: float) -> dict[int, tuple[_State, float]]:
+        """Greedy best-first pairs ``{obstacle index: (track, cost)}`` within the gates."""
+        costs: list[tuple[float, int, int]] = []
+        for t, state in enumerate(self._tracks):
+            centre = state.predicted_centre(time_s)
+            for i, obstacle in enumerate(obstacles):
+                if centre is not None and obstacle.centre_m is not None:
+                    jump = float(np.linalg.norm(np.asarray(obstacle.centre_m) - centre))
+                    if jump <= self.params.max_centre_jump_m:
+                        costs.append((jump / self.params.max_centre_jump_m, t, i))
+                else:
+                    overlap = box_iou(state.box, obstacle.box_px)
+                    if overlap >= self.params.min_iou:
+                        costs.append((1.0 - overlap, t, i))
+        pairs: dict[int, tuple[_State, float]] = {}
+        used_tracks: set[int] = set()
+        for cost, t, i in sorted(costs):
+            if t in used_tracks or i in pairs:
+                continue
+            used_tracks.add(t)
+            pairs[i] = (self._tracks[t], cost)
+        return pairs
+
+    def _correct(self, state: _State, obstacle: Obstacle, time_s: float) -> None:
+        dt = time_s - state.time_s
+        predicted = state.predicted_distance(time_s)
+        if predicted is not None and obstacle.distance_m is not None:
+            residual = obstacle.distance_m - predicted
+            state.distance = predicted + self.params.alpha * residual
+            state.velocity += self.params.beta * residual / dt
+        else:
+            state.distance = obstacle.distance_m
+            state.velocity = 0.0
+        state.obstacle = obstacle
+        state.box = obstacle.box_px
+        state.centre = np.asarray(obstacle.centre_m) if obstacle.centre_m is not None else None
+        state.time_s = time_s
+        state.age += 1
+        state.missed = 0
+
+    def _report(self, state: _State, obstacle: Obstacle | None, time_s: float | None = None) -> Track:
+        distance = state.distance if time_s is None else state.predicted_distance(time_s)
+        closing = -state.velocity if distance is not None else None
+        approaching = bool(closing is not None and state.age >= self.params.min_age_frames
+                           and closing > self.params.min_closing_speed_mps)
+        contact = distance / closing if approaching and distance is not None and distance > 0 else None
+        return Track(track_id=state.track_id, obstacle=obstacle, distance_m=distance, closing_speed_mps=closing,
+                     time_to_contact_s=contact, approaching=approaching, age_frames=state.age,
+                     missed_frames=state.missed)
