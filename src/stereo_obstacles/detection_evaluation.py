@@ -100,3 +100,79 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
             classes, counts = np.unique(true_labels[pixels & (true_labels != Label.OBSTACLE)], return_counts=True)
             alarms.append(FalseAlarm(o.id, o.distance_m, Label(int(classes[np.argmax(counts)])).name.lower()))
     return comparisons, alarms
+
+
+@dataclass(frozen=True)
+class SceneEvaluation:
+    """The comparison of one rendered scene's detections with its truth."""
+
+    seed: int
+    ground: str
+    comparisons: tuple[TruthComparison, ...]
+    false_alarms: tuple[FalseAlarm, ...]
+    seconds: float
+
+
+@dataclass(frozen=True)
+class DetectionSummary:
+    """Figures over many scenes for true obstacles at least ``min_height_m`` high and nearer
+    than ``max_distance_m`` (nearest visible depth), with at least ``min_visible_px`` pixels."""
+
+    n_scenes: int
+    n_obstacles: int
+    n_found: int
+    median_abs_error_pct: float | None
+    p95_abs_error_pct: float | None
+    max_abs_error_pct: float | None
+    false_alarms_on_shadow: int
+    false_alarms_on_marking: int
+    false_alarms_other: int
+    median_seconds: float
+    min_height_m: float
+    max_distance_m: float
+    min_visible_px: int
+    missed: tuple[str, ...]
+
+    def to_dict(self) -> dict:
+        """JSON-ready mapping."""
+        return asdict(self)
+
+
+def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int = 480, config=None) -> SceneEvaluation:
+    """Render scene ``seed`` (0 = the built-in one), detect, compare with the truth."""
+    import time
+
+    from stereo_obstacles.pipeline import DetectionConfig, detect
+    from stereo_obstacles.synthetic import default_scene, random_scene, render_pair
+
+    scene = default_scene(width_px, height_px) if seed == 0 else random_scene(seed, width_px=width_px,
+                                                                              height_px=height_px)
+    pair = render_pair(scene)
+    started = time.perf_counter()
+    result = detect(pair.left, pair.right, pair.calibration, config=config or DetectionConfig())
+    seconds = time.perf_counter() - started
+    comparisons, alarms = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles)
+    return SceneEvaluation(seed=seed, ground=scene.ground.name, comparisons=tuple(comparisons),
+                           false_alarms=tuple(alarms), seconds=seconds)
+
+
+def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, max_distance_m: float = 10.0,
+              min_visible_px: int = 200) -> DetectionSummary:
+    """Found rate, distance errors and false alarms over many scene evaluations."""
+    relevant = [(e.seed, c) for e in evaluations for c in e.comparisons
+                if c.height_m >= min_height_m and c.true_distance_m is not None
+                and c.true_distance_m <= max_distance_m and c.visible_pixels >= min_visible_px]
+    errors = np.array([abs(c.relative_error) * 100 for _, c in relevant if c.relative_error is not None])
+    alarms = [a.lies_on for e in evaluations for a in e.false_alarms]
+    return DetectionSummary(
+        n_scenes=len(evaluations), n_obstacles=len(relevant),
+        n_found=sum(c.detected_id is not None for _, c in relevant),
+        median_abs_error_pct=float(np.median(errors)) if errors.size else None,
+        p95_abs_error_pct=float(np.percentile(errors, 95)) if errors.size else None,
+        max_abs_error_pct=float(errors.max()) if errors.size else None,
+        false_alarms_on_shadow=alarms.count("shadow"), false_alarms_on_marking=alarms.count("marking"),
+        false_alarms_other=len(alarms) - alarms.count("shadow") - alarms.count("marking"),
+        median_seconds=float(np.median([e.seconds for e in evaluations])) if evaluations else 0.0,
+        min_height_m=min_height_m, max_distance_m=max_distance_m, min_visible_px=min_visible_px,
+        missed=tuple(f"seed {s}: #{c.truth_id} {c.kind} at {c.true_distance_m:.1f} m ({c.visible_pixels} px)"
+                     for s, c in relevant if c.detected_id is None))

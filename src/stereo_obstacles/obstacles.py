@@ -5,7 +5,8 @@ with a disparity are grouped (:mod:`stereo_obstacles.obstacle_grouping`) and eac
 measured here. With a calibration every length is in metres in the rectified left camera
 frame (x right, y down, z forward); without one, only pixels and disparities are reported.
 
-Distance of an obstacle is the 10th percentile of the median depths of its 8x8-pixel patches:
+Distance of an obstacle is a low percentile (``distance_percentile``) of the median depths of
+its 8x8-pixel patches:
 the near face of the object; taking patch medians first keeps the percentile from following
 the noise of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near). Height above the ground uses the
 ground plane fitted in (x, y, disparity) space, converted to a 3-D plane; objects whose pixels
@@ -23,9 +24,6 @@ import numpy as np
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane
-
-DISTANCE_PERCENTILE = 10.0
-"""Percentile of an obstacle's patch depths reported as its distance."""
 
 DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
@@ -65,6 +63,8 @@ class ObstacleParameters:
         Groups farther than this are not reported (depth error grows as Z**2).
     corridor_width_m : float
         Width of the walking corridor straight ahead for :func:`corridor_summary`.
+    distance_percentile : float
+        Percentile of the obstacle's patch depths reported as its distance (0 = nearest patch).
     """
 
     flat_tolerance_m: float = 0.08
@@ -72,8 +72,11 @@ class ObstacleParameters:
     min_standing_fraction: float = 0.3
     max_distance_m: float = 30.0
     corridor_width_m: float = 1.0
+    distance_percentile: float = 10.0
 
     def __post_init__(self) -> None:
+        if not 0.0 <= self.distance_percentile <= 100.0:
+            raise InvalidInputError(f"distance_percentile must be in [0, 100], got {self.distance_percentile}")
         if not 0.0 <= self.min_standing_fraction <= 1.0:
             raise InvalidInputError(f"min_standing_fraction must be in [0, 1], got {self.min_standing_fraction}")
         for name in ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"):
@@ -137,6 +140,39 @@ class ObstacleList:
     id_map: np.ndarray
     rejected: tuple[RejectedGroup, ...] = field(default_factory=tuple)
     corridor: CorridorSummary | None = None
+
+
+def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: GroundPlane | None,
+                    calibration: StereoCalibration | None,
+                    params: ObstacleParameters = ObstacleParameters()) -> np.ndarray:
+    """Candidate pixels with a disparity that stand above the ground by the flat tolerance or more.
+
+    Grouping only standing pixels keeps two objects from being chained together through the
+    ground between them; the remaining (flat) candidates can be grouped separately to report
+    markings and puddles. Without a ground plane every candidate with a disparity stands.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``bool (H, W)``.
+    """
+    d = np.asarray(disparity, dtype=np.float32)
+    usable = np.asarray(candidates, dtype=bool) & np.isfinite(d)
+    if ground is None:
+        return usable
+    ys, xs = np.nonzero(usable)
+    disparities = d[ys, xs].astype(np.float64)
+    if calibration is None:
+        stands = disparities - ground.disparity_at(xs, ys) >= params.flat_tolerance_px
+    else:
+        z = calibration.focal_baseline_px_m / np.maximum(disparities + calibration.doffs_px, 1e-9)
+        points = np.stack([(xs - calibration.cx_px) * z / calibration.focal_px,
+                           (ys - calibration.cy_px) * z / calibration.focal_px, z], axis=-1)
+        stands = (height_above_ground_m(ground, points, calibration) >= params.flat_tolerance_m) & (
+            disparities + calibration.doffs_px > 0)
+    result = np.zeros(d.shape, dtype=bool)
+    result[ys[stands], xs[stands]] = True
+    return result
 
 
 def _box(xs: np.ndarray, ys: np.ndarray) -> tuple[int, int, int, int]:
@@ -239,7 +275,7 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
         height_above = round(float(np.percentile(heights, EXTENT_PERCENTILES[1])), 3)
         points, disparities = points[standing], disparities[standing]
     distance = _near_face_depth(xs[standing] if ground is not None else xs,
-                                ys[standing] if ground is not None else ys, points[:, 2])
+                                ys[standing] if ground is not None else ys, points[:, 2], params.distance_percentile)
     if distance > params.max_distance_m:
         return RejectedGroup(box, count, f"farther than {params.max_distance_m:g} m ({distance:.1f} m)")
     x_lo, x_hi = np.percentile(points[:, 0], EXTENT_PERCENTILES)
@@ -252,13 +288,13 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
                     height_above_ground_m=height_above)
 
 
-def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray) -> float:
-    """10th percentile over patches of the patch-median depth (metres)."""
+def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, percentile: float) -> float:
+    """``percentile`` over patches of the patch-median depth (metres)."""
     patch = (ys // DISTANCE_PATCH_PX) * (int(xs.max()) // DISTANCE_PATCH_PX + 1) + xs // DISTANCE_PATCH_PX
     order = np.argsort(patch, kind="stable")
     starts = np.flatnonzero(np.r_[True, np.diff(patch[order]) != 0])
     medians = [float(np.median(chunk)) for chunk in np.split(z[order], starts[1:])]
-    return float(np.percentile(medians, DISTANCE_PERCENTILE))
+    return float(np.percentile(medians, percentile))
 
 
 def corridor_summary(obstacles: tuple[Obstacle, ...], width_m: float) -> CorridorSummary:

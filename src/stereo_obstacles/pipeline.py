@@ -9,9 +9,18 @@ This module only wires the stages; each lives in its own module:
    :func:`stereo_obstacles.obstacle_grouping.group_obstacle_pixels` and
    :func:`stereo_obstacles.obstacles.measure_obstacles` — phase 3, obstacles as objects.
 
-Beyond the paper, pixels that phase 1 calls ground but whose disparity puts them clearly above
-the fitted ground plane (``geometric_min_height_m``) are obstacle candidates too: a dark
-object of the ground's hue would otherwise pass for a shadow.
+Beyond the paper:
+
+* pixels that phase 1 calls ground but whose disparity puts them clearly above the fitted
+  ground plane (``geometric_min_height_m``) are obstacle candidates too: a dark object of the
+  ground's hue would otherwise pass for a shadow;
+* candidates standing above the ground plane are grouped into obstacles, and the flat ones
+  separately, only to report them as rejected (markings, puddles): grouping them together
+  would chain distinct objects through the ground between them;
+* when the pixels that look like the reference area do not lie on a plane that can be the
+  ground (the reference area is covered by a wall or a large object), the ground plane is
+  fitted to the matched pixels of the lower third of the image instead, the colour labels are
+  not trusted, and obstacles are found from geometry alone, with a warning.
 """
 
 from __future__ import annotations
@@ -19,7 +28,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -30,7 +39,7 @@ from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane
 from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, height_above_ground_m,
-                                       measure_obstacles)
+                                       measure_obstacles, standing_pixels)
 from stereo_obstacles.rectification_check import check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
@@ -129,17 +138,35 @@ def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
                                  f"and {right.shape[1]}x{right.shape[0]}")
 
 
-def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray) -> GroundPlane | None:
+LOWER_PART_FOR_GROUND = 1.0 / 3.0
+"""Fraction of the image rows, from the bottom, searched for the ground when colour fails."""
+
+
+def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray) -> tuple[GroundPlane | None, bool]:
+    """The ground plane, and whether the phase-1 colour labels can be trusted."""
     try:
-        return fit_ground_plane(disparity, mask=ground_mask)
+        return fit_ground_plane(disparity, mask=ground_mask), True
+    except InvalidInputError as exc:
+        colour_failure = str(exc)
+    lower = np.zeros(disparity.shape, dtype=bool)
+    lower[int(round(disparity.shape[0] * (1.0 - LOWER_PART_FOR_GROUND))):] = True
+    try:
+        plane = fit_ground_plane(disparity, mask=lower)
     except InvalidInputError as exc:
         logger.warning("no ground plane (%s); flat markings cannot be told from obstacles", exc)
-        return None
+        return None, True
+    logger.warning("the pixels coloured like the reference area do not lie on a ground plane (%s): an "
+                   "obstacle may cover the reference area; obstacles are found from geometry alone", colour_failure)
+    return plane, False
 
 
 def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray, ground: GroundPlane | None,
-                         calibration: StereoCalibration | None, min_height_m: float) -> np.ndarray:
-    """Phase-1 obstacle pixels, plus ground-coloured pixels standing clearly above the plane."""
+                         calibration: StereoCalibration | None, min_height_m: float,
+                         colour_trusted: bool) -> np.ndarray:
+    """Phase-1 obstacle pixels, plus ground-coloured pixels standing clearly above the plane
+    (or every matched pixel when the colour labels are not trusted)."""
+    if not colour_trusted:
+        return np.isfinite(disparity)
     candidates = segmentation.labels == Label.OBSTACLE
     if ground is None or calibration is None or min_height_m <= 0:
         return candidates
@@ -210,11 +237,17 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
 
     t = time.perf_counter()
     disparity = matched.disparity
-    ground = _ground_plane(disparity, segmentation.ground_mask)
+    ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask)
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
-    candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m)
-    groups = group_obstacle_pixels(disparity, candidates, config.grouping)
-    obstacles = measure_obstacles(groups, disparity, calibration, ground, config.obstacles)
+    candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
+                                      colour_trusted)
+    standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles)
+    obstacles = measure_obstacles(group_obstacle_pixels(disparity, standing, config.grouping), disparity,
+                                  calibration, ground, config.obstacles)
+    if ground is not None:
+        flat = measure_obstacles(group_obstacle_pixels(disparity, candidates & ~standing, config.grouping),
+                                 disparity, calibration, ground, config.obstacles)
+        obstacles = replace(obstacles, rejected=obstacles.rejected + flat.rejected)
     timings["obstacles"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - start
     return DetectionResult(segmentation=segmentation, disparity=disparity, match_stats=matched.stats,
