@@ -1,0 +1,132 @@
+"""Frame sources: video pairs, image sequences, side-by-side video, cameras, and how they are chosen."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from _stream_frames import FPS, N_FRAMES, SIZE, frames, write_side_by_side, write_sequences, write_videos
+from stereo_obstacles import streams
+from stereo_obstacles.errors import ImageMismatchError, InputFileError, InvalidInputError
+from stereo_obstacles.streams import (CameraPairSource, ImageSequenceSource, SideBySideSource, VideoPairSource,
+                                      open_source)
+
+
+def _close(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.mean(np.abs(a.astype(np.float64) - b.astype(np.float64))))
+
+
+def test_image_sequences_paired_by_name_are_exact(tmp_path):
+    left_dir, right_dir = write_sequences(tmp_path)
+    with ImageSequenceSource(left_dir, right_dir, fps=FPS) as source:
+        got = list(source)
+    assert source.total_frames == N_FRAMES
+    assert [f.index for f in got] == list(range(N_FRAMES))
+    assert [f.timestamp_s for f in got] == pytest.approx([i / FPS for i in range(N_FRAMES)])
+    for frame, pair in zip(got, frames()):
+        assert frame.left.dtype == np.uint8 and frame.left.shape == (SIZE[1], SIZE[0], 3)
+        np.testing.assert_array_equal(frame.left, pair.left)
+        np.testing.assert_array_equal(frame.right, pair.right)
+    assert got[2].name == "0002"
+
+
+def test_image_sequences_with_other_names_are_paired_by_order(tmp_path):
+    left_dir, right_dir = write_sequences(tmp_path, left_name="cam0_{:d}.png", right_name="cam1_{:d}.png")
+    got = list(open_source([str(left_dir), str(right_dir)]))
+    assert len(got) == N_FRAMES
+    np.testing.assert_array_equal(got[3].right, frames()[3].right)
+
+
+def test_image_sequences_accept_glob_patterns(tmp_path):
+    left_dir, right_dir = write_sequences(tmp_path)
+    got = list(open_source([str(left_dir / "000[0-1].png"), str(right_dir / "000[0-1].png")]))
+    assert len(got) == 2
+
+
+def test_image_sequences_of_different_counts_are_refused(tmp_path):
+    left_dir, right_dir = write_sequences(tmp_path, left_name="l{:d}.png", right_name="r{:d}.png")
+    (right_dir / "r3.png").unlink()
+    with pytest.raises(ImageMismatchError, match=r"holds 4 images but .* holds 3"):
+        ImageSequenceSource(left_dir, right_dir)
+
+
+def test_image_sequence_errors(tmp_path):
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(InputFileError, match="no image files"):
+        ImageSequenceSource(tmp_path / "empty", tmp_path / "empty")
+    with pytest.raises(InputFileError, match="not a folder and not a glob"):
+        ImageSequenceSource(tmp_path / "missing", tmp_path / "missing")
+    with pytest.raises(InvalidInputError, match="fps"):
+        ImageSequenceSource(tmp_path / "empty", tmp_path / "empty", fps=0)
+
+
+def test_video_pair_reads_frames_in_step(tmp_path):
+    left, right = write_videos(tmp_path)
+    source = open_source([str(left), str(right)])
+    assert isinstance(source, VideoPairSource) and source.total_frames == N_FRAMES
+    assert source.fps == pytest.approx(FPS)
+    got = list(source)
+    assert len(got) == N_FRAMES
+    for frame, pair in zip(got, frames()):
+        assert frame.left.shape == pair.left.shape
+        assert _close(frame.left, pair.left) < 6 and _close(frame.right, pair.right) < 6
+        assert _close(frame.left, pair.right) > _close(frame.left, pair.left)   # not swapped
+    assert got[1].timestamp_s == pytest.approx(1 / FPS)
+
+
+def test_video_pair_with_different_frame_counts_is_refused(tmp_path):
+    left, right = write_videos(tmp_path, right_frames=N_FRAMES - 1)
+    with pytest.raises(ImageMismatchError, match=r"has 4 frames but .* has 3"):
+        VideoPairSource(left, right)
+
+
+def test_missing_or_broken_video(tmp_path):
+    with pytest.raises(InputFileError, match="does not exist"):
+        VideoPairSource(tmp_path / "a.avi", tmp_path / "b.avi")
+    broken = tmp_path / "broken.avi"
+    broken.write_bytes(b"not a video at all")
+    with pytest.raises(InputFileError, match="cannot be opened as a video"):
+        SideBySideSource(broken)
+
+
+def test_side_by_side_video_is_split_in_halves(tmp_path):
+    source = open_source([str(write_side_by_side(tmp_path / "sbs.avi"))])
+    assert isinstance(source, SideBySideSource)
+    got = list(source)
+    assert len(got) == N_FRAMES
+    for frame, pair in zip(got, frames()):
+        assert frame.left.shape == (SIZE[1], SIZE[0], 3)
+        assert _close(frame.left, pair.left) < 6 and _close(frame.right, pair.right) < 6
+
+
+def test_side_by_side_video_of_odd_width_is_refused(monkeypatch):
+    class OddCapture:          # OpenCV's writers round widths down, so no real file has an odd width
+        released = False
+
+        def get(self, prop):
+            return 321.0 if prop == cv2.CAP_PROP_FRAME_WIDTH else 0.0
+
+        def release(self):
+            OddCapture.released = True
+
+    monkeypatch.setattr(streams, "_open_video", lambda path: OddCapture())
+    with pytest.raises(ImageMismatchError, match="frame width 321 is odd"):
+        SideBySideSource("sbs.avi")
+    assert OddCapture.released
+
+
+def test_open_source_checks_arguments(tmp_path):
+    with pytest.raises(InvalidInputError, match="kind must be one of"):
+        open_source(["a"], kind="tape")
+    with pytest.raises(InvalidInputError, match="takes 2 argument"):
+        open_source(["a"], kind="videos")
+    with pytest.raises(InvalidInputError, match="device index"):
+        open_source(["a", "b"], kind="cameras")
+    with pytest.raises(InvalidInputError, match="must differ"):
+        CameraPairSource(3, 3)
+
+
+def test_missing_cameras_are_reported(tmp_path):
+    with pytest.raises(InputFileError, match="camera 98 cannot be opened"):
+        open_source(["98", "99"])

@@ -1,0 +1,126 @@
+"""Obstacle tracking: stable ids, smoothed distances, approaching obstacles flagged."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.obstacles import Obstacle
+from stereo_obstacles.tracking import ObstacleTracker, TrackingParameters, box_iou
+
+DT = 0.1
+
+
+def seen(x: float, z: float, *, box=None, detection_id: int = 1, calibrated: bool = True) -> Obstacle:
+    """An obstacle at lateral position ``x`` and distance ``z`` metres (box from a 350 px focal length)."""
+    if box is None:
+        u = int(160 + 350 * x / z)
+        box = (u - 20, 100, u + 20, 200)
+    return Obstacle(id=detection_id, box_px=box, pixel_count=400, disparity_px=42.0 / z, confidence=0.9,
+                    distance_m=z if calibrated else None, centre_m=(x, 0.0, z) if calibrated else None)
+
+
+def by_x(tracks, x):
+    return next(t for t in tracks if t.obstacle is not None and t.obstacle.centre_m[0] == pytest.approx(x))
+
+
+def test_ids_stay_with_their_obstacles_whatever_the_detection_order():
+    rng = np.random.default_rng(3)
+    tracker = ObstacleTracker()
+    ids = {}
+    for k in range(12):
+        obstacles = [seen(-1.0, 4.0 - 0.1 * k, detection_id=1), seen(0.0, 6.0, detection_id=2),
+                     seen(1.2, 9.0 + 0.05 * k, detection_id=3)]
+        rng.shuffle(obstacles)           # detection numbers follow distance, not identity
+        tracks = tracker.update(obstacles, k * DT)
+        for x in (-1.0, 0.0, 1.2):
+            ids.setdefault(x, set()).add(by_x(tracks, x).track_id)
+    assert all(len(found) == 1 for found in ids.values())
+    assert sorted(next(iter(found)) for found in ids.values()) == [1, 2, 3]
+
+
+def test_approaching_obstacle_is_flagged_with_its_closing_speed_and_time_to_contact():
+    tracker = ObstacleTracker()
+    speed = 1.2                                    # m/s towards the camera
+    for k in range(30):
+        tracks = tracker.update([seen(0.0, 8.0 - speed * DT * k), seen(1.5, 5.0)], k * DT)
+        if k == 0:
+            assert not any(t.approaching for t in tracks)           # no warning from one frame
+    moving, still = by_x(tracks, 0.0), by_x(tracks, 1.5)
+    assert moving.approaching and not still.approaching
+    assert moving.closing_speed_mps == pytest.approx(speed, rel=0.05)
+    assert moving.time_to_contact_s == pytest.approx(moving.distance_m / moving.closing_speed_mps)
+    assert moving.distance_m == pytest.approx(8.0 - speed * DT * 29, abs=0.05)
+    assert still.closing_speed_mps == pytest.approx(0.0, abs=1e-9) and still.time_to_contact_s is None
+
+
+def test_receding_obstacle_is_not_flagged():
+    tracker = ObstacleTracker()
+    for k in range(10):
+        tracks = tracker.update([seen(0.0, 3.0 + 0.1 * k)], k * DT)
+    assert not tracks[0].approaching and tracks[0].closing_speed_mps < 0
+
+
+def test_smoothing_reduces_distance_noise():
+    rng = np.random.default_rng(0)
+    tracker = ObstacleTracker()
+    measured, smoothed = [], []
+    for k in range(200):
+        z = 5.0 + rng.normal(0, 0.1)
+        tracks = tracker.update([seen(0.0, z)], k * DT)
+        measured.append(z)
+        smoothed.append(tracks[0].distance_m)
+    assert np.std(smoothed[20:]) < 0.7 * np.std(measured[20:])
+    assert not any(t.approaching for t in tracks)
+
+
+def test_missed_track_keeps_its_id_for_a_few_frames_then_ends():
+    params = TrackingParameters(max_missed_frames=2)
+    tracker = ObstacleTracker(params)
+    for k in range(5):
+        last = tracker.update([seen(0.0, 5.0 - 0.1 * k)], k * DT)[0]
+    first = last.track_id
+    missed = tracker.update([], 5 * DT)
+    assert len(missed) == 1 and missed[0].obstacle is None and missed[0].missed_frames == 1
+    assert missed[0].distance_m == pytest.approx(last.distance_m - last.closing_speed_mps * DT)  # predicted
+    again = tracker.update([seen(0.0, 4.4)], 6 * DT)
+    assert again[0].track_id == first and again[0].missed_frames == 0
+    for k in (7, 8, 9):
+        tracker.update([], k * DT)
+    assert tracker.update([seen(0.0, 4.0)], 10 * DT)[0].track_id != first
+
+
+def test_far_jump_starts_a_new_track():
+    tracker = ObstacleTracker()
+    a = tracker.update([seen(0.0, 5.0)], 0.0)[0].track_id
+    b = tracker.update([seen(0.0, 7.0)], DT)
+    assert [t.track_id for t in b if t.obstacle is not None] != [a]
+
+
+def test_without_calibration_boxes_carry_the_ids():
+    tracker = ObstacleTracker()
+    for k in range(5):
+        tracks = tracker.update([seen(0, 1, box=(10 + 2 * k, 10, 50 + 2 * k, 60), calibrated=False),
+                                 seen(0, 1, box=(100, 10, 140, 60), calibrated=False)], k * DT)
+    assert [t.track_id for t in tracks] == [1, 2]
+    assert all(t.distance_m is None and t.closing_speed_mps is None and not t.approaching for t in tracks)
+
+
+def test_box_iou():
+    assert box_iou((0, 0, 10, 10), (0, 0, 10, 10)) == 1.0
+    assert box_iou((0, 0, 10, 10), (10, 0, 20, 10)) == 0.0
+    assert box_iou((0, 0, 10, 10), (5, 5, 15, 15)) == pytest.approx(25 / 175)
+
+
+def test_errors():
+    tracker = ObstacleTracker()
+    tracker.update([], 1.0)
+    with pytest.raises(InvalidInputError, match="time_s must increase"):
+        tracker.update([], 1.0)
+    with pytest.raises(InvalidInputError, match="finite"):
+        tracker.update([], float("nan"))
+    with pytest.raises(InvalidInputError, match="alpha"):
+        TrackingParameters(alpha=0.0)
+    with pytest.raises(InvalidInputError, match="max_missed_frames"):
+        TrackingParameters(max_missed_frames=-1)
