@@ -243,3 +243,64 @@ def camera_pair_from_opencv_storage(storage, source: str, length_scale_m: float)
         camera_matrix_right=mats["cameraMatrix2"], distortion_right=mats.get("distCoeffs2"),
         rotation=mats["R"], translation_m=np.asarray(mats["T"], dtype=np.float64).ravel() * length_scale_m,
         width_px=int(size[0]), height_px=int(size[1]))
+
+
+def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | None = None):
+    """Read any calibration file: an unrectified camera pair when the file describes one.
+
+    Returns a :class:`CameraPairCalibration` for the project's camera-pair JSON and for OpenCV
+    YAML/XML holding ``cameraMatrix1/2``, ``R``, ``T`` (and usually ``distCoeffs1/2``): such a
+    file describes the raw cameras, so the images are to be rectified with it (even when it
+    also holds ``P1``/``P2``). Every other format goes to
+    :func:`stereo_obstacles.calibration_files.read_calibration` and comes back as a rectified
+    :class:`~stereo_obstacles.calibration.StereoCalibration`.
+
+    Parameters
+    ----------
+    path
+        The calibration file.
+    length_unit
+        ``"m"``, ``"cm"`` or ``"mm"``: unit of an OpenCV file's ``T`` (default metres; a
+        baseline above ``IMPLAUSIBLE_BASELINE_M`` is then refused with a hint).
+
+    Raises
+    ------
+    InputFileError, CalibrationError
+        As :func:`~stereo_obstacles.calibration_files.read_calibration`.
+    """
+    import cv2
+
+    from stereo_obstacles.calibration_files import IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M, read_calibration
+
+    p = Path(path)
+    if not p.is_file():
+        return read_calibration(p, length_unit=length_unit)  # raises the usual file errors
+    head = p.read_bytes()[:4096].decode("utf-8", errors="replace")
+    if head.lstrip().startswith("{"):
+        try:
+            data = json.loads(p.read_text(encoding="utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError):
+            data = None
+        if is_camera_pair_json(data):
+            return CameraPairCalibration.from_dict(data, source=str(p))
+    elif "opencv-matrix" in head or "<opencv_storage>" in head or head.lstrip().startswith("%YAML"):
+        if length_unit is not None and length_unit not in LENGTH_UNITS_M:
+            raise CalibrationError(f"length_unit must be one of {sorted(LENGTH_UNITS_M)}, got {length_unit!r}")
+        try:
+            storage = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
+        except cv2.error as exc:
+            raise CalibrationError(f"{p}: OpenCV cannot parse this file: {exc.msg.strip()}") from exc
+        try:
+            pair = camera_pair_from_opencv_storage(storage, str(p), 1.0) if storage.isOpened() else None
+        finally:
+            storage.release()
+        if pair is not None:
+            if length_unit is None and pair.baseline_m > IMPLAUSIBLE_BASELINE_M:
+                raise CalibrationError(
+                    f"{p}: the baseline |T| is {pair.baseline_m:.4g} in the file's length unit, implausible in "
+                    f"metres; the file does not say its unit, so give it (--calib-unit mm or cm)")
+            scale = LENGTH_UNITS_M[length_unit or "m"]
+            return CameraPairCalibration(pair.camera_matrix_left, pair.distortion_left, pair.camera_matrix_right,
+                                         pair.distortion_right, pair.rotation, pair.translation_m * scale,
+                                         pair.width_px, pair.height_px)
+    return read_calibration(p, length_unit=length_unit)

@@ -32,6 +32,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "evaluate",
     "video",
     "batch",
+    "calibrate",
+    "rectify",
 )
 """Sub-command modules in the order ``--help`` lists them."""
 

@@ -52,3 +52,61 @@ def calibration_from_args(args: argparse.Namespace, width_px: int, height_px: in
         return None
     calibration.check_image_size(width_px, height_px)
     return calibration
+
+
+def add_rectification_options(parser: argparse.ArgumentParser, *, with_calib_file: bool = False) -> None:
+    """Add ``--uncalibrated`` (and, for commands without the calibration group, ``--calib FILE``)."""
+    group = parser.add_argument_group(
+        "rectification", "a calibration with distortion (cameraMatrix/distCoeffs/R/T) rectifies the pair first")
+    if with_calib_file:
+        group.add_argument("--calib", metavar="FILE",
+                           help="calibration file; an unrectified one (OpenCV YAML/XML with cameraMatrix1/2, "
+                                "distCoeffs1/2, R, T, or this tool's camera-pair JSON) rectifies the pair first")
+        group.add_argument("--calib-unit", choices=["m", "cm", "mm"],
+                           help="length unit of an OpenCV calibration's translation (the file does not say)")
+    group.add_argument("--uncalibrated", action="store_true",
+                       help="rectify the pair from its own feature matches (unknown cameras; no metric depth)")
+
+
+def prepare_pair(args: argparse.Namespace, left, right):
+    """Rectify the pair as the options say and return ``(left, right, calibration, report)``.
+
+    ``calibration`` is the rectified pair's (``None`` when unknown); ``report`` is a JSON-ready
+    dict describing the rectification done, or ``None`` when the pair was taken as rectified.
+
+    Raises
+    ------
+    CalibrationError, RectificationError
+        Contradictory options, a bad calibration, or a pair that cannot be rectified.
+    """
+    from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
+    from stereo_obstacles.errors import CalibrationError
+
+    height, width = left.shape[:2]
+    calib_file = getattr(args, "calib", None)
+    if getattr(args, "uncalibrated", False):
+        if calib_file:
+            raise CalibrationError("give either --calib FILE or --uncalibrated, not both")
+        from stereo_obstacles.uncalibrated_rectification import rectify_uncalibrated
+
+        rectification = rectify_uncalibrated(left, right)
+        left, right = rectification.apply(left, right)
+        calibration = calibration_from_args(args, width, height) if hasattr(args, "focal") else None
+        return left, right, calibration, rectification.to_dict()
+    if calib_file:
+        loaded = read_camera_calibration(calib_file, length_unit=args.calib_unit)
+        if isinstance(loaded, CameraPairCalibration):
+            if hasattr(args, "focal") and (args.focal is not None or args.baseline is not None):
+                raise CalibrationError("give either --calib FILE or --focal and --baseline, not both")
+            from stereo_obstacles.rectification import rectify_calibration
+
+            loaded.check_image_size(width, height)
+            rectification = rectify_calibration(loaded)
+            left, right = rectification.apply(left, right)
+            return left, right, rectification.rectified, {"method": "calibrated", "calibration": str(calib_file),
+                                                          "rectified": rectification.rectified.to_dict()}
+    if not hasattr(args, "focal"):
+        if calib_file:
+            loaded.check_image_size(width, height)
+        return left, right, loaded if calib_file else None, None
+    return left, right, calibration_from_args(args, width, height), None

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from stereo_obstacles.commands._calibration_options import add_calibration_options
+from stereo_obstacles.commands._calibration_options import add_calibration_options, add_rectification_options
 
 
 def add_detection_options(parser: argparse.ArgumentParser) -> None:
@@ -52,6 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("right", help="right colour image")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
     add_calibration_options(parser)
+    add_rectification_options(parser)
     add_detection_options(parser)
     parser.set_defaults(handler=run)
 
@@ -89,13 +90,13 @@ def run(args: argparse.Namespace) -> int:
                                  f"{right.shape[1]}x{right.shape[0]}; a stereo pair needs one size")
     if left.dtype != right.dtype:
         raise ImageMismatchError(f"{args.left} is {left.dtype} but {args.right} is {right.dtype}")
-    from stereo_obstacles.commands._calibration_options import calibration_from_args
+    from stereo_obstacles.commands._calibration_options import prepare_pair
 
-    calibration = calibration_from_args(args, left.shape[1], left.shape[0])
+    left, right, calibration, rectification = prepare_pair(args, left, right)
     config = config_from_args(args)
     result = run_detection(left, right, calibration, config, args.out,
                            inputs={"left": str(args.left), "right": str(args.right),
-                                   "calibration": args.calib})
+                                   "calibration": args.calib, "rectification": rectification})
     print(format_obstacle_table(result.obstacles, calibration is not None))
     print(timing_line(result))
     print(f"wrote {Path(args.out) / 'index.html'} and the data files beside it")

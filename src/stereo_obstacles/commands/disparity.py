@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._calibration_options import add_rectification_options
+
 HELP = "match a rectified stereo pair (GCS) and write its disparity map"
 
 
@@ -27,6 +29,7 @@ def register(subparsers) -> None:
     p.add_argument("--rng-seed", type=int, default=0, help="random seed for --seeds random")
     p.add_argument("--picture", default=None, help="also write a turbo picture of the disparity (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON line of statistics on stdout")
+    add_rectification_options(p, with_calib_file=True)
     p.set_defaults(handler=run)
 
 
@@ -60,6 +63,9 @@ def run(args: argparse.Namespace) -> int:
 
     left = read_image(args.left)
     right = read_image(args.right)
+    from stereo_obstacles.commands._calibration_options import prepare_pair
+
+    left, right, _, rectification = prepare_pair(args, left, right)
     named = args.seeds in SEED_SOURCES
     result = match(left, right, seeds=args.seeds if named else "canny",
                    seed_points=None if named else _seed_points(args.seeds),
@@ -70,5 +76,5 @@ def run(args: argparse.Namespace) -> int:
     if args.picture:
         write_image(args.picture, colorize_disparity(result.disparity, 0, result.stats.d_max))
     if args.json:
-        print(json.dumps({"output": str(args.output), **result.stats.to_dict()}))
+        print(json.dumps({"output": str(args.output), **result.stats.to_dict(), "rectification": rectification}))
     return 0

@@ -1,0 +1,108 @@
+"""``stereo-obstacles calibrate``: stereo calibration from chessboard image pairs."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "calibrate a stereo rig from chessboard image pairs"
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``calibrate`` sub-command."""
+    parser = subparsers.add_parser(
+        "calibrate", help=HELP,
+        description=HELP + ". Finds the board in every pair (pairs where it is not found in both images are "
+                    "rejected and named), calibrates both cameras and the pair, and writes the calibration as "
+                    "this tool's JSON (FILE) and as OpenCV YAML beside it (FILE with .yml; translation in "
+                    "metres), with the RMS reprojection error and the vertical offsets of the corners after "
+                    "rectification (the epipolar error).")
+    parser.add_argument("left_glob", nargs="?", metavar="LEFT_GLOB", help="left images, e.g. 'left*.jpg' (quoted)")
+    parser.add_argument("right_glob", nargs="?", metavar="RIGHT_GLOB", help="right images in the same order")
+    parser.add_argument("--folder", metavar="DIR",
+                        help="instead of globs: a folder whose files named *left*/*right* form the pairs")
+    parser.add_argument("--board", default="9x6", metavar="CxR",
+                        help="inner corners per row x per column (default 9x6)")
+    parser.add_argument("--square", type=float, required=True, metavar="M", help="side of a square, metres")
+    parser.add_argument("--out", required=True, metavar="FILE", help="calibration JSON to write (.json)")
+    parser.add_argument("--json", action="store_true", help="print the report as one JSON line")
+    parser.set_defaults(handler=run)
+
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm")
+
+
+def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
+    from pathlib import Path
+
+    from stereo_obstacles.errors import InputFileError
+
+    root = Path(folder)
+    if not root.is_dir():
+        raise InputFileError(f"--folder {folder} is not a folder")
+    pairs = []
+    for left in sorted(p for p in root.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and "left" in p.name.lower()):
+        index = left.name.lower().index("left")
+        right = left.with_name(left.name[:index] + "right" + left.name[index + 4:])
+        if not right.is_file():
+            right = left.with_name(left.name[:index] + "Right" + left.name[index + 4:])
+        if right.is_file():
+            pairs.append((str(left), str(right)))
+    if not pairs:
+        raise InputFileError(f"--folder {folder} holds no image pairs named *left*/*right*")
+    return pairs
+
+
+def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
+    import glob
+
+    from stereo_obstacles.errors import InputFileError
+
+    lefts, rights = sorted(glob.glob(left_glob)), sorted(glob.glob(right_glob))
+    if not lefts or not rights:
+        raise InputFileError(f"no files match {left_glob if not lefts else right_glob}")
+    if len(lefts) != len(rights):
+        raise InputFileError(f"{left_glob} matches {len(lefts)} files but {right_glob} matches {len(rights)}; "
+                             f"the pairs must correspond one to one")
+    return list(zip(lefts, rights))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Find the boards, calibrate, write JSON + YAML, print the report."""
+    import json
+    from pathlib import Path
+
+    from stereo_obstacles.camera_calibration import write_camera_pair_json, write_opencv_yaml
+    from stereo_obstacles.chessboard_calibration import Board, calibrate_pairs
+    from stereo_obstacles.errors import InvalidInputError, OutputError
+    from stereo_obstacles.fileio import read_image
+
+    if args.folder and (args.left_glob or args.right_glob):
+        raise InvalidInputError("give either LEFT_GLOB RIGHT_GLOB or --folder DIR, not both")
+    if not args.folder and not (args.left_glob and args.right_glob):
+        raise InvalidInputError("give LEFT_GLOB and RIGHT_GLOB, or --folder DIR")
+    out = Path(args.out)
+    if out.suffix.lower() != ".json":
+        raise OutputError(f"--out {out} must end in .json (the OpenCV YAML is written beside it)")
+    board = Board.parse(args.board, args.square)
+    files = _pairs_from_folder(args.folder) if args.folder else _pairs_from_globs(args.left_glob, args.right_glob)
+    pairs = [(f"{Path(left).name}+{Path(right).name}", read_image(left, mode="gray"), read_image(right, mode="gray"))
+             for left, right in files]
+    result = calibrate_pairs(pairs, board)
+    yaml_path = out.with_suffix(".yml")
+    write_camera_pair_json(out, result.calibration)
+    write_opencv_yaml(yaml_path, result.calibration, result.rectification.opencv_matrices())
+    report = {"calibration": str(out), "opencv_yaml": str(yaml_path), **result.to_dict()}
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    print(f"pairs used: {len(result.used)} of {len(pairs)}")
+    for reason in result.rejected:
+        print(f"rejected: {reason}")
+    print(f"RMS reprojection error: {result.rms_px:.3f} px (left camera alone {result.rms_left_px:.3f} px, "
+          f"right {result.rms_right_px:.3f} px)")
+    print(f"epipolar error after rectification: {result.epipolar.describe()}")
+    rectified = result.rectification.rectified
+    print(f"baseline {result.calibration.baseline_m:.4f} m; rectified focal {rectified.focal_px:.1f} px, "
+          f"principal point ({rectified.cx_px:.1f}, {rectified.cy_px:.1f}) px")
+    print(f"wrote {out} and {yaml_path}")
+    return 0
