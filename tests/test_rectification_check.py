@@ -1,0 +1,71 @@
+"""The check that warns before matching a pair that is not rectified."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.feature_matching import match_features
+from stereo_obstacles.rectification_check import check_rectification
+from stereo_obstacles.synthetic import RenderOptions, RightCameraError, default_scene, render_pair
+
+
+@pytest.fixture(scope="module")
+def pairs():
+    scene = default_scene(160, 120)
+    return (render_pair(scene),
+            render_pair(scene, RenderOptions(right_error=RightCameraError(rotation_deg=(0.8, 0.0, 0.5),
+                                                                          vertical_offset_px=3.0))))
+
+
+def test_rectified_pair_passes_quietly(pairs, caplog):
+    with caplog.at_level(logging.WARNING):
+        check = check_rectification(pairs[0].left, pairs[0].right)
+    assert check.rectified is True and check.offsets.median_px < 0.5
+    assert not caplog.records
+
+
+def test_unrectified_pair_warns(pairs, caplog):
+    with caplog.at_level(logging.WARNING):
+        check = check_rectification(pairs[1].left, pairs[1].right)
+    assert check.rectified is False and check.offsets.median_px > 1.0
+    assert "does not look rectified" in caplog.text
+    assert check.to_dict()["vertical_offset"]["n_points"] == check.offsets.n_points
+
+
+def test_plain_images_cannot_be_judged():
+    flat = np.full((60, 80, 3), 90, np.uint8)
+    assert check_rectification(flat, flat).rectified is None
+
+
+def test_bad_arguments(pairs):
+    with pytest.raises(InvalidInputError, match="threshold_px"):
+        check_rectification(pairs[0].left, pairs[0].right, threshold_px=0)
+    with pytest.raises(ImageMismatchError):
+        check_rectification(pairs[0].left, pairs[0].right[:50])
+    with pytest.raises(InvalidInputError, match="method"):
+        match_features(pairs[0].left, pairs[0].right, method="surf")
+
+
+@pytest.mark.parametrize("method", ["sift", "orb"])
+def test_feature_matches_find_a_known_shift(method):
+    rng = np.random.default_rng(3)
+    image = (rng.uniform(0, 255, (160, 200)) > 128).astype(np.uint8) * 255
+    image = np.kron(image, np.ones((2, 2), np.uint8))
+    matches = match_features(image, np.roll(image, (2, -6), axis=(0, 1)), method=method)
+    assert len(matches) > 20
+    shift = np.median(matches.right_px - matches.left_px, axis=0)
+    assert shift == pytest.approx([-6.0, 2.0], abs=0.5)
+
+
+def test_pipeline_records_the_check(pairs, caplog):
+    from stereo_obstacles.pipeline import detect
+
+    with caplog.at_level(logging.WARNING, logger="stereo_obstacles.rectification_check"):
+        result = detect(pairs[1].left, pairs[1].right, pairs[1].calibration)
+    assert result.rectification_check.rectified is False
+    assert "rectification_check" in result.timings_s
+    assert "does not look rectified" in caplog.text

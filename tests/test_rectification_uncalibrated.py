@@ -1,0 +1,100 @@
+"""Uncalibrated rectification: quality on the synthetic mis-mounted camera and on a turned
+Middlebury pair, and clear refusals when a pair cannot be rectified."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from _rectification_cases import perturbed_middlebury, synthetic_case, truth_kwargs
+from stereo_obstacles.disparity_metrics import evaluate_disparity
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError, RectificationError
+from stereo_obstacles.matching import match
+from stereo_obstacles.rectification_evaluation import rectified_ground_truth
+from stereo_obstacles.uncalibrated_rectification import rectify_uncalibrated
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    return synthetic_case()
+
+
+@pytest.mark.parametrize("model", ["quasi-euclidean", "hartley"])
+def test_synthetic_pair(synthetic, model):
+    pair, calibration = synthetic
+    rectification = rectify_uncalibrated(pair.left, pair.right, model=model)
+    assert rectification.n_inliers >= 30 and rectification.n_inliers <= rectification.n_matches
+    assert rectification.quality.median_px < 0.5
+    truth = rectified_ground_truth(rectification, pair.depth, pair.nonocc, **truth_kwargs(calibration))
+    assert truth.vertical.median_px < 0.5 and truth.vertical.p95_px < 1.0
+    low, high = rectification.disparity_range_px
+    assert 0 <= low < high < 40
+    left, right = rectification.apply(pair.left, pair.right)
+    assert left.shape == pair.left.shape and left.dtype == np.uint8
+    summary = rectification.to_dict()
+    assert summary["method"] == "uncalibrated" and len(summary["h_left"]) == 3
+
+
+def test_quasi_euclidean_keeps_the_left_image_nearly_unchanged(synthetic):
+    pair, _ = synthetic
+    rectification = rectify_uncalibrated(pair.left, pair.right)
+    corners = np.array([[0, 0], [319, 0], [0, 239], [319, 239], [160, 120]], float)
+    assert np.abs(rectification.left_points(corners) - corners).max() < 8.0
+
+
+def test_synthetic_disparity_after_uncalibrated_rectification(synthetic):
+    pair, calibration = synthetic
+    rectification = rectify_uncalibrated(pair.left, pair.right)
+    truth = rectified_ground_truth(rectification, pair.depth, pair.nonocc, **truth_kwargs(calibration))
+    left, right = rectification.apply(pair.left, pair.right)
+    metrics = evaluate_disparity(match(left, right).disparity, truth.disparity, mask=truth.nonocc)
+    assert metrics.density_pct > 65 and metrics.bad1_matched_pct < 10
+
+
+def test_refuses_plain_images():
+    flat = np.full((120, 160, 3), 128, np.uint8)
+    with pytest.raises(RectificationError, match="too few feature matches"):
+        rectify_uncalibrated(flat, flat)
+
+
+def test_refuses_a_pure_rotation(synthetic):
+    pair, _ = synthetic
+    k = np.array([[300.0, 0, 160], [0, 300.0, 120], [0, 0, 1]])
+    a = np.radians(2.0)
+    turn = np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+    rotated = cv2.warpPerspective(pair.left, k @ turn @ np.linalg.inv(k), (320, 240))
+    with pytest.raises(RectificationError, match="degenerate motion"):
+        rectify_uncalibrated(pair.left, rotated)
+
+
+def test_refuses_swapped_images(synthetic):
+    pair, _ = synthetic
+    with pytest.raises(RectificationError, match="swapped"):
+        rectify_uncalibrated(pair.right, pair.left)
+
+
+def test_bad_arguments(synthetic):
+    pair, _ = synthetic
+    with pytest.raises(InvalidInputError, match="model"):
+        rectify_uncalibrated(pair.left, pair.right, model="loop")
+    with pytest.raises(ImageMismatchError, match="differ in size"):
+        rectify_uncalibrated(pair.left, pair.right[:100])
+
+
+def test_middlebury_turned_right_camera(shared_dataset):
+    from stereo_obstacles.datasets import load_pair
+
+    pair = load_pair(shared_dataset("middlebury2003_cones"))
+    right, depth, calibration = perturbed_middlebury(pair.left, pair.right, pair.gt_disparity)
+    rectification = rectify_uncalibrated(pair.left, right)
+    assert rectification.quality.median_px < 0.5
+    truth = rectified_ground_truth(rectification, depth, pair.nonocc, **truth_kwargs(calibration))
+    assert truth.vertical.median_px < 0.5
+    left_r, right_r = rectification.apply(pair.left, right)
+    perfect = evaluate_disparity(match(pair.left, pair.right, max_disparity=60).disparity, pair.gt_disparity,
+                                 mask=pair.nonocc)
+    rectified = evaluate_disparity(match(left_r, right_r, max_disparity=60).disparity, truth.disparity,
+                                   mask=truth.nonocc)
+    assert rectified.bad1_matched_pct < perfect.bad1_matched_pct + 1.5
+    assert rectified.density_pct > perfect.density_pct - 10
