@@ -91,11 +91,18 @@ def test_missed_track_keeps_its_id_for_a_few_frames_then_ends():
     assert tracker.update([seen(0.0, 4.0)], 10 * DT)[0].track_id != first
 
 
-def test_far_jump_starts_a_new_track():
+def test_far_jump_elsewhere_in_the_image_starts_a_new_track():
     tracker = ObstacleTracker()
     a = tracker.update([seen(0.0, 5.0)], 0.0)[0].track_id
-    b = tracker.update([seen(0.0, 7.0)], DT)
+    b = tracker.update([seen(0.0, 7.0, box=(10, 10, 40, 60))], DT)
     assert [t.track_id for t in b if t.obstacle is not None] != [a]
+
+
+def test_merged_detection_keeps_the_id_through_box_overlap():
+    tracker = ObstacleTracker()
+    a = tracker.update([seen(0.0, 5.0, box=(100, 100, 140, 200))], 0.0)[0].track_id
+    merged = seen(1.5, 5.0, box=(100, 100, 220, 200))       # centre 1.5 m away, box still overlapping
+    assert tracker.update([merged], DT)[0].track_id == a
 
 
 def test_without_calibration_boxes_carry_the_ids():

@@ -254,6 +254,13 @@ def process_pair(job: BatchJob) -> PairOutcome:
     return PairOutcome(job.pair.name, "done", seconds, None, details)
 
 
+def _ignore_sigint() -> None:
+    """Worker start-up: Ctrl-C is the parent's to handle (it stops handing out pairs)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _local_results(jobs: list[BatchJob], workers: int) -> Iterable[PairOutcome]:
     if workers == 1:
         yield from (process_pair(job) for job in jobs)
@@ -261,7 +268,8 @@ def _local_results(jobs: list[BatchJob], workers: int) -> Iterable[PairOutcome]:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_ignore_sigint) as pool:
         futures = [pool.submit(process_pair, job) for job in jobs]
         try:
             for future in as_completed(futures):
@@ -290,7 +298,8 @@ def _dask_results(jobs: list[BatchJob], scheduler: str) -> Iterable[PairOutcome]
 
 
 def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None = None,
-              on_outcome: Callable[[PairOutcome], None] | None = None) -> list[PairOutcome]:
+              on_outcome: Callable[[PairOutcome], None] | None = None,
+              should_stop: Callable[[], bool] | None = None) -> list[PairOutcome]:
     """Run every job whose output folder has no done file; return one outcome per job.
 
     Parameters
@@ -303,12 +312,15 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         must see the same input and output paths.
     on_outcome : callable, optional
         Called with each outcome as it arrives (skipped pairs first).
+    should_stop : callable, optional
+        Asked after each finished pair; when it returns True no further pair is started,
+        pairs not yet started are cancelled, and the outcomes so far are returned.
 
     Returns
     -------
     list of PairOutcome
-        Skipped pairs, then the others in order of completion. A Ctrl-C stops the batch
-        (``KeyboardInterrupt`` propagates; finished pairs keep their done files).
+        Skipped pairs, then the others in order of completion (unfinished pairs have no
+        outcome and no done file).
     """
     if int(workers) != workers or workers < 1:
         raise InvalidInputError(f"workers must be an integer >= 1, got {workers}")
@@ -329,6 +341,9 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         results = _dask_results(todo, scheduler) if scheduler else _local_results(todo, int(workers))
         for outcome in results:
             record(outcome)
+            if should_stop is not None and should_stop():
+                results.close()
+                break
     return outcomes
 
 

@@ -5,13 +5,17 @@ to frame and its measured distance jitters by a few per cent. :class:`ObstacleTr
 tracks:
 
 * **association** — each frame's obstacles are matched greedily, best pair first, to the
-  existing tracks: by the distance between 3-D centres (the track's centre moved by its
-  predicted change of distance) when both have one, within ``max_centre_jump_m``; otherwise
-  by image box overlap (intersection over union of at least ``min_iou``). Unmatched obstacles
-  start new tracks; a track not seen for more than ``max_missed_frames`` frames ends.
+  existing tracks. A pair qualifies when the 3-D centres (the track's moved by its predicted
+  change of distance) are within ``max_centre_jump_m``, or when the image boxes overlap with
+  an intersection over union of at least ``min_iou``; its cost is the smaller of
+  ``jump / max_centre_jump_m`` and ``1 - IoU``. Either cue alone is fragile: the centre of
+  an object that the detector merges with its neighbour in one frame jumps by a metre, while
+  its box still overlaps. Unmatched obstacles start new tracks; a track not seen for more
+  than ``max_missed_frames`` frames ends.
 * **smoothing** — an alpha-beta filter (a steady-state 1-D constant-velocity Kalman filter)
   on the distance: ``predicted = z + v dt``, ``z = predicted + alpha r``, ``v = v + beta r / dt``
-  with the residual ``r = measured - predicted``.
+  with the residual ``r = measured - predicted``; the velocity starts from the difference of
+  the first two measurements (starting at 0 would take ~1/beta frames to notice an approach).
 * **approach** — closing speed ``-v`` (m/s, positive when the obstacle comes nearer — which
   includes static obstacles a walking user approaches); a track at least ``min_age_frames``
   old closing faster than ``min_closing_speed_mps`` is *approaching*, with a time to contact
@@ -236,14 +240,16 @@ class ObstacleTracker:
         for t, state in enumerate(self._tracks):
             centre = state.predicted_centre(time_s)
             for i, obstacle in enumerate(obstacles):
+                options = []
                 if centre is not None and obstacle.centre_m is not None:
                     jump = float(np.linalg.norm(np.asarray(obstacle.centre_m) - centre))
                     if jump <= self.params.max_centre_jump_m:
-                        costs.append((jump / self.params.max_centre_jump_m, t, i))
-                else:
-                    overlap = box_iou(state.box, obstacle.box_px)
-                    if overlap >= self.params.min_iou:
-                        costs.append((1.0 - overlap, t, i))
+                        options.append(jump / self.params.max_centre_jump_m)
+                overlap = box_iou(state.box, obstacle.box_px)
+                if overlap >= self.params.min_iou:
+                    options.append(1.0 - overlap)
+                if options:
+                    costs.append((min(options), t, i))
         pairs: dict[int, tuple[_State, float]] = {}
         used_tracks: set[int] = set()
         for cost, t, i in sorted(costs):
@@ -256,7 +262,10 @@ class ObstacleTracker:
     def _correct(self, state: _State, obstacle: Obstacle, time_s: float) -> None:
         dt = time_s - state.time_s
         predicted = state.predicted_distance(time_s)
-        if predicted is not None and obstacle.distance_m is not None:
+        if state.age == 1 and predicted is not None and obstacle.distance_m is not None:
+            state.velocity = (obstacle.distance_m - state.distance) / dt     # two-point start
+            state.distance = obstacle.distance_m
+        elif predicted is not None and obstacle.distance_m is not None:
             residual = obstacle.distance_m - predicted
             state.distance = predicted + self.params.alpha * residual
             state.velocity += self.params.beta * residual / dt

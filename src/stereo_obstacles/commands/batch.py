@@ -13,7 +13,7 @@ layout (as 'evaluate' reads them; KITTI folders give one pair per frame), <name>
 outputs go to OUT/<name>/, and a done.json written last marks it complete: a second run skips
 completed pairs. A failing pair is reported with its reason and the batch goes on. The summary
 is written to OUT/batch_summary.json. Exit code 0 when every pair is done, 1 when some failed,
-130 on Ctrl-C."""
+130 on Ctrl-C (pairs already started are finished first; a second Ctrl-C stops at once)."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -47,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.batch import BatchJob, find_pairs, run_batch, write_summary
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InvalidInputError
+    from stereo_obstacles.interrupts import StopRequest, is_interrupt
     from stereo_obstacles.progress import Progress
 
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
@@ -69,9 +70,13 @@ def run(args: argparse.Namespace) -> int:
     outcomes: list = []
     interrupted = False
     try:
-        run_batch(jobs, workers=workers, scheduler=args.scheduler,
-                  on_outcome=lambda o: (outcomes.append(o), report(o)))
-    except KeyboardInterrupt:
+        with StopRequest("the pairs already started") as stop:
+            run_batch(jobs, workers=workers, scheduler=args.scheduler,
+                      on_outcome=lambda o: (outcomes.append(o), report(o)), should_stop=lambda: stop.requested)
+        interrupted = stop.requested
+    except (KeyboardInterrupt, SystemError) as exc:
+        if not is_interrupt(exc):
+            raise
         interrupted = True
     finally:
         progress.close()

@@ -13,8 +13,9 @@ keeps its id, its distance is smoothed, and obstacles coming nearer are flagged 
 to contact. SOURCE is one side-by-side video (left view in the left half), two video files, two
 folders or glob patterns of images (paired by file name, else by sorted order), or two camera
 device indices. With --jsonl every frame is one line of JSON, written and synced line by line:
-a run stopped by Ctrl-C (exit 130) or killed leaves only complete lines (the first line is a
-header, the last one, after a clean or Ctrl-C stop, a summary)."""
+a run stopped by Ctrl-C (it finishes the current frame, closes every output and exits with 130;
+a second Ctrl-C stops at once) or killed leaves only complete lines (the first line is a header,
+the last one, after a clean or Ctrl-C stop, a summary)."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -113,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._calibration_options import calibration_from_args
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
+    from stereo_obstacles.interrupts import StopRequest, is_interrupt
     from stereo_obstacles.jsonl import JsonLinesWriter
     from stereo_obstacles.progress import Progress
     from stereo_obstacles.report import write_detection_outputs
@@ -157,6 +159,7 @@ def run(args: argparse.Namespace) -> int:
         stack.callback(progress.close)
         stream = detect_stream(itertools.chain([first], frames), calibration, config=config, temporal=temporal,
                                tracking=tracking)
+        stop = stack.enter_context(StopRequest("the current frame"))
         try:
             for detection in stream:
                 record = frame_record(detection)
@@ -177,9 +180,14 @@ def run(args: argparse.Namespace) -> int:
                 count += 1
                 near = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
                 progress.update(note=f"approaching #{near[0].track_id}" if near else "")
+                if stop.requested:
+                    interrupted = True
+                    break
                 if args.max_frames is not None and count >= args.max_frames:
                     break
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, SystemError) as exc:
+            if not is_interrupt(exc):
+                raise
             interrupted = True
         finally:
             stream.close()

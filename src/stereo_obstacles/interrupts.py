@@ -1,0 +1,60 @@
+"""Ctrl-C as a request to stop between work items, so that outputs stay whole.
+
+A ``KeyboardInterrupt`` raised at an arbitrary point may land inside a numba kernel (which
+then fails with a ``SystemError`` whose cause is the interrupt) or between two writes of one
+output. :class:`StopRequest` turns the first Ctrl-C into a flag that long loops check between
+items (frames, pairs); a second Ctrl-C interrupts at once. :func:`is_interrupt` recognises
+both forms of an immediate interrupt.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+
+__all__ = ["StopRequest", "is_interrupt"]
+
+logger = logging.getLogger(__name__)
+
+
+class StopRequest:
+    """Context manager: while active, the first SIGINT sets :attr:`requested` instead of raising.
+
+    Outside the main thread (where signal handlers cannot be installed) it does nothing and
+    Ctrl-C keeps its default behaviour.
+
+    Examples
+    --------
+    >>> with StopRequest() as stop:
+    ...     for item in range(3):
+    ...         if stop.requested:
+    ...             break
+    """
+
+    def __init__(self, what: str = "the current item") -> None:
+        self.what = what
+        self.requested = False
+        self._previous = None
+
+    def _handle(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+        logger.warning("stopping after %s (press Ctrl-C again to stop at once)", self.what)
+
+    def __enter__(self) -> StopRequest:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
+
+
+def is_interrupt(exc: BaseException) -> bool:
+    """True for a ``KeyboardInterrupt``, also when a compiled kernel wrapped it in a ``SystemError``."""
+    return isinstance(exc, KeyboardInterrupt) or (isinstance(exc, SystemError)
+                                                  and isinstance(exc.__cause__, KeyboardInterrupt))

@@ -1,0 +1,144 @@
+"""The batch command: pair discovery, per-pair failures, resume, local processes and a Dask cluster."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import cv2
+import pytest
+
+from _stream_frames import frames
+from stereo_obstacles.batch import (DONE_FILE, SUMMARY_FILE, BatchJob, PairSpec, find_pairs, process_pair,
+                                    run_batch)
+from stereo_obstacles.cli import main
+from stereo_obstacles.errors import InputFileError, InvalidInputError
+from stereo_obstacles.fileio import read_pfm
+from stereo_obstacles.pipeline import DetectionConfig, MatchingOptions
+from stereo_obstacles.synthetic import write_scene_folder
+
+CONFIG = DetectionConfig(matching=MatchingOptions(max_disparity=40))
+
+
+def _write_pair(folder, left_name, right_name, index=0):
+    pair = frames()[index]
+    cv2.imwrite(str(folder / left_name), cv2.cvtColor(pair.left, cv2.COLOR_RGB2BGR))
+    cv2.imwrite(str(folder / right_name), cv2.cvtColor(pair.right, cv2.COLOR_RGB2BGR))
+
+
+@pytest.fixture
+def pairs_dir(tmp_path):
+    """Three file pairs, the middle one with a corrupt left image."""
+    folder = tmp_path / "pairs"
+    folder.mkdir()
+    _write_pair(folder, "a_left.png", "a_right.png", 0)
+    _write_pair(folder, "b_left.png", "b_right.png", 1)
+    _write_pair(folder, "c_left.png", "c_right.png", 2)
+    (folder / "b_left.png").write_bytes(b"\x89PNG\r\n\x1a\n truncated")
+    return folder
+
+
+def _summary(out):
+    return json.loads((out / SUMMARY_FILE).read_text())
+
+
+def test_find_pairs_understands_the_usual_layouts(tmp_path):
+    _write_pair(tmp_path, "0001_left.png", "0001_right.png")
+    _write_pair(tmp_path, "scan_L.png", "scan_R.png")
+    _write_pair(tmp_path, "Left-07.jpg", "Right-07.jpg")
+    (tmp_path / "lonely_left.png").write_bytes(b"x")
+    for side in ("left", "right"):
+        (tmp_path / side).mkdir()
+    _write_pair(tmp_path / "left", "f9.png", "../right/f9.png")
+    write_scene_folder(tmp_path / "scene", frames()[0])
+    got = {p.name: p for p in find_pairs(tmp_path)}
+    assert sorted(got) == ["0001", "07", "f9", "scan", "scene"]
+    assert got["scan"].left.endswith("scan_L.png") and got["scan"].right.endswith("scan_R.png")
+    assert got["f9"].right.endswith("right/f9.png")
+    assert got["scene"].folder.endswith("scene") and got["scene"].left is None
+
+
+def test_find_pairs_errors(tmp_path):
+    with pytest.raises(InputFileError, match="does not exist"):
+        find_pairs(tmp_path / "missing")
+    with pytest.raises(InputFileError, match="no stereo pairs"):
+        find_pairs(tmp_path)
+    _write_pair(tmp_path, "x_left.png", "x_right.png")
+    _write_pair(tmp_path, "x-L.png", "x-R.png")
+    with pytest.raises(InputFileError, match="share the output name"):
+        find_pairs(tmp_path)
+    with pytest.raises(InvalidInputError, match="either a folder or left and right"):
+        PairSpec("p", folder="f", left="l", right="r")
+    with pytest.raises(InvalidInputError, match="task"):
+        BatchJob(PairSpec("p", folder="f"), "out", "segment", CONFIG)
+
+
+def test_corrupt_pair_is_reported_and_the_rest_done_then_resumed(pairs_dir, tmp_path, capsys):
+    out = tmp_path / "out"
+    args = ["batch", str(pairs_dir), "--out", str(out), "--workers", "1", "--task", "disparity",
+            "--max-disparity", "40"]
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert "b: failed: InputFileError" in err and "b_left.png" in err
+    summary = _summary(out)
+    assert summary["counts"] == {"done": 2, "skipped": 0, "failed": 1}
+    failed = [p for p in summary["pairs"] if p["status"] == "failed"]
+    assert [p["name"] for p in failed] == ["b"] and "not an image" in failed[0]["reason"]
+    assert (out / "a" / DONE_FILE).is_file() and not (out / "b").exists()
+    disparity = read_pfm(out / "c" / "disparity.pfm")
+    assert disparity.shape == frames()[2].disparity.shape
+    stamp = (out / "a" / "disparity.pfm").stat().st_mtime_ns
+
+    (out / "c" / DONE_FILE).unlink()                 # as if the first run died before c was complete
+    assert main(args) == 1
+    summary = _summary(out)
+    assert summary["counts"] == {"done": 1, "skipped": 1, "failed": 1}
+    assert {p["name"]: p["status"] for p in summary["pairs"]} == {"a": "skipped", "b": "failed", "c": "done"}
+    assert (out / "a" / "disparity.pfm").stat().st_mtime_ns == stamp        # not redone
+
+    _write_pair(pairs_dir, "b_left.png", "b_right.png", 1)                   # repaired
+    assert main(args) == 0
+    assert _summary(out)["counts"] == {"done": 1, "skipped": 2, "failed": 0}
+
+
+def test_detect_task_writes_the_detect_outputs_with_the_folder_calibration(tmp_path):
+    write_scene_folder(tmp_path / "in" / "scene", frames()[0])
+    out = tmp_path / "out"
+    assert main(["batch", str(tmp_path / "in"), "--out", str(out), "--workers", "1"]) == 0
+    done = json.loads((out / "scene" / DONE_FILE).read_text())
+    assert done["task"] == "detect" and done["obstacles"] >= 1 and done["inputs"]["layout"] == "synthetic"
+    document = json.loads((out / "scene" / "obstacles.json").read_text())
+    assert document["units"] == "metres"
+    assert done["nearest_distance_m"] == pytest.approx(frames()[0].obstacles[0].distance_m, rel=0.15)
+
+
+def test_two_local_worker_processes(pairs_dir, tmp_path):
+    _write_pair(pairs_dir, "b_left.png", "b_right.png", 1)
+    jobs = [BatchJob(p, str(tmp_path / "out" / p.name), "disparity", CONFIG) for p in find_pairs(pairs_dir)]
+    outcomes = run_batch(jobs, workers=2)
+    assert sorted((o.name, o.status) for o in outcomes) == [("a", "done"), ("b", "done"), ("c", "done")]
+    assert all((tmp_path / "out" / n / DONE_FILE).is_file() for n in "abc")
+
+
+def test_dask_local_cluster(pairs_dir, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    jobs = [BatchJob(p, str(tmp_path / "out" / p.name), "disparity", CONFIG) for p in find_pairs(pairs_dir)]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        outcomes = run_batch(jobs, scheduler=cluster.scheduler_address)
+    assert sorted((o.name, o.status) for o in outcomes) == [("a", "done"), ("b", "failed"), ("c", "done")]
+    assert (tmp_path / "out" / "a" / DONE_FILE).is_file()
+
+
+def test_should_stop_ends_the_batch_after_the_current_pair(pairs_dir, tmp_path):
+    jobs = [BatchJob(p, str(tmp_path / "out" / p.name), "disparity", CONFIG) for p in find_pairs(pairs_dir)]
+    outcomes = run_batch(jobs, should_stop=lambda: True)
+    assert [o.name for o in outcomes] == ["a"]
+    assert not (tmp_path / "out" / "c").exists()
+
+
+def test_process_pair_never_raises(tmp_path):
+    job = BatchJob(PairSpec("ghost", folder=str(tmp_path / "nowhere")), str(tmp_path / "out"), "detect", CONFIG)
+    outcome = process_pair(job)
+    assert outcome.status == "failed" and "nowhere" in outcome.reason
+    shutil.rmtree(tmp_path / "out", ignore_errors=True)

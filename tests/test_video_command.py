@@ -1,0 +1,130 @@
+"""The video command: JSON lines, annotated video, per-frame outputs, temporal seeds, interruption."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from io import StringIO
+
+import cv2
+import pytest
+
+from _stream_frames import N_FRAMES, SIZE, write_calibration, write_side_by_side, write_sequences, write_videos
+from stereo_obstacles.cli import main
+from stereo_obstacles.errors import InputFileError
+from stereo_obstacles.jsonl import JsonLinesWriter, read_json_lines
+from stereo_obstacles.progress import Progress
+
+
+def test_video_pair_gives_tracked_obstacles_as_json_lines_and_a_video(tmp_path):
+    left, right = write_videos(tmp_path / "in")
+    calib = write_calibration(tmp_path / "calib.json")
+    jsonl, out_video = tmp_path / "frames.jsonl", tmp_path / "out" / "annotated.mp4"
+    code = main(["video", str(left), str(right), "--calib", str(calib), "--jsonl", str(jsonl),
+                 "--video-out", str(out_video), "--forward-speed", "0.1"])
+    assert code == 0
+    records = read_json_lines(jsonl)
+    header, frames, end = records[0], records[1:-1], records[-1]
+    assert header["type"] == "header" and header["units"] == "metres" and header["calibration"] is not None
+    assert [r["frame"] for r in frames] == list(range(N_FRAMES))
+    assert [r["seeds"] for r in frames] == ["edge"] + ["temporal"] * (N_FRAMES - 1)
+    assert end == {**end, "type": "end", "frames": N_FRAMES, "interrupted": False}
+    nearest = [min(r["obstacles"], key=lambda o: o["measured_distance_m"]) for r in frames]
+    assert len({o["track_id"] for o in nearest}) == 1          # the nearest obstacle keeps its id
+    assert nearest[-1]["approaching"] and 0.3 < nearest[-1]["closing_speed_mps"] < 3.0   # walking at 1 m/s
+    assert nearest[-1]["distance_m"] < nearest[0]["distance_m"]
+    capture = cv2.VideoCapture(str(out_video))
+    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == N_FRAMES
+    assert (int(capture.get(cv2.CAP_PROP_FRAME_WIDTH)), int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT))) == SIZE
+    capture.release()
+    assert [p.name for p in out_video.parent.iterdir()] == ["annotated.mp4"]     # no temporary left
+
+
+def test_image_sequences_without_temporal_seeds_and_with_frame_outputs(tmp_path, capsys):
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    code = main(["video", str(left_dir), str(right_dir), "--no-temporal-seeds", "--max-frames", "2",
+                 "--frames-out", str(tmp_path / "frames")])
+    assert code == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 2 and lines[0].startswith("frame 0 t=0.00 s: #1 d=")      # no calibration: pixels
+    assert sorted(p.name for p in (tmp_path / "frames").iterdir()) == ["0000", "0001"]
+    assert (tmp_path / "frames" / "0001" / "obstacles.json").is_file()
+
+
+def test_side_by_side_video_to_stdout_jsonl(tmp_path, capfd):
+    video = write_side_by_side(tmp_path / "sbs.avi")
+    assert main(["video", str(video), "--max-frames", "1", "--jsonl", "-"]) == 0
+    records = [json.loads(line) for line in capfd.readouterr().out.splitlines()]
+    assert [r["type"] for r in records] == ["header", "frame", "end"]
+    assert records[0]["source"].startswith("side-by-side video")
+
+
+def test_empty_source_is_an_error(tmp_path, capsys):
+    (tmp_path / "l").mkdir()
+    (tmp_path / "r").mkdir()
+    assert main(["video", str(tmp_path / "l"), str(tmp_path / "r")]) == 1
+    assert "no image files" in capsys.readouterr().err
+
+
+def _run_and_stop(tmp_path, how: int) -> tuple[int, list[str], str]:
+    """Start the command on a long sequence, stop it with ``how`` once two frames are written."""
+    left_dir, right_dir = write_sequences(tmp_path / "in", repeat=25)
+    jsonl = tmp_path / "frames.jsonl"
+    process = subprocess.Popen([sys.executable, "-m", "stereo_obstacles", "video", str(left_dir), str(right_dir),
+                                "--jsonl", str(jsonl)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None:
+        if jsonl.exists() and jsonl.read_bytes().count(b"\n") >= 3:
+            break
+        time.sleep(0.05)
+    process.send_signal(how)
+    _, err = process.communicate(timeout=60)
+    return process.returncode, jsonl.read_bytes().decode().splitlines(keepends=True), err.decode()
+
+
+def test_ctrl_c_stops_cleanly_with_only_complete_lines(tmp_path):
+    code, lines, err = _run_and_stop(tmp_path, signal.SIGINT)
+    assert code == 130, err
+    records = [json.loads(line) for line in lines]
+    assert all(line.endswith("\n") for line in lines)
+    assert records[-1]["type"] == "end" and records[-1]["interrupted"] is True
+    assert 2 <= records[-1]["frames"] < 100 and len(records) == records[-1]["frames"] + 2
+
+
+def test_killed_run_leaves_only_complete_lines(tmp_path):
+    code, lines, _ = _run_and_stop(tmp_path, signal.SIGKILL)
+    assert code == -signal.SIGKILL
+    assert len(lines) >= 3 and all(line.endswith("\n") for line in lines)
+    assert [json.loads(line)["type"] for line in lines[1:]] == ["frame"] * (len(lines) - 1)
+
+
+def test_json_lines_reader_reports_a_torn_line(tmp_path):
+    path = tmp_path / "x.jsonl"
+    with JsonLinesWriter(path, sync=False) as out:
+        out.write({"a": 1})
+    with open(path, "a") as f:
+        f.write('{"a": ')
+    with pytest.raises(InputFileError, match="line 2 is incomplete"):
+        read_json_lines(path)
+    path.write_text('{"a": 1}\n{"a": \n')
+    with pytest.raises(InputFileError, match="line 2 is not valid JSON"):
+        read_json_lines(path)
+
+
+def test_progress_draws_only_when_enabled():
+    stream = StringIO()
+    progress = Progress(4, stream=stream, enabled=True, interval_s=0.0)
+    for _ in range(4):
+        progress.update(note="x")
+    progress.close()
+    assert "frame 4/4 [####################]" in stream.getvalue()
+    quiet = StringIO()
+    Progress(4, stream=quiet).update()            # StringIO is not a terminal
+    assert quiet.getvalue() == ""
+    live = Progress(None, label="frame", stream=StringIO(), enabled=True)
+    live.update()
+    assert live.line().startswith("frame 1 ")
