@@ -4,9 +4,10 @@ A true obstacle is *found* when a detected obstacle covers at least ``min_overla
 true obstacle's pixels that the detection could see, or most of the detection lies on it.
 The reported distance is compared with the true ``nearest_depth_m`` (the smallest camera
 depth among the obstacle's visible pixels), because that is what the detector measures: the
-depth of the near face, not the walking distance along the ground. A detection lying mostly
-on pixels that are truly ground, shadow or a marking is a false alarm, reported with the
-ground-truth class it lies on.
+depth of the near face, not the walking distance along the ground. A detection with fewer
+than ``FALSE_ALARM_MAX_ON_OBSTACLE`` of its pixels on true obstacles is a false alarm, reported
+with the ground-truth class most of it lies on (a thin pole fattened by the matching into the
+sky around it is still the pole, not a false alarm).
 """
 
 from __future__ import annotations
@@ -18,6 +19,10 @@ import numpy as np
 
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacles import ObstacleList
+
+
+FALSE_ALARM_MAX_ON_OBSTACLE = 0.2
+"""A detection with less than this fraction of its pixels on true obstacles is a false alarm."""
 
 
 @dataclass(frozen=True)
@@ -96,7 +101,7 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
     for o in obstacle_list.obstacles:
         pixels = id_map == o.id
         on_obstacle = np.count_nonzero(pixels & (true_labels == Label.OBSTACLE))
-        if on_obstacle < 0.5 * np.count_nonzero(pixels):
+        if on_obstacle < FALSE_ALARM_MAX_ON_OBSTACLE * np.count_nonzero(pixels):
             classes, counts = np.unique(true_labels[pixels & (true_labels != Label.OBSTACLE)], return_counts=True)
             alarms.append(FalseAlarm(o.id, o.distance_m, Label(int(classes[np.argmax(counts)])).name.lower()))
     return comparisons, alarms

@@ -90,7 +90,7 @@ class PlaneFitParameters:
 
     inlier_threshold_px: float = 1.0
     iterations: int = 300
-    max_points: int = 20000
+    max_points: int = 5000
     min_inliers: int = 50
     min_slope_y: float | None = 0.01
     seed: int = 0
@@ -182,6 +182,9 @@ def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
             break
         inliers = new_inliers
         best = _least_squares(xs[inliers], ys[inliers], ds[inliers])
+    if params.min_slope_y is not None and best[1] < params.min_slope_y:
+        raise InvalidInputError(f"no ground plane found: the best plane has b = {best[1]:.4f} < min_slope_y = "
+                                f"{params.min_slope_y} (a wall or a large object, not the ground)")
     residual = best[0] * xs[inliers] + best[1] * ys[inliers] + best[2] - ds[inliers]
     plane = GroundPlane(a=float(best[0]), b=float(best[1]), c=float(best[2]),
                         n_inliers=int(inliers.sum()), inlier_fraction=float(inliers.mean()),

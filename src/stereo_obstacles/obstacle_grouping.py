@@ -42,8 +42,8 @@ class GroupingParameters:
 
     cell_px: int = 8
     min_cell_pixels: int = 6
-    abs_tolerance_px: float = 1.5
-    rel_tolerance: float = 0.08
+    abs_tolerance_px: float = 1.0
+    rel_tolerance: float = 0.05
     min_pure_fraction: float = 0.7
     min_object_pixels: int = 120
 

@@ -142,22 +142,34 @@ LOWER_PART_FOR_GROUND = 1.0 / 3.0
 """Fraction of the image rows, from the bottom, searched for the ground when colour fails."""
 
 
+MIN_GROUND_COLOURED_FRACTION = 0.05
+"""Matched ground-coloured pixels (fraction of the image) that must lie on a ground-like plane
+for the colour labels to be trusted."""
+
+
 def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray) -> tuple[GroundPlane | None, bool]:
-    """The ground plane, and whether the phase-1 colour labels can be trusted."""
+    """The ground plane, and whether the phase-1 colour labels can be trusted.
+
+    The colour labels are not trusted when many ground-coloured pixels have a disparity but
+    no ground-like plane fits them: the reference area then shows a wall or a large object.
+    """
     try:
         return fit_ground_plane(disparity, mask=ground_mask), True
     except InvalidInputError as exc:
         colour_failure = str(exc)
+    matched_ground = np.count_nonzero(ground_mask & np.isfinite(disparity))
+    colour_trusted = matched_ground < MIN_GROUND_COLOURED_FRACTION * disparity.size
+    if not colour_trusted:
+        logger.warning("the pixels coloured like the reference area do not lie on a ground plane (%s): an "
+                       "obstacle may cover the reference area; obstacles are found from geometry alone",
+                       colour_failure)
     lower = np.zeros(disparity.shape, dtype=bool)
     lower[int(round(disparity.shape[0] * (1.0 - LOWER_PART_FOR_GROUND))):] = True
     try:
-        plane = fit_ground_plane(disparity, mask=lower)
+        return fit_ground_plane(disparity, mask=lower), colour_trusted
     except InvalidInputError as exc:
         logger.warning("no ground plane (%s); flat markings cannot be told from obstacles", exc)
-        return None, True
-    logger.warning("the pixels coloured like the reference area do not lie on a ground plane (%s): an "
-                   "obstacle may cover the reference area; obstacles are found from geometry alone", colour_failure)
-    return plane, False
+        return None, colour_trusted
 
 
 def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray, ground: GroundPlane | None,
