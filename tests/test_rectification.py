@@ -158,7 +158,7 @@ def test_middlebury_turned_right_camera(shared_dataset):
     from stereo_obstacles.datasets import load_pair
 
     pair = load_pair(shared_dataset("middlebury2003_cones"))
-    right, depth, calibration = perturbed_middlebury(pair.left, pair.right, pair.gt_disparity)
+    right, depth, calibration = perturbed_middlebury(pair.right, pair.gt_disparity)
     rectification = rectify_calibration(calibration)
     left_r, right_r = rectification.apply(pair.left, right)
     truth = rectified_ground_truth(rectification, depth, pair.nonocc, **truth_kwargs(calibration))

@@ -86,7 +86,7 @@ def test_middlebury_turned_right_camera(shared_dataset):
     from stereo_obstacles.datasets import load_pair
 
     pair = load_pair(shared_dataset("middlebury2003_cones"))
-    right, depth, calibration = perturbed_middlebury(pair.left, pair.right, pair.gt_disparity)
+    right, depth, calibration = perturbed_middlebury(pair.right, pair.gt_disparity)
     rectification = rectify_uncalibrated(pair.left, right)
     assert rectification.quality.median_px < 0.5
     truth = rectified_ground_truth(rectification, depth, pair.nonocc, **truth_kwargs(calibration))

@@ -13,6 +13,10 @@ Inverse depth is interpolated bilinearly (exact on planes, where it is linear in
 coordinates), and only where it is continuous (a 3 x 3 neighbourhood within
 :data:`SMOOTH_DEPTH_RATIO`): across a depth edge an interpolated depth belongs to no surface,
 and those pixels are left out of the ground truth, like occluded ones.
+
+Test cases: :func:`synthetic_camera_pair` (the true calibration of a rendered pair whose right
+camera is mis-mounted) and :func:`turn_right_camera` (a real rectified pair, such as a
+Middlebury one, whose right camera is turned and shifted by a known amount).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stereo_obstacles.camera_calibration import CameraPairCalibration
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.rectification_quality import VerticalOffsetStats, vertical_offset_stats
 
@@ -111,3 +116,62 @@ def rectified_ground_truth(rectification, depth_m: np.ndarray, nonocc: np.ndarra
     disparity[v, u] = u - right_px[:, 0]
     vertical = vertical_offset_stats(np.c_[u, v].astype(np.float64)[visible[v, u]], right_px[visible[v, u]])
     return RectifiedTruth(disparity=disparity, nonocc=visible & known, vertical=vertical)
+
+
+def synthetic_camera_pair(pair) -> CameraPairCalibration:
+    """The true :class:`CameraPairCalibration` of a rendered :class:`~stereo_obstacles.synthetic.SyntheticPair`."""
+    k = pair.scene.rig.intrinsic_matrix()
+    height, width = pair.left.shape[:2]
+    return CameraPairCalibration(k, None, pair.right_intrinsics, None, pair.right_rotation, pair.right_translation_m,
+                                 width, height)
+
+
+def turn_right_camera(right: np.ndarray, gt_disparity: np.ndarray, *, focal_px: float, baseline_m: float,
+                      rotation_deg: tuple[float, float, float], shift_px: float
+                      ) -> tuple[np.ndarray, np.ndarray, CameraPairCalibration]:
+    """Turn and shift the right camera of a rectified pair by a known amount.
+
+    The new right camera is the old one rotated by ``rotation_deg`` (degrees about X, Y, Z;
+    the columns of ``Rx Ry Rz`` are its axes in the old frame) with its principal point moved
+    down by ``shift_px``. Its image is the old one warped by ``K_new R^T K^-1``, which is
+    exact for a rotation about the optical centre; ``K`` has the assumed ``focal_px`` and the
+    image centre as principal point (an in-plane turn and a shift do not depend on the focal
+    length; a tilt or pan does, consistently with the returned calibration).
+
+    Parameters
+    ----------
+    right : ndarray, shape (H, W[, 3])
+        Right image of a rectified pair.
+    gt_disparity : ndarray, shape (H, W)
+        Ground-truth left disparity, pixels (NaN or <= 0 unknown).
+    focal_px, baseline_m : float
+        Assumed focal length and baseline (they set the depth scale only).
+    rotation_deg, shift_px
+        The known turn and vertical shift of the right camera.
+
+    Returns
+    -------
+    right : ndarray
+        The turned right image (same shape and dtype).
+    depth_m : ndarray of float32, shape (H, W)
+        ``focal_px * baseline_m / d``, NaN where unknown.
+    calibration : CameraPairCalibration
+        The true calibration of the turned pair.
+    """
+    import cv2
+
+    from stereo_obstacles.synthetic.rig import rotation_xyz
+
+    height, width = right.shape[:2]
+    k = np.array([[focal_px, 0.0, (width - 1) / 2.0], [0.0, focal_px, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
+    k_new = k.copy()
+    k_new[1, 2] += shift_px
+    turn = rotation_xyz(rotation_deg)
+    warped = cv2.warpPerspective(right, k_new @ turn.T @ np.linalg.inv(k), (width, height), flags=cv2.INTER_LINEAR)
+    gt = np.asarray(gt_disparity, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        depth = np.where(gt > 0, focal_px * baseline_m / gt, np.nan).astype(np.float32)
+    rotation = turn.T
+    calibration = CameraPairCalibration(k, None, k_new, None, rotation, -rotation @ np.array([baseline_m, 0.0, 0.0]),
+                                        width, height)
+    return warped, depth, calibration
