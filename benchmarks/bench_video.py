@@ -1,0 +1,145 @@
+"""Video speed and accuracy: temporal seeds against edge seeds on a synthetic forward walk; memory over a long run.
+
+Run: ``python benchmarks/bench_video.py [--frames N] [--size WxH] [--memory-frames M]
+[--memory-size WxH] [--json FILE]``.
+
+1. Renders ``--frames`` pairs of the default scene with the rig walking forward 0.05 m per
+   frame (1.4 m/s at ~30 fps), with exact ground truth.
+2. Runs the whole per-frame pipeline (:func:`stereo_obstacles.stream_detection.detect_stream`:
+   detection, tracking) over the frames with edge seeds, with temporal seeds, and with
+   temporal seeds moved by the known forward motion, twice each in alternation. Reports per
+   mode the median over frames (after two warm-up frames) of the whole frame time and of the
+   matching stage, frames per second, and per frame the bad-1 rate (|d - gt| > 1 px over
+   matched non-occluded pixels with ground truth) and density (matched share of those pixels).
+3. Memory: ``--memory-frames`` frames (the rendered walk cycled, timestamps increasing) of
+   the ``video`` command's loop — detection, tracking, JSON record, annotated frame — with
+   temporal seeds; RSS (``/proc/self/statm``) at frame 10 and at the end.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+
+import numpy as np
+
+from stereo_obstacles.matching import warm_up
+from stereo_obstacles.stream_detection import annotate_frame, detect_stream, frame_record
+from stereo_obstacles.streams import StereoFrame
+from stereo_obstacles.synthetic import default_scene, render_sequence
+from stereo_obstacles.temporal_seeds import TemporalSeedParameters
+
+SPEED_M_PER_FRAME = 0.05
+FPS = 30.0
+WARM_UP_FRAMES = 2
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/statm") as f:
+        pages = int(f.read().split()[1])
+    return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def _size(text: str) -> tuple[int, int]:
+    w, h = (int(v) for v in text.lower().split("x"))
+    return w, h
+
+
+def _frames(pairs, n: int):
+    for k in range(n):
+        pair = pairs[k % len(pairs)]
+        yield StereoFrame(k, k / FPS, pair.left, pair.right, f"frame_{k:06d}")
+
+
+def _accuracy(disparity: np.ndarray, pair) -> tuple[float, float]:
+    known = np.isfinite(pair.disparity) & pair.nonocc
+    matched = known & np.isfinite(disparity)
+    bad = float(np.mean(np.abs(disparity[matched] - pair.disparity[matched]) > 1.0)) if matched.any() else float("nan")
+    return bad, float(matched.sum() / known.sum())
+
+
+def _run_mode(pairs, calibration, temporal) -> list[dict]:
+    rows = []
+    for detection, pair in zip(detect_stream(_frames(pairs, len(pairs)), calibration, temporal=temporal), pairs):
+        bad, density = _accuracy(detection.result.disparity, pair)
+        rows.append({"seeds": detection.seeds, "total_s": detection.result.timings_s["total"],
+                     "matching_s": detection.result.timings_s["matching"], "bad1": bad, "density": density})
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=24)
+    parser.add_argument("--size", default="640x480")
+    parser.add_argument("--memory-frames", type=int, default=1000)
+    parser.add_argument("--memory-size", default="320x240")
+    parser.add_argument("--json", metavar="FILE")
+    args = parser.parse_args()
+    width, height = _size(args.size)
+    machine = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, Python "
+               f"{sys.version.split()[0]}, NumPy {np.__version__}, load average {os.getloadavg()[0]:.1f}")
+    print(f"machine: {machine}")
+    warm_up()
+    start = time.perf_counter()
+    pairs = list(render_sequence(default_scene(width, height), args.frames, SPEED_M_PER_FRAME))
+    print(f"rendered {len(pairs)} {width}x{height} frames in {time.perf_counter() - start:.0f} s")
+    calibration = pairs[0].calibration
+    modes = {"edge": None, "temporal": TemporalSeedParameters(),
+             "temporal+motion": TemporalSeedParameters(forward_m_per_frame=SPEED_M_PER_FRAME)}
+    results: dict[str, list[list[dict]]] = {name: [] for name in modes}
+    for _ in range(2):
+        for name, temporal in modes.items():
+            results[name].append(_run_mode(pairs, calibration, temporal))
+    summary = {"machine": machine, "size": [width, height], "frames": len(pairs), "modes": {}}
+    print(f"\n{'seeds':<16} {'frame ms':>9} {'fps':>6} {'match ms':>9} {'bad-1 %':>8} {'density %':>10}")
+    for name, runs in results.items():
+        timed = [row for run in runs for row in run[WARM_UP_FRAMES:]]
+        total = statistics.median(r["total_s"] for r in timed)
+        matching = statistics.median(r["matching_s"] for r in timed)
+        bad = statistics.median(r["bad1"] for r in runs[0])
+        density = statistics.median(r["density"] for r in runs[0])
+        summary["modes"][name] = {"frame_s": total, "fps": 1 / total, "matching_s": matching,
+                                  "bad1_median": bad, "density_median": density,
+                                  "per_frame": runs[0]}
+        print(f"{name:<16} {1e3 * total:9.0f} {1 / total:6.2f} {1e3 * matching:9.0f} {100 * bad:8.2f} "
+              f"{100 * density:10.1f}")
+    edge = summary["modes"]["edge"]
+    for name in ("temporal", "temporal+motion"):
+        mode = summary["modes"][name]
+        print(f"speed-up of {name} over edge seeds: frame x{edge['frame_s'] / mode['frame_s']:.2f}, "
+              f"matching x{edge['matching_s'] / mode['matching_s']:.2f}")
+    print("\nper frame (first run): seeds, bad-1 %, density % for edge | temporal | temporal+motion")
+    for k in range(len(pairs)):
+        cells = [f"{results[n][0][k]['seeds'][:4]} {100 * results[n][0][k]['bad1']:.2f} "
+                 f"{100 * results[n][0][k]['density']:.1f}" for n in modes]
+        print(f"  frame {k:3d}: " + " | ".join(cells))
+
+    if args.memory_frames:
+        mw, mh = _size(args.memory_size)
+        walk = list(render_sequence(default_scene(mw, mh), 12, SPEED_M_PER_FRAME))
+        rss = {}
+        start = time.perf_counter()
+        for detection in detect_stream(_frames(walk, args.memory_frames), walk[0].calibration,
+                                       temporal=TemporalSeedParameters()):
+            json.dumps(frame_record(detection))
+            annotate_frame(detection)
+            k = detection.frame.index + 1
+            if k in (10, 100, args.memory_frames // 2, args.memory_frames):
+                rss[k] = _rss_mb()
+        seconds = time.perf_counter() - start
+        summary["memory"] = {"size": [mw, mh], "frames": args.memory_frames, "rss_mb": rss, "seconds": seconds}
+        print(f"\nmemory over {args.memory_frames} {mw}x{mh} frames ({seconds:.0f} s, "
+              f"{args.memory_frames / seconds:.1f} fps): " + ", ".join(f"RSS at frame {k} {v:.0f} MB"
+                                                                     for k, v in rss.items()))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(summary, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
