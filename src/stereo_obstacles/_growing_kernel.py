@@ -1,20 +1,27 @@
 """Compiled growth of correspondence seeds over the disparity space (private).
 
-The public wrapper is :func:`stereo_obstacles.growing.grow`. Data structures:
+The public wrapper is :func:`stereo_obstacles.growing.grow`. The growth is bound by memory
+latency (profiled: the hot instructions were the loads of the memo), so everything a visit
+of a left pixel needs lives in one 64-byte record of one int32 buffer ``buf``:
 
-* memo table: for each left pixel ``(y, x)`` up to ``n_slots`` slots, each holding a
-  disparity code ``(d - d_min) * 2 + in_T`` and its similarity; ``fill[y, x]`` counts the
-  used slots. Laid out pixel-major ``(H, W, n_slots)`` so that a look-up reads one or two
-  cache lines (slot-major was 5x slower). Every point's similarity is computed at most once; a point
-  arriving at a full pixel is computed but not stored (counted as an overflow) and can
-  never join the candidate table.
-* candidate table T: parallel arrays ``t_y, t_x, t_xr, t_c`` sized ``K * H * W`` (the
-  per-pixel cap bounds it; ``np.empty`` pages are only touched as used). Never reassigned
-  in the loop: loop-carried array variables make numba emit atomic reference counting on
-  every iteration (measured: 65 % of the growth time).
-* priority queue: a bucket queue over similarity quantised in ``n_buckets`` steps on
-  ``[tau, 1]``, one linked list (``head``/``nxt``) per bucket; pops the highest non-empty
-  bucket.
+* pixel record ``(y * W + x) * REC``: slot count, first overflow block, the candidate counts
+  of the pixel as a left and as a right pixel, its best candidate similarity as a left and
+  as a right pixel (float32 bits), and :data:`SLOTS` memo slots: key ``(d - d_min) * 2 +
+  in_T`` at ``KEY + j`` and the float32 similarity at ``KEY + SLOTS + j``;
+* overflow blocks after the ``H * W`` records, taken in order of use, with the same slot
+  layout and a link to the next block in the first word. A pixel's slots: the record's,
+  then its newest block (partly filled), then older full blocks.
+
+Every point's similarity is computed at most once; a point arriving at a pixel already
+holding ``n_slots`` is computed but not stored (counted as an overflow) and can never join the
+candidate table.
+
+The candidate table T is ``t_int`` (rows ``y, x, x', next-in-bucket``) and ``t_c``, sized
+``K * H * W`` (the per-pixel cap bounds it; ``np.empty`` pages are only touched as used). The
+priority queue is a bucket queue over similarity quantised in ``n_buckets`` steps on
+``[tau, 1]``, a linked list per bucket, LIFO inside a bucket. No array is reassigned and no
+function with array arguments is called inside the loop: either makes numba emit atomic
+reference counting on every iteration (measured: 4x slower growth).
 """
 
 from __future__ import annotations
@@ -22,127 +29,145 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from stereo_obstacles._similarity_kernel import CACHE, KIND_NCC, RADIUS, UNDEFINED, _similarity
+from stereo_obstacles._similarity_kernel import CACHE, FASTMATH, KIND_NCC, RADIUS, UNDEFINED
 
-# The 16-point disparity-space neighbourhood of (y, x, x') in 4 groups: (dy, dx, dx', group).
+REC = 16
+"""int32 words per pixel record and per overflow block (64 bytes, one cache line)."""
+SLOTS = 5
+"""Memo slots per record and per overflow block."""
+FILL, NEXT, CNT_L, CNT_R, BEST_L, BEST_R, KEY = 0, 1, 2, 3, 4, 5, 6
+"""Word offsets inside a record (blocks use NEXT and the slots only)."""
+
+# The 16-point disparity-space neighbourhood of (y, x, x') in 4 groups: (dy, dx, dx').
 _NEIGHBOURS = np.array([
-    (0, -1, -1, 0), (0, -2, -1, 0), (0, -1, -2, 0),
-    (0, 1, 1, 1), (0, 2, 1, 1), (0, 1, 2, 1),
-    (-1, 0, 0, 2), (-1, -1, 0, 2), (-1, 1, 0, 2), (-1, 0, -1, 2), (-1, 0, 1, 2),
-    (1, 0, 0, 3), (1, -1, 0, 3), (1, 1, 0, 3), (1, 0, -1, 3), (1, 0, 1, 3),
+    (0, -1, -1), (0, -2, -1), (0, -1, -2),
+    (0, 1, 1), (0, 2, 1), (0, 1, 2),
+    (-1, 0, 0), (-1, -1, 0), (-1, 1, 0), (-1, 0, -1), (-1, 0, 1),
+    (1, 0, 0), (1, -1, 0), (1, 1, 0), (1, 0, -1), (1, 0, 1),
 ], dtype=np.int64)
 _GROUP_START = np.array([0, 3, 6, 11, 16], dtype=np.int64)
 
-N_COUNTERS = 2
+N_COUNTERS = 4
 COUNT_COMPUTED = 0
 COUNT_OVERFLOW = 1
+COUNT_BLOCKS = 2
+COUNT_RESCANNED = 3
+"""Counter indices: points computed, overflows, overflow blocks used, computed points that a
+seed scanline search had already evaluated (so that visited points can be counted once)."""
 
 
-@njit(cache=CACHE, inline="always")
-def _find_slot(keys, fill, y, x, code):
-    for k in range(fill[y, x]):
-        if keys[y, x, k] >> 1 == code:
-            return k
-    return -1
-
-
-@njit(cache=CACHE, inline="always")
-def _store(keys, vals, fill, counters, y, x, code, c):
-    n = fill[y, x]
-    if n < keys.shape[2]:
-        keys[y, x, n] = np.int16(code * 2)
-        vals[y, x, n] = c
-        fill[y, x] = n + 1
-        return n
-    counters[COUNT_OVERFLOW] += 1
-    return -1
-
-
-@njit(cache=CACHE, inline="always")
-def _score(lp, rp, ml, nl, mr, nr, kind, keys, vals, fill, counters, y, x, xr, d_min):
-    """Memoised similarity of ``(y, x, xr)``: returns ``(c, slot)``, slot -1 if not stored."""
-    code = x - xr - d_min
-    k = _find_slot(keys, fill, y, x, code)
-    if k >= 0:
-        return vals[y, x, k], k
-    c = _similarity(lp, rp, ml, nl, mr, nr, kind, y, x, xr)
-    counters[COUNT_COMPUTED] += 1
-    return c, _store(keys, vals, fill, counters, y, x, code, c)
+def buffer_size(h, w, n_slots):
+    """int32 words of the record buffer of an ``h x w`` image: records and every overflow block."""
+    return h * w * (1 + max(0, (n_slots - 1) // SLOTS)) * REC
 
 
 @njit(cache=CACHE)
-def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, d_min, d_max,
-                 tau, mu, k_max, use_max, greedy, n_slots, n_buckets):
+def _init_records(buf, n_px):
+    """Initialise the ``n_px`` pixel records at the start of ``buf``."""
+    bits = buf.view(np.float32)
+    for p in range(n_px):
+        b = p * REC
+        buf[b + FILL] = 0
+        buf[b + NEXT] = -1
+        buf[b + CNT_L] = 0
+        buf[b + CNT_R] = 0
+        bits[b + BEST_L] = -2.0
+        bits[b + BEST_R] = -2.0
+
+
+@njit(cache=CACHE, fastmath=FASTMATH)
+def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, scanned_hi, buf, d_min,
+                 d_max, tau, mu, k_max, use_max, greedy, n_slots, n_buckets):
+    """Grow the seeds; see ``growing.py`` for the rule and the module docstring for the data.
+
+    ``scanned_hi[y, x]`` is the largest disparity a seed scanline search evaluated at the
+    pixel (-1 where none). ``buf`` is an int32 array of :func:`buffer_size` words. Returns the candidate table ``(t_y, t_x, t_xr, t_c)``, the record
+    buffer and the counters.
+    """
     h, w = ml.shape
     side = 2 * RADIUS + 1
-    keys = np.empty((h, w, n_slots), np.int16)
-    vals = np.empty((h, w, n_slots), np.float32)
-    fill = np.zeros((h, w), np.int32)
-    best_l = np.full((h, w), -2.0, np.float32)
-    best_r = np.full((h, w), -2.0, np.float32)
-    cnt_l = np.zeros((h, w), np.int32)
-    cnt_r = np.zeros((h, w), np.int32)
+    n_px = h * w
+    _init_records(buf, n_px)
+    bits = buf.view(np.float32)
     counters = np.zeros(N_COUNTERS, np.int64)
-    cap = h * w * (1 if greedy else k_max)  # the per-pixel cap bounds the table
-    t_y = np.empty(cap, np.int32)
-    t_x = np.empty(cap, np.int32)
-    t_xr = np.empty(cap, np.int32)
+    cap = n_px * (1 if greedy else k_max)  # the per-pixel cap bounds the table
+    t_int = np.empty((cap, 4), np.int32)
     t_c = np.empty(cap, np.float32)
-    nxt = np.empty(cap, np.int32)
-    head = np.full(n_buckets, -1, np.int32)
+    bucket_head = np.full(n_buckets, -1, np.int32)
     bucket_scale = (n_buckets - 1) / max(1.0 - tau, 1e-6)
+    n_blocks = 0
     n_t = 0
     top = -1
     n_seeds = seed_y.shape[0]
+    y = 0
+    x = 0
+    xr = 0
     i = -1
-    while True:  # the seeds first (step 0), then pops until the queue is empty
+    while True:  # the seeds first (one point each), then pops until the queue is empty
         i += 1
         if i < n_seeds:
-            qy = seed_y[i]
-            qx = seed_x[i]
-            qxr = seed_xr[i]
-            qc = np.float64(seed_c[i])
-            code = qx - qxr - d_min
-            qslot = _find_slot(keys, fill, qy, qx, code)
-            if qslot < 0:
-                qslot = _store(keys, vals, fill, counters, qy, qx, code, qc)
             n_groups = 1
         else:
-            while top >= 0 and head[top] < 0:
+            while top >= 0 and bucket_head[top] < 0:
                 top -= 1
             if top < 0:
                 break
-            p = head[top]
-            head[top] = nxt[p]
-            y = t_y[p]
-            x = t_x[p]
-            xr = t_xr[p]
+            p = bucket_head[top]
+            bucket_head[top] = t_int[p, 3]
+            y = t_int[p, 0]
+            x = t_int[p, 1]
+            xr = t_int[p, 2]
             n_groups = 4
         for g in range(n_groups):
-            if i >= n_seeds:  # the best point of group g
-                qc = -3.0
-                qslot = -1
-                for k in range(_GROUP_START[g], _GROUP_START[g + 1]):
+            # the best point q of group g (or the seed), its similarity qc and memo word qslot
+            qc = -3.0
+            qslot = -1
+            qy = 0
+            qx = 0
+            qxr = 0
+            k_lo = _GROUP_START[g]
+            k_hi = _GROUP_START[g + 1]
+            if i < n_seeds:
+                k_hi = k_lo + 1
+            for k in range(k_lo, k_hi):
+                if i < n_seeds:
+                    py = seed_y[i]
+                    px = seed_x[i]
+                    pxr = seed_xr[i]
+                else:
                     py = y + _NEIGHBOURS[k, 0]
                     px = x + _NEIGHBOURS[k, 1]
                     pxr = xr + _NEIGHBOURS[k, 2]
                     if py < 0 or py >= h or px < 0 or px >= w or pxr < 0 or pxr >= w:
                         continue
-                    code = px - pxr - d_min
-                    if code < 0 or code > d_max - d_min:
-                        continue
-                    # Memoised similarity, written out here rather than calling _find_slot,
-                    # _store and _similarity: array arguments of calls in this loop cost
-                    # atomic reference counting (4x slower, measured). Same formula as
-                    # _similarity_kernel._similarity (the tests check they agree).
-                    s = -1
-                    for kk in range(fill[py, px]):
-                        if keys[py, px, kk] >> 1 == code:
-                            s = kk
-                            break
-                    if s >= 0:
-                        c = np.float64(vals[py, px, s])
-                    else:
+                code = px - pxr - d_min
+                if code < 0 or code > d_max - d_min:
+                    continue
+                # memo look-up, written out (see the module docstring on calls in this loop)
+                rec = (py * w + px) * REC
+                n = buf[rec + FILL]
+                s = -1
+                for j in range(min(n, SLOTS)):
+                    if buf[rec + KEY + j] >> 1 == code:
+                        s = rec + KEY + j
+                        break
+                if s < 0 and n > SLOTS:
+                    blk = buf[rec + NEXT]
+                    m = (n - SLOTS - 1) % SLOTS + 1  # slots used in the newest block
+                    while blk >= 0 and s < 0:
+                        base = (n_px + blk) * REC
+                        for j in range(m):
+                            if buf[base + KEY + j] >> 1 == code:
+                                s = base + KEY + j
+                                break
+                        blk = buf[base + NEXT]
+                        m = SLOTS
+                if s >= 0:
+                    c = np.float64(bits[s + SLOTS])
+                else:
+                    if i < n_seeds:
+                        c = np.float64(seed_c[i])
+                    else:  # same formula as _similarity_kernel._similarity (tests check they agree)
                         a = nl[py, px]
                         b = nr[py, pxr]
                         if a <= 0.0 or b <= 0.0:
@@ -156,67 +181,119 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                             c = cov * a * b if kind == KIND_NCC else 2.0 * cov / (a + b)
                             c = np.float64(np.float32(min(max(c, -1.0), 1.0)))  # as stored
                         counters[COUNT_COMPUTED] += 1
-                        n = fill[py, px]
-                        if n < n_slots:
-                            keys[py, px, n] = np.int16(code * 2)
-                            vals[py, px, n] = c
-                            fill[py, px] = n + 1
-                            s = n
+                        if code + d_min <= scanned_hi[py, px]:
+                            counters[COUNT_RESCANNED] += 1
+                    if n < n_slots:
+                        if n < SLOTS:
+                            s = rec + KEY + n
                         else:
-                            counters[COUNT_OVERFLOW] += 1
-                    if c > qc:
-                        qc = c
-                        qslot = s
-                        qy = py
-                        qx = px
-                        qxr = pxr
-            if qc < tau or qslot < 0 or keys[qy, qx, qslot] & 1:
+                            if (n - SLOTS) % SLOTS == 0:  # a new block becomes the newest
+                                base = (n_px + n_blocks) * REC
+                                buf[base + NEXT] = buf[rec + NEXT]
+                                buf[rec + NEXT] = n_blocks
+                                n_blocks += 1
+                            s = (n_px + buf[rec + NEXT]) * REC + KEY + (n - SLOTS) % SLOTS
+                        buf[s] = code * 2
+                        bits[s + SLOTS] = c
+                        buf[rec + FILL] = n + 1
+                    else:
+                        counters[COUNT_OVERFLOW] += 1
+                if c > qc:
+                    qc = c
+                    qslot = s
+                    qy = py
+                    qx = px
+                    qxr = pxr
+            if qc < tau or qslot < 0 or buf[qslot] & 1:
                 continue
+            rl = (qy * w + qx) * REC
+            rr = (qy * w + qxr) * REC
             if greedy:
-                if cnt_l[qy, qx] > 0 or cnt_r[qy, qxr] > 0:
+                if buf[rl + CNT_L] > 0 or buf[rr + CNT_R] > 0:
                     continue
             else:
-                if cnt_l[qy, qx] >= k_max or cnt_r[qy, qxr] >= k_max:
+                if buf[rl + CNT_L] >= k_max or buf[rr + CNT_R] >= k_max:
                     continue
-                bl = best_l[qy, qx]
-                br = best_r[qy, qxr]
+                bl = bits[rl + BEST_L]
+                br = bits[rr + BEST_R]
                 ref = max(bl, br) if use_max else min(bl, br)
                 if i >= n_seeds and qc + mu < ref:
                     continue
-            keys[qy, qx, qslot] |= 1
-            t_y[n_t] = qy
-            t_x[n_t] = qx
-            t_xr[n_t] = qxr
+            buf[qslot] |= 1
+            t_int[n_t, 0] = qy
+            t_int[n_t, 1] = qx
+            t_int[n_t, 2] = qxr
             t_c[n_t] = qc
             b = min(max(int((qc - tau) * bucket_scale), 0), n_buckets - 1)
-            nxt[n_t] = head[b]
-            head[b] = n_t
+            t_int[n_t, 3] = bucket_head[b]
+            bucket_head[b] = n_t
             if b > top:
                 top = b
             n_t += 1
-            best_l[qy, qx] = max(best_l[qy, qx], qc)
-            best_r[qy, qxr] = max(best_r[qy, qxr], qc)
-            cnt_l[qy, qx] += 1
-            cnt_r[qy, qxr] += 1
-    return t_y[:n_t], t_x[:n_t], t_xr[:n_t], t_c[:n_t], keys, vals, fill, counters
+            bits[rl + BEST_L] = max(bits[rl + BEST_L], qc)
+            bits[rr + BEST_R] = max(bits[rr + BEST_R], qc)
+            buf[rl + CNT_L] += 1
+            buf[rr + CNT_R] += 1
+    counters[COUNT_BLOCKS] = n_blocks
+    return (t_int[:n_t, 0].copy(), t_int[:n_t, 1].copy(), t_int[:n_t, 2].copy(), t_c[:n_t].copy(),
+            buf, counters)
 
 
 @njit(cache=CACHE)
-def _side_similarities(lp, rp, ml, nl, mr, nr, kind, keys, vals, fill, counters, ys, xs, ds, d_min,
-                       d_max):
-    """Similarities at ``d - 1`` and ``d + 1`` of matches ``(ys, xs, ds)``; NaN where out of range."""
-    n = ys.shape[0]
-    w = ml.shape[1]
-    c_minus = np.full(n, np.nan, np.float32)
-    c_plus = np.full(n, np.nan, np.float32)
-    for i in range(n):
+def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, ys, xs, ds, d_min, d_max):
+    """Similarities at ``d - 1`` and ``d + 1`` of matches ``(ys, xs, ds)``; NaN where out of range.
+
+    Looked up in the memo; computed (and counted) when absent, without being stored.
+    """
+    n_pts = ys.shape[0]
+    h, w = ml.shape
+    n_px = h * w
+    side = 2 * RADIUS + 1
+    bits = buf.view(np.float32)
+    out = np.full((2, n_pts), np.nan, np.float32)
+    for i in range(n_pts):
         y = ys[i]
         x = xs[i]
-        d = ds[i]
-        if d - 1 >= d_min and x - d + 1 < w:
-            c_minus[i] = _score(lp, rp, ml, nl, mr, nr, kind, keys, vals, fill, counters,
-                                y, x, x - d + 1, d_min)[0]
-        if d + 1 <= d_max and x - d - 1 >= 0:
-            c_plus[i] = _score(lp, rp, ml, nl, mr, nr, kind, keys, vals, fill, counters,
-                               y, x, x - d - 1, d_min)[0]
-    return c_minus, c_plus
+        rec = (y * w + x) * REC
+        n = buf[rec + FILL]
+        for t in range(2):
+            d = ds[i] - 1 + 2 * t
+            xr = x - d
+            if d < d_min or d > d_max or xr < 0 or xr >= w:
+                continue
+            code = d - d_min
+            s = -1
+            for j in range(min(n, SLOTS)):
+                if buf[rec + KEY + j] >> 1 == code:
+                    s = rec + KEY + j
+                    break
+            if s < 0 and n > SLOTS:
+                blk = buf[rec + NEXT]
+                m = (n - SLOTS - 1) % SLOTS + 1
+                while blk >= 0 and s < 0:
+                    base = (n_px + blk) * REC
+                    for j in range(m):
+                        if buf[base + KEY + j] >> 1 == code:
+                            s = base + KEY + j
+                            break
+                    blk = buf[base + NEXT]
+                    m = SLOTS
+            if s >= 0:
+                out[t, i] = bits[s + SLOTS]
+                continue
+            a = nl[y, x]
+            b = nr[y, xr]
+            counters[COUNT_COMPUTED] += 1
+            if d <= scanned_hi[y, x]:
+                counters[COUNT_RESCANNED] += 1
+            if a <= 0.0 or b <= 0.0:
+                out[t, i] = UNDEFINED
+                continue
+            acc = 0.0
+            for ii in range(side):
+                for jj in range(side):
+                    acc += np.float64(lp[y + ii, x + jj]) * np.float64(rp[y + ii, xr + jj])
+            cov = acc / (side * side) - np.float64(ml[y, x]) * np.float64(mr[y, xr])
+            c = cov * a * b if kind == KIND_NCC else 2.0 * cov / (a + b)
+            out[t, i] = min(max(c, -1.0), 1.0)
+    return out[0], out[1]

@@ -14,6 +14,10 @@ from numba import njit, prange
 CACHE = os.environ.get("STEREO_OBSTACLES_NUMBA_CACHE", "1") != "0"
 """Cache compiled kernels on disk (set ``STEREO_OBSTACLES_NUMBA_CACHE=0`` to opt out)."""
 
+FASTMATH = {"reassoc", "contract"}
+"""LLVM fast-math flags of the kernels: reassociation lets the 25 window products be summed
+in independent chains (and vectorised); no ``nnan``/``ninf``, NaN marks "unmatched"."""
+
 RADIUS = 2
 """Half the window side: the window is ``(2 * RADIUS + 1)`` pixels square (5 x 5)."""
 
@@ -24,7 +28,7 @@ KIND_NCC = 0
 KIND_MNCC = 1
 
 
-@njit(cache=CACHE, inline="always")
+@njit(cache=CACHE, inline="always", fastmath=FASTMATH)
 def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x, xr):
     """Similarity of left pixel ``(x, y)`` and right pixel ``(xr, y)`` (see ``similarity.py``)."""
     nl = norm_l[y, x]
@@ -48,7 +52,7 @@ def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x,
     return c
 
 
-@njit(cache=CACHE, parallel=True)
+@njit(cache=CACHE, parallel=True, fastmath=FASTMATH)
 def _scan_best(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, ys, xs, d_min, d_max,
                exclusion):
     """Best and runner-up similarity of each listed left pixel along its scanline.

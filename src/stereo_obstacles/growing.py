@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stereo_obstacles._growing_kernel import COUNT_COMPUTED, COUNT_OVERFLOW, _grow_kernel, _side_similarities
+from stereo_obstacles._growing_kernel import (COUNT_BLOCKS, COUNT_COMPUTED, COUNT_OVERFLOW, COUNT_RESCANNED,
+                                                 _grow_kernel, _side_similarities, buffer_size)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.seeds import Seeds
 from stereo_obstacles.similarity import SimilarityInputs
@@ -55,8 +56,13 @@ class Growth:
     n_computed : int
         Distinct points whose similarity was computed during growth (and any later
         :meth:`side_similarities` call).
+    n_rescanned : int
+        Of those, points a seed scanline search had already evaluated (see ``scanned_hi`` of
+        :func:`grow`), so that visited points can be counted once.
     n_overflow : int
         Points computed at a pixel whose memo slots were full (computed again if met again).
+    n_memo_blocks : int
+        Memo overflow blocks in use (see ``_growing_kernel``).
     """
 
     y: np.ndarray
@@ -66,6 +72,7 @@ class Growth:
     inputs: SimilarityInputs
     d_min: int
     d_max: int
+    scanned_hi: np.ndarray
     _memo: tuple
 
     def __post_init__(self) -> None:
@@ -75,25 +82,34 @@ class Growth:
 
     @property
     def n_computed(self) -> int:
-        return int(self._memo[3][COUNT_COMPUTED])
+        return int(self._memo[-1][COUNT_COMPUTED])
+
+    @property
+    def n_rescanned(self) -> int:
+        return int(self._memo[-1][COUNT_RESCANNED])
 
     @property
     def n_overflow(self) -> int:
-        return int(self._memo[3][COUNT_OVERFLOW])
+        return int(self._memo[-1][COUNT_OVERFLOW])
+
+    @property
+    def n_memo_blocks(self) -> int:
+        return int(self._memo[-1][COUNT_BLOCKS])
 
     def side_similarities(self, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Similarity at disparities ``d - 1`` and ``d + 1`` of left pixels ``(x, y)``.
 
-        Looked up in the memo, computed (and counted) when absent; NaN outside the image or
-        the disparity range. Returns two float32 arrays shaped like ``y``.
+        Looked up in the memo, computed (and counted, not stored) when absent; NaN outside
+        the image or the disparity range. Returns two float32 arrays shaped like ``y``.
         """
-        args = [np.ascontiguousarray(a, np.int32) for a in (y, x, d)]
-        return _side_similarities(*self.inputs.kernel_args(), *self._memo, *args, self.d_min, self.d_max)
+        args = [np.ascontiguousarray(a, np.int32).ravel() for a in (y, x, d)]
+        return _side_similarities(*self.inputs.kernel_args(), *self._memo, self.scanned_hi, *args, self.d_min,
+                                  self.d_max)
 
 
 def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau: float = 0.6,
          mu: float = 0.1, max_candidates: int = 10, margin_reference: str = "max",
-         greedy: bool = False) -> Growth:
+         greedy: bool = False, scanned_hi: np.ndarray | None = None) -> Growth:
     """Grow the seeds into a candidate table.
 
     Parameters
@@ -114,6 +130,9 @@ def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau:
         Combination of the left and right bests in the ``mu`` test.
     greedy : bool
         Greedy variant: the candidate table is a one-to-one matching.
+    scanned_hi : ndarray of int32, shape (H, W), optional
+        Largest disparity a seed scanline search evaluated at each pixel (-1: none); only
+        used to count the visited points once (:attr:`Growth.n_rescanned`).
 
     Returns
     -------
@@ -127,7 +146,16 @@ def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau:
     keep = seeds.similarity[order] >= tau
     seed_arrays = [a[keep] for a in seed_arrays]
     seed_c = np.ascontiguousarray(seeds.similarity[order][keep], np.float32)
+    if scanned_hi is None:
+        scanned_hi = np.full(inputs.shape, -1, np.int32)
+    elif scanned_hi.shape != inputs.shape:
+        raise InvalidInputError(f"scanned_hi: expected shape {inputs.shape}, got {scanned_hi.shape}")
+    scanned_hi = np.ascontiguousarray(scanned_hi, np.int32)
+    # allocated by NumPy, which asks the kernel for transparent huge pages: the growth is
+    # bound by memory latency and 4 kB pages cost a TLB miss on most record visits
+    buf = np.empty(buffer_size(*inputs.shape, MEMO_SLOTS), np.int32)
     t_y, t_x, t_xr, t_c, *memo = _grow_kernel(
-        *inputs.kernel_args(), *seed_arrays, seed_c, int(d_min), int(d_max), float(tau), float(mu),
+        *inputs.kernel_args(), *seed_arrays, seed_c, scanned_hi, buf,
+        int(d_min), int(d_max), float(tau), float(mu),
         int(max_candidates), margin_reference == "max", bool(greedy), MEMO_SLOTS, QUEUE_BUCKETS)
-    return Growth(t_y, t_x, t_xr, t_c, inputs, int(d_min), int(d_max), tuple(memo))
+    return Growth(t_y, t_x, t_xr, t_c, inputs, int(d_min), int(d_max), scanned_hi, tuple(memo))

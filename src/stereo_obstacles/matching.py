@@ -22,7 +22,7 @@ from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_gr
 from stereo_obstacles.stable_matching import stable_matching
 from stereo_obstacles.subpixel import parabola_offset
 
-__all__ = ["DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "VARIANTS", "MatchResult", "MatchStats", "match",
+__all__ = ["DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult", "MatchStats", "match",
            "warm_up"]
 
 logger = logging.getLogger(__name__)
@@ -32,6 +32,9 @@ VARIANTS = ("stable", "greedy")
 
 MIN_SIZE = 2 * RADIUS + 1
 """Smallest accepted image side in pixels (one correlation window)."""
+
+SEED_SPACING = 1
+"""Default side in pixels of the cells that keep one edge seed pixel each (see ``docs/matching.md``)."""
 
 DEFAULT_MAX_DISPARITY_FRACTION = 1.0 / 3.0
 """Without ``max_disparity``, disparities up to this fraction of the image width are searched."""
@@ -50,9 +53,9 @@ class MatchStats:
     n_candidates : int
         Size of the candidate table after growth.
     n_visited : int
-        Disparity-space points whose similarity was computed: scanline searches of the
-        seeds plus distinct points of growth and subpixel refinement (a point met by both a
-        seed search and the growth is counted twice, so this is an upper bound).
+        Distinct disparity-space points whose similarity was computed: scanline searches
+        of the seeds plus the points of growth and subpixel refinement that no seed search
+        had evaluated.
     n_memo_overflow : int
         Points computed at a pixel whose memo was full.
     visited_fraction_full : float
@@ -123,7 +126,7 @@ class MatchResult:
 
 
 def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity,
-                   max_disparity, margin_reference, seeds, seed_points) -> None:
+                   max_disparity, margin_reference, seeds, seed_points, seed_spacing) -> None:
     if not 0.0 < tau < 1.0:
         raise InvalidInputError(f"tau: expected 0 < tau < 1, got {tau}")
     if not mu >= 0.0:
@@ -144,6 +147,8 @@ def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, m
     if max_disparity is not None and (int(max_disparity) != max_disparity or max_disparity < min_disparity):
         raise InvalidInputError(f"max_disparity: expected an integer >= min_disparity ({min_disparity}), "
                                 f"got {max_disparity}")
+    if int(seed_spacing) != seed_spacing or seed_spacing < 1:
+        raise InvalidInputError(f"seed_spacing: expected an integer >= 1, got {seed_spacing}")
     if seed_points is None and seeds not in SEED_SOURCES:
         raise InvalidInputError(f"seeds: expected one of {list(SEED_SOURCES)}, got {seeds!r}")
 
@@ -152,7 +157,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
           min_disparity: int = 0, tau: float = 0.6, mu: float = 0.1, max_candidates: int = 10,
           final_margin: float = 0.1, similarity: str = "ncc", variant: str = "stable", rng_seed: int = 0,
           seed_points: np.ndarray | None = None, margin_reference: str = "max", min_std: float = 1.0,
-          seed_margin: float = 0.1) -> MatchResult:
+          seed_margin: float = 0.1, seed_spacing: int = SEED_SPACING) -> MatchResult:
     """Match a rectified stereo pair by Growing Correspondence Seeds.
 
     Parameters
@@ -189,6 +194,9 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         Windows flatter than this standard deviation (grey levels) never match.
     seed_margin : float
         A scanline seed must beat its runner-up (outside ``d +- 1``) by this similarity.
+    seed_spacing : int
+        At most one edge seed pixel (the strongest gradient) per ``seed_spacing`` square cell;
+        random seeds are thinned by its square. 1 searches every edge pixel (the paper).
 
     Returns
     -------
@@ -213,7 +221,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     """
     t0 = time.perf_counter()
     _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity, max_disparity,
-                   margin_reference, seeds, seed_points)
+                   margin_reference, seeds, seed_points, seed_spacing)
     left_grey = to_grey(left, "left")
     right_grey = to_grey(right, "right")
     if left_grey.shape != right_grey.shape:
@@ -234,11 +242,11 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         found = user_seeds(inputs, seed_points, d_min=d_min, d_max=d_max)
     else:
         found = find_seeds(inputs, left_grey, seeds, d_min=d_min, d_max=d_max, tau=tau, margin=seed_margin,
-                           rng_seed=rng_seed)
+                           rng_seed=rng_seed, spacing=seed_spacing)
     t2 = time.perf_counter()
 
     growth = grow(inputs, found, d_min=d_min, d_max=d_max, tau=tau, mu=mu, max_candidates=int(max_candidates),
-                  margin_reference=margin_reference, greedy=variant == "greedy")
+                  margin_reference=margin_reference, greedy=variant == "greedy", scanned_hi=found.scanned_hi)
     t3 = time.perf_counter()
 
     if variant == "greedy":
@@ -256,7 +264,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     sim[my, mx] = mc
     t5 = time.perf_counter()
 
-    n_visited = found.n_evaluated + growth.n_computed
+    n_visited = found.n_evaluated + growth.n_computed - growth.n_rescanned
     n_range = d_max - d_min + 1
     stats = MatchStats(
         n_seeds=int(np.count_nonzero(found.similarity >= tau)), n_seed_pixels=found.n_candidates,

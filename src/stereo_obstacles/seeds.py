@@ -43,6 +43,9 @@ class Seeds:
         Similarities computed to find them (scanline searches).
     n_candidates : int
         Pixels searched before the distinctiveness test.
+    scanned_hi : ndarray of int32, shape (H, W), optional
+        Largest disparity the scanline search evaluated at each pixel (from ``d_min``), -1
+        where there was no search; None when nothing was searched.
     """
 
     y: np.ndarray
@@ -51,6 +54,7 @@ class Seeds:
     similarity: np.ndarray
     n_evaluated: int
     n_candidates: int
+    scanned_hi: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
@@ -68,7 +72,7 @@ def _gradient_magnitude(grey: np.ndarray) -> np.ndarray:
     return np.sqrt(gx * gx + gy * gy)
 
 
-def edge_pixels(grey: np.ndarray, method: str = "canny") -> tuple[np.ndarray, np.ndarray]:
+def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Rows and columns of the edge pixels of a grey image.
 
     Parameters
@@ -78,12 +82,17 @@ def edge_pixels(grey: np.ndarray, method: str = "canny") -> tuple[np.ndarray, np
         ``"canny"``: Canny edges (L2 gradient, high threshold the :data:`EDGE_PERCENTILE`
         percentile of the non-zero Sobel magnitudes, low threshold half of it). ``"sobel"``: every
         pixel whose Sobel magnitude reaches that percentile (thicker, more pixels).
+    spacing : int
+        Keep at most one edge pixel, the one of strongest gradient, per ``spacing x spacing``
+        cell of the image (1: every edge pixel).
 
     Returns
     -------
     ys, xs : ndarray of int32
         Edge pixels in raster order. Empty for a flat image.
     """
+    if int(spacing) != spacing or spacing < 1:
+        raise InvalidInputError(f"spacing: expected an integer >= 1, got {spacing}")
     mag = _gradient_magnitude(grey)
     textured = mag[mag > 1e-3 * max(float(mag.max()), 1e-12)]
     if textured.size == 0:
@@ -99,6 +108,12 @@ def edge_pixels(grey: np.ndarray, method: str = "canny") -> tuple[np.ndarray, np
     else:
         raise InvalidInputError(f"method: expected 'canny' or 'sobel', got {method!r}")
     ys, xs = np.nonzero(edges)
+    if spacing > 1 and ys.size:
+        cell = (ys // spacing) * (grey.shape[1] // spacing + 1) + xs // spacing
+        order = np.lexsort((-mag[ys, xs], cell))
+        first = order[np.r_[True, cell[order][1:] != cell[order][:-1]]]
+        first.sort()  # back to raster order
+        ys, xs = ys[first], xs[first]
     return ys.astype(np.int32), xs.astype(np.int32)
 
 
@@ -137,8 +152,10 @@ def match_pixels(inputs: SimilarityInputs, ys: np.ndarray, xs: np.ndarray, *, d_
         return Seeds(empty, empty, empty, np.empty(0, np.float32), 0, 0)
     best_d, best_c, second_c, n_eval = _scan_best(*inputs.kernel_args(), ys, xs, d_min, d_max, 1)
     keep = (best_d >= 0) & (best_c >= tau) & (best_c - second_c >= margin)
+    scanned_hi = np.full(inputs.shape, -1, np.int32)
+    scanned_hi[ys, xs] = np.where(np.minimum(xs, d_max) >= d_min, np.minimum(xs, d_max), -1)
     return Seeds(ys[keep], xs[keep], (xs[keep] - best_d[keep]).astype(np.int32), best_c[keep],
-                 int(n_eval), int(ys.size))
+                 int(n_eval), int(ys.size), scanned_hi)
 
 
 def user_seeds(inputs: SimilarityInputs, points: np.ndarray, *, d_min: int, d_max: int) -> Seeds:
@@ -165,15 +182,17 @@ def user_seeds(inputs: SimilarityInputs, points: np.ndarray, *, d_min: int, d_ma
 
 
 def find_seeds(inputs: SimilarityInputs, left_grey: np.ndarray, source: str, *, d_min: int, d_max: int,
-               tau: float, margin: float, rng_seed: int = 0, random_fraction: float = 0.1) -> Seeds:
+               tau: float, margin: float, rng_seed: int = 0, random_fraction: float = 0.1,
+               spacing: int = 1) -> Seeds:
     """Seeds from a named source: ``"canny"``, ``"sobel"`` or ``"random"``.
 
-    ``"random"`` matches ``random_fraction`` of all pixels, chosen with ``rng_seed``.
+    Edge seeds keep at most one pixel per ``spacing x spacing`` cell (see :func:`edge_pixels`);
+    ``"random"`` matches ``random_fraction / spacing**2`` of all pixels, chosen with ``rng_seed``.
     """
     if source in ("canny", "sobel"):
-        ys, xs = edge_pixels(left_grey, source)
+        ys, xs = edge_pixels(left_grey, source, spacing)
     elif source == "random":
-        ys, xs = random_pixels(left_grey.shape, round(random_fraction * left_grey.size), rng_seed)
+        ys, xs = random_pixels(left_grey.shape, round(random_fraction * left_grey.size / spacing ** 2), rng_seed)
     else:
         raise InvalidInputError(f"seeds: expected one of {list(SEED_SOURCES)} or points, got {source!r}")
     seeds = match_pixels(inputs, ys, xs, d_min=d_min, d_max=d_max, tau=tau, margin=margin)
