@@ -7,9 +7,9 @@ import pytest
 from _obstacle_scene import CAMERA_HEIGHT_M, GROUND, RIG, TRUE_DISTANCES_M, detection
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
-from stereo_obstacles.obstacles import (ObstacleParameters, corridor_summary, height_above_ground_m,
-                                        measure_obstacles)
+from stereo_obstacles.obstacles import ObstacleParameters, corridor_summary, measure_obstacles
 
 
 def test_pole_in_front_of_wall_is_a_separate_object_and_marking_is_rejected():
@@ -68,6 +68,12 @@ def test_corridor_finds_the_nearest_obstacle_ahead():
 def test_height_above_ground_of_known_points():
     points = np.array([[0.0, CAMERA_HEIGHT_M, 6.0], [1.0, CAMERA_HEIGHT_M - 0.5, 3.0], [0.0, 0.0, 5.0]])
     np.testing.assert_allclose(height_above_ground_m(GROUND, points, RIG), [0.0, 0.5, CAMERA_HEIGHT_M], atol=1e-9)
+
+
+def test_tilt_tells_the_ground_from_a_wall():
+    assert tilt_from_camera_vertical_deg(GROUND, RIG) == pytest.approx(0.0, abs=1e-9)
+    wall_2m = GroundPlane(a=0.0, b=0.0, c=RIG.focal_baseline_px_m / 2.0)  # d constant: a wall facing the camera
+    assert tilt_from_camera_vertical_deg(wall_2m, RIG) == pytest.approx(90.0)
 
 
 def test_small_groups_are_noise():

@@ -30,6 +30,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "segment",
     "evaluate_segmentation",
     "evaluate",
+    "evaluate_detection",
     "video",
     "batch",
     "calibrate",

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 
 logger = logging.getLogger(__name__)
@@ -172,19 +173,19 @@ def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
     points = np.stack([xs[scored], ys[scored], np.ones(scored.size)])
     residuals = np.abs(candidates[usable] @ points - ds[scored])
     best = candidates[usable][np.argmax((residuals <= params.inlier_threshold_px).sum(axis=1))]
-    inliers = np.zeros(n, dtype=bool)
+    inliers = np.abs(best[0] * xs + best[1] * ys + best[2] - ds) <= params.inlier_threshold_px
     for _ in range(10):
+        refit = _least_squares(xs[inliers], ys[inliers], ds[inliers])
+        if params.min_slope_y is not None and refit[1] < params.min_slope_y:
+            break  # the inliers mix in a wall; keep the last ground-like plane
+        best = refit
         new_inliers = np.abs(best[0] * xs + best[1] * ys + best[2] - ds) <= params.inlier_threshold_px
-        if new_inliers.sum() < max(3, params.min_inliers):
-            raise InvalidInputError(f"no ground plane found: best plane has {int(new_inliers.sum())} "
-                                    f"inliers, need {params.min_inliers}")
         if np.array_equal(new_inliers, inliers):
             break
         inliers = new_inliers
-        best = _least_squares(xs[inliers], ys[inliers], ds[inliers])
-    if params.min_slope_y is not None and best[1] < params.min_slope_y:
-        raise InvalidInputError(f"no ground plane found: the best plane has b = {best[1]:.4f} < min_slope_y = "
-                                f"{params.min_slope_y} (a wall or a large object, not the ground)")
+    if inliers.sum() < max(3, params.min_inliers):
+        raise InvalidInputError(f"no ground plane found: best plane has {int(inliers.sum())} "
+                                f"inliers, need {params.min_inliers}")
     residual = best[0] * xs[inliers] + best[1] * ys[inliers] + best[2] - ds[inliers]
     plane = GroundPlane(a=float(best[0]), b=float(best[1]), c=float(best[2]),
                         n_inliers=int(inliers.sum()), inlier_fraction=float(inliers.mean()),
@@ -226,4 +227,36 @@ def fit_ground_plane(disparity: np.ndarray, *, mask: np.ndarray | None = None,
     return fit_plane_points(xs, ys, d[use], params=params)
 
 
-__all__ = ["GroundPlane", "PlaneFitParameters", "fit_plane_points", "fit_ground_plane"]
+def _normal_camera(ground: GroundPlane, calibration: StereoCalibration) -> np.ndarray:
+    """Normal ``n`` of the 3-D plane ``n . P = f B`` that the disparity plane describes.
+
+    Substituting ``x = f X / Z + cx``, ``y = f Y / Z + cy`` and ``d + doffs = f B / Z`` into
+    ``d = a x + b y + c`` gives ``n = (a f, b f, a cx + b cy + c + doffs)`` in the left camera
+    frame (X right, Y down, Z forward); the camera centre lies on the positive side.
+    """
+    f = calibration.focal_px
+    return np.array([ground.a * f, ground.b * f,
+                     ground.a * calibration.cx_px + ground.b * calibration.cy_px + ground.c + calibration.doffs_px])
+
+
+def height_above_ground_m(ground: GroundPlane, points_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
+    """Signed height of 3-D points (``(..., 3)`` metres, left camera frame) above the ground.
+
+    Positive on the camera's side of the plane.
+    """
+    normal = _normal_camera(ground, calibration)
+    return (calibration.focal_baseline_px_m - np.asarray(points_m, dtype=np.float64) @ normal) / np.linalg.norm(normal)
+
+
+def tilt_from_camera_vertical_deg(ground: GroundPlane, calibration: StereoCalibration) -> float:
+    """Angle between the plane's normal and the camera's vertical (Y) axis, degrees.
+
+    The camera's pitch and roll for a real ground (a few to some 30 degrees); near 90 for a
+    wall facing the camera.
+    """
+    normal = _normal_camera(ground, calibration)
+    return math.degrees(math.acos(min(1.0, abs(normal[1]) / np.linalg.norm(normal))))
+
+
+__all__ = ["GroundPlane", "PlaneFitParameters", "fit_plane_points", "fit_ground_plane", "height_above_ground_m",
+           "tilt_from_camera_vertical_deg"]

@@ -23,26 +23,13 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.ground_plane import GroundPlane
+from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m
 
 DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
 
 EXTENT_PERCENTILES = (1.0, 99.0)
 """Percentiles of the pixels' 3-D coordinates taken as an obstacle's extent (robust min/max)."""
-
-
-def height_above_ground_m(ground: GroundPlane, points_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
-    """Signed height of 3-D points (``(..., 3)`` metres) above the ground; camera side positive.
-
-    Substituting ``x = f X / Z + cx``, ``y = f Y / Z + cy`` and ``d + doffs = f B / Z`` into
-    the disparity plane ``d = a x + b y + c`` gives the 3-D plane ``n . P = f B`` with
-    ``n = (a f, b f, a cx + b cy + c + doffs)``; the camera centre lies on the positive side.
-    """
-    f = calibration.focal_px
-    normal = np.array([ground.a * f, ground.b * f,
-                       ground.a * calibration.cx_px + ground.b * calibration.cy_px + ground.c + calibration.doffs_px])
-    return (calibration.focal_baseline_px_m - np.asarray(points_m, dtype=np.float64) @ normal) / np.linalg.norm(normal)
 
 
 @dataclass(frozen=True)

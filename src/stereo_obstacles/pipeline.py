@@ -37,9 +37,9 @@ from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
-from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane
-from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, height_above_ground_m,
-                                       measure_obstacles, standing_pixels)
+from stereo_obstacles.ground_plane import (GroundPlane, fit_ground_plane, height_above_ground_m,
+                                          tilt_from_camera_vertical_deg)
+from stereo_obstacles.obstacles import ObstacleList, ObstacleParameters, measure_obstacles, standing_pixels
 from stereo_obstacles.rectification_check import check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
@@ -147,14 +147,30 @@ MIN_GROUND_COLOURED_FRACTION = 0.05
 for the colour labels to be trusted."""
 
 
-def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray) -> tuple[GroundPlane | None, bool]:
+MAX_GROUND_TILT_DEG = 45.0
+"""A fitted plane whose normal is farther than this from the camera's vertical is not the ground."""
+
+
+def _fit_ground(disparity: np.ndarray, mask: np.ndarray, calibration: StereoCalibration | None) -> GroundPlane:
+    """Fit the ground plane within ``mask``; with a calibration, refuse a plane standing upright."""
+    plane = fit_ground_plane(disparity, mask=mask)
+    if calibration is not None:
+        tilt = tilt_from_camera_vertical_deg(plane, calibration)
+        if tilt > MAX_GROUND_TILT_DEG:
+            raise InvalidInputError(f"the best plane is tilted {tilt:.0f} degrees from the camera's vertical: "
+                                    f"a wall or a large object, not the ground")
+    return plane
+
+
+def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray,
+                  calibration: StereoCalibration | None) -> tuple[GroundPlane | None, bool]:
     """The ground plane, and whether the phase-1 colour labels can be trusted.
 
     The colour labels are not trusted when many ground-coloured pixels have a disparity but
     no ground-like plane fits them: the reference area then shows a wall or a large object.
     """
     try:
-        return fit_ground_plane(disparity, mask=ground_mask), True
+        return _fit_ground(disparity, ground_mask, calibration), True
     except InvalidInputError as exc:
         colour_failure = str(exc)
     matched_ground = np.count_nonzero(ground_mask & np.isfinite(disparity))
@@ -166,7 +182,7 @@ def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray) -> tuple[Groun
     lower = np.zeros(disparity.shape, dtype=bool)
     lower[int(round(disparity.shape[0] * (1.0 - LOWER_PART_FOR_GROUND))):] = True
     try:
-        return fit_ground_plane(disparity, mask=lower), colour_trusted
+        return _fit_ground(disparity, lower, calibration), colour_trusted
     except InvalidInputError as exc:
         logger.warning("no ground plane (%s); flat markings cannot be told from obstacles", exc)
         return None, colour_trusted
@@ -249,7 +265,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
 
     t = time.perf_counter()
     disparity = matched.disparity
-    ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask)
+    ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
                                       colour_trusted)
