@@ -107,3 +107,33 @@ def classify_kernel(counts, n_window, veto, intensity, min_intensity, ground_low
                 labels[y, x] = unknown  # too dark to measure colour, yet bright enough for a shadow
             else:
                 labels[y, x] = obstacle
+
+
+@njit(cache=True)
+def classify_modes_kernel(counts, veto, measurable, unknown, ground, shadow, obstacle, labels):
+    """Label every pixel from the window counts of the ground colour model's tests.
+
+    ``counts[y, x]`` holds, over the window, how many pixels have a ground colour, a shadow
+    colour, a sunlit colour, and how many are measurable. The median filter of the paper,
+    for three exclusive-ish tests: the pixel is ground (or shadow) when one kind of match
+    covers at least half of the measurable pixels and its own colour is not vetoed (so
+    that the window cannot erase a thin pole); shadow when the shadow matches outnumber
+    the others. Unmatched pixels too dark to measure yet near a model colour (a deep
+    shadow) are unknown, the rest obstacles.
+    """
+    height, width = veto.shape
+    for y in range(height):
+        for x in range(width):
+            n_ground = counts[y, x, 0]
+            n_shadow = counts[y, x, 1]
+            n_sunlit = counts[y, x, 2]
+            best = max(n_ground, n_shadow, n_sunlit)
+            if counts[y, x, 3] > 0 and not veto[y, x] and 2 * best >= counts[y, x, 3]:
+                if n_shadow > n_ground and n_shadow > n_sunlit:
+                    labels[y, x] = shadow
+                else:
+                    labels[y, x] = ground
+            elif not measurable[y, x] and not veto[y, x]:
+                labels[y, x] = unknown
+            else:
+                labels[y, x] = obstacle

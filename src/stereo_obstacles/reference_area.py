@@ -99,8 +99,10 @@ class ReferenceArea:
         return x0, y0, x1, y1
 
 
-DEFAULT_REFERENCE_AREA = ReferenceArea(0.35, 0.85, 0.65, 1.0)
-"""Bottom centre: the middle 30 % of the width, the lowest 15 % of the height."""
+DEFAULT_REFERENCE_AREA = ReferenceArea(0.0, 0.85, 1.0, 1.0)
+"""The lowest 15 % of the image, full width: the ground right in front of the walker. The
+``"log_rgb"`` colour model cuts it into strips and keeps the colours most strips agree on, so
+an obstacle standing in part of it does not become ground (docs/segmentation.md)."""
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,17 @@
-"""Phase 1: ground, ground in shadow, and obstacles from one colour image (HSI, shadow-robust).
+"""Phase 1: ground, ground in shadow, and obstacles from one colour image (shadow-robust).
 
-The paper's rule, corrected (docs/segmentation.md has the reasoning and the measurements):
+Two colour models, chosen by ``SegmentationParameters.colour_model``:
+
+``"log_rgb"`` (default, measured better: docs/segmentation.md) keeps the paper's structure --
+reference area, a 7x7 median (majority) filter over per-pixel colour tests, and the rule
+ground / shadow (darker within a bounded ratio, same material) / obstacle -- but describes
+the ground by the set of its colours and their shadowed and sunlit versions
+(:mod:`stereo_obstacles.ground_colour`): a pixel is ground when most measurable pixels of
+its window have one kind of match (ground colour, shadow colour or sunlit colour) and its
+own colour is near one of them; shadow when the shadow matches dominate; unknown when it is
+too dark to measure; obstacle otherwise.
+
+``"hsi"`` is the paper's rule in HSI, corrected:
 
 1. RGB -> HSI with validity thresholds (:mod:`stereo_obstacles.colour`).
 2. Reference statistics of the ground from a bottom-centre rectangle, made robust to an
@@ -40,10 +51,13 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from stereo_obstacles._segmentation_kernel import classify_kernel, match_flags_kernel
+from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_modes_kernel,
+                                                   match_flags_kernel)
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
+                                            colour_flags)
 from stereo_obstacles.hue_filter import DEFAULT_FILTER_SIZE, window_counts
 from stereo_obstacles.labels import Label
 from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
@@ -59,6 +73,12 @@ class SegmentationParameters:
 
     Attributes
     ----------
+    colour_model
+        ``"log_rgb"``: ground colours and their relit versions (:mod:`~stereo_obstacles.ground_colour`);
+        ``"hsi"``: the paper's hue / intensity rule (the fields from ``shadow_blue_shift`` to
+        ``intensity_smoothing_px`` apply to it only).
+    ground_colour
+        Thresholds of the ``"log_rgb"`` model.
     min_intensity
         Colour is measured only where intensity (fraction of full scale) is at least this.
     min_saturation
@@ -99,6 +119,8 @@ class SegmentationParameters:
         Non-obstacle regions (4-connected) smaller than this become obstacle.
     """
 
+    colour_model: str = "log_rgb"
+    ground_colour: GroundColourParameters = field(default_factory=GroundColourParameters)
     min_intensity: float = DEFAULT_MIN_INTENSITY
     min_saturation: float = DEFAULT_MIN_SATURATION
     filter_size: int = DEFAULT_FILTER_SIZE
@@ -116,6 +138,11 @@ class SegmentationParameters:
 
     def __post_init__(self) -> None:
         check_thresholds(self.min_intensity, self.min_saturation)
+        if self.colour_model not in ("log_rgb", "hsi"):
+            raise InvalidInputError(f"colour_model must be 'log_rgb' or 'hsi', got {self.colour_model!r}")
+        if not isinstance(self.ground_colour, GroundColourParameters):
+            raise InvalidInputError("ground_colour must be GroundColourParameters, got "
+                                    f"{type(self.ground_colour).__name__}")
         if not isinstance(self.reference, ReferenceParameters):
             raise InvalidInputError(f"reference must be ReferenceParameters, got {type(self.reference).__name__}")
         if not isinstance(self.shadow_rule, bool):
@@ -213,18 +240,20 @@ def _window_sizes(height: int, width: int, size: int) -> np.ndarray:
     return np.outer(along(height), along(width)).astype(np.int32)
 
 
-def _clean_up(labels: np.ndarray, intensity: np.ndarray, ground_low: float,
-              params: SegmentationParameters) -> None:
-    """Remove obstacle specks and fill small holes in obstacles, in place (area tests only)."""
+def _clean_up(labels: np.ndarray, darker: np.ndarray | None, params: SegmentationParameters) -> None:
+    """Remove obstacle specks and fill small holes in obstacles, in place (area tests only).
+
+    Specks become ground, or shadow where ``darker`` (``bool (H, W)``) is set.
+    """
     if params.min_obstacle_area_px > 1:
         obstacle = (labels == Label.OBSTACLE).view(np.uint8)
         _, components, stats, _ = cv2.connectedComponentsWithStats(obstacle, connectivity=8)
         small = stats[:, cv2.CC_STAT_AREA] < params.min_obstacle_area_px
         small[0] = False  # component 0 is the non-obstacle background
         speck = small[components]
-        darker = speck & (intensity < ground_low) & params.shadow_rule
         labels[speck] = Label.GROUND
-        labels[darker] = Label.SHADOW
+        if darker is not None and params.shadow_rule:
+            labels[speck & darker] = Label.SHADOW
     if params.max_hole_area_px > 1:
         free = (labels != Label.OBSTACLE).view(np.uint8)
         _, components, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=4)
@@ -259,10 +288,10 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     Examples
     --------
     >>> import numpy as np
-    >>> image = np.zeros((60, 80, 3), dtype=np.uint8)
-    >>> image[:] = (90, 140, 60)                  # green ground
+    >>> ground = np.random.default_rng(0).normal((90, 140, 60), 3, (60, 80, 3))  # green ground
+    >>> ground[40:50, 5:25] *= (0.57, 0.625, 0.71)  # a shadow: darker and bluer (skylight)
+    >>> image = np.clip(ground, 0, 255).astype(np.uint8)
     >>> image[10:30, 30:40] = (200, 40, 40)       # a red box
-    >>> image[40:50, 5:25] = (40, 70, 37)         # its shadow: darker and bluer (skylight)
     >>> labels = segment(image).labels
     >>> [int(labels[20, 35]), int(labels[45, 15]), int(labels[55, 40])]
     [3, 2, 1]
@@ -276,6 +305,17 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     area_hsi = rgb_to_hsi(a[y0:y1, x0:x1], min_intensity=params.min_intensity,
                           min_saturation=params.min_saturation)
     ref = reference_statistics(a[y0:y1, x0:x1], area_hsi, box, params=params.reference)
+    if params.colour_model == "hsi":
+        labels = _hsi_labels(a, inv_full_scale, ref, params)
+    else:
+        labels = _log_rgb_labels(a, box, params)
+    logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
+                 100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
+    return SegmentationResult(labels=labels, reference=ref, params=params)
+
+
+def _hsi_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
+                params: SegmentationParameters) -> np.ndarray:
     flags, veto, intensity = _match_flags(a, inv_full_scale, ref, params)
     counts = window_counts(flags, size=params.filter_size)
     ground_low = max(0.0, ref.intensity_low - params.ground_intensity_margin)
@@ -294,10 +334,25 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
                     np.float32(median / params.shadow_min_ratio), params.shadow_rule,
                     int(Label.UNKNOWN), int(Label.GROUND), int(Label.SHADOW), int(Label.OBSTACLE),
                     labels)
-    _clean_up(labels, intensity, ground_low, params)
-    logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
-                 100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
-    return SegmentationResult(labels=labels, reference=ref, params=params)
+    _clean_up(labels, intensity < ground_low, params)
+    return labels
+
+
+def _log_rgb_labels(a: np.ndarray, box: tuple[int, int, int, int],
+                    params: SegmentationParameters) -> np.ndarray:
+    shadow_ratio = (params.shadow_min_ratio, params.shadow_max_ratio) if params.shadow_rule else None
+    model = build_ground_colour_model(a, box, params=params.ground_colour, shadow_ratio=shadow_ratio)
+    if model.n_ground_cells == 0:
+        logger.warning("reference area %s: no colour is shared by %d of its %d strips; everything "
+                       "will be called obstacle", box, params.ground_colour.quorum,
+                       params.ground_colour.n_strips)
+    flags, veto = colour_flags(a, model, params.min_intensity)
+    counts = window_counts(flags, size=params.filter_size)
+    labels = np.empty(a.shape[:2], dtype=np.uint8)
+    classify_modes_kernel(counts, veto, flags[..., 3], int(Label.UNKNOWN), int(Label.GROUND),
+                          int(Label.SHADOW), int(Label.OBSTACLE), labels)
+    _clean_up(labels, None, params)
+    return labels
 
 
 __all__ = ["SegmentationParameters", "SegmentationResult", "segment"]

@@ -1,0 +1,86 @@
+"""Compiled passes of the ground colour model (see :mod:`stereo_obstacles.ground_colour`)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+GROUND_BIT, SHADOW_BIT, SUNLIT_BIT, NEAR_BIT = 1, 2, 4, 8
+"""Bits of a colour-table cell: the colour of lit reference ground, of that ground in cast
+shadow, of sunlit ground seen from a shadowed reference, and "near any of them" (veto test)."""
+
+
+@njit(cache=True)
+def build_table_kernel(sample_bins, sample_strip, n_strips, quorum, min_count, n_bins, shifts,
+                       table):
+    """Fill ``table`` (``uint8 (n, n, n)``, zeroed) from reference samples.
+
+    A cell is ground when at least ``min_count`` samples of each of at least ``quorum``
+    strips fall in it. Every ground cell then sets ``shifts[k, 3]`` at itself plus
+    ``shifts[k, :3]`` (bins) for every row ``k``; finally ``NEAR_BIT`` marks every cell within
+    one bin (Chebyshev) of a set cell.
+    """
+    n_cells = n_bins * n_bins * n_bins
+    counts = np.zeros((n_strips, n_cells), dtype=np.uint8)
+    seen = np.zeros(n_cells, dtype=np.bool_)
+    cells = np.empty(sample_bins.shape[0], dtype=np.int64)
+    n_seen = 0
+    for i in range(sample_bins.shape[0]):
+        flat = (sample_bins[i, 0] * n_bins + sample_bins[i, 1]) * n_bins + sample_bins[i, 2]
+        s = sample_strip[i]
+        if counts[s, flat] < 255:
+            counts[s, flat] += 1
+        if not seen[flat]:
+            seen[flat] = True
+            cells[n_seen] = flat
+            n_seen += 1
+    for j in range(n_seen):
+        flat = cells[j]
+        agree = 0
+        for s in range(n_strips):
+            if counts[s, flat] >= min_count:
+                agree += 1
+        if agree < quorum:
+            continue
+        r = flat // (n_bins * n_bins)
+        g = (flat // n_bins) % n_bins
+        b = flat % n_bins
+        for k in range(shifts.shape[0]):
+            rr = r + shifts[k, 0]
+            gg = g + shifts[k, 1]
+            bb = b + shifts[k, 2]
+            if 0 <= rr < n_bins and 0 <= gg < n_bins and 0 <= bb < n_bins:
+                table[rr, gg, bb] |= shifts[k, 3]
+    near = np.zeros((n_bins, n_bins, n_bins), dtype=np.bool_)
+    for r in range(n_bins):
+        for g in range(n_bins):
+            for b in range(n_bins):
+                if table[r, g, b] != 0:
+                    for rr in range(max(r - 1, 0), min(r + 2, n_bins)):
+                        for gg in range(max(g - 1, 0), min(g + 2, n_bins)):
+                            for bb in range(max(b - 1, 0), min(b + 2, n_bins)):
+                                near[rr, gg, bb] = True
+    for r in range(n_bins):
+        for g in range(n_bins):
+            for b in range(n_bins):
+                if near[r, g, b]:
+                    table[r, g, b] |= NEAR_BIT
+
+
+@njit(cache=True)
+def lookup_kernel(rgb, lut, table, min_sum, flags, veto):
+    """Per pixel: ``flags[..., 0:3]`` the ground / shadow / sunlit bits of its colour cell,
+    ``flags[..., 3]`` whether it is bright enough to measure (channel sum >= ``min_sum``),
+    ``veto`` whether its colour is not even near any ground colour."""
+    height, width = rgb.shape[0], rgb.shape[1]
+    for y in range(height):
+        for x in range(width):
+            r = rgb[y, x, 0]
+            g = rgb[y, x, 1]
+            b = rgb[y, x, 2]
+            cell = table[lut[r], lut[g], lut[b]]
+            flags[y, x, 0] = cell & 1
+            flags[y, x, 1] = (cell >> 1) & 1
+            flags[y, x, 2] = (cell >> 2) & 1
+            flags[y, x, 3] = np.int64(r) + np.int64(g) + np.int64(b) >= min_sum
+            veto[y, x] = (cell & 8) == 0

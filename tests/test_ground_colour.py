@@ -1,0 +1,162 @@
+"""The ground colour model: table against a slow reference, and constructed shadow cases."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.ground_colour import (GROUND_BIT, SHADOW_BIT, SUNLIT_BIT, GroundColourParameters,
+                                            build_ground_colour_model, colour_flags, shadow_shifts)
+from stereo_obstacles.labels import Label
+from stereo_obstacles.segmentation import SegmentationParameters, segment
+
+SKYLIGHT = np.array((0.57, 0.625, 0.71))
+"""Gamma-space attenuation of a cast shadow in the synthetic world (sun at 40 degrees)."""
+
+
+def _u8(image: np.ndarray) -> np.ndarray:
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def _two_colour_tiles(shape=(120, 168), seed=1) -> np.ndarray:
+    """Pavers 8 px square alternating red-brown and grey-brown, with noise."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    second = ((yy // 8 + xx // 8) % 2).astype(bool)
+    image = np.where(second[..., None], (150, 118, 105), (170, 80, 60)).astype(float)
+    return image + rng.normal(0, 2.5, image.shape)
+
+
+def _slow_table(rgb, box, params, shadow_ratio):
+    """The table from its definition, with Python loops."""
+    model = build_ground_colour_model(rgb, box, params=params, shadow_ratio=shadow_ratio)
+    lut, n = model.lut, model.table.shape[0]
+    x0, y0, x1, y1 = box
+    edges = np.linspace(x0, x1, params.n_strips + 1).round().astype(int)
+    import cv2
+    per_strip = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        counts: dict = {}
+        for k in params.texture_scales_px:
+            area = rgb[y0:y1, a:b] if k == 1 else cv2.blur(rgb[y0:y1, a:b], (k, k), borderType=cv2.BORDER_REFLECT)
+            for pixel in area.reshape(-1, 3):
+                cell = tuple(int(lut[v]) for v in pixel)
+                counts[cell] = counts.get(cell, 0) + 1
+        per_strip.append(counts)
+    expected = np.zeros((n, n, n), np.uint8)
+    cells = set().union(*per_strip)
+    for cell in cells:
+        if sum(c.get(cell, 0) >= params.min_count for c in per_strip) < params.quorum:
+            continue
+        for dr, dg, db, bit in shadow_shifts(params, shadow_ratio):
+            target = (cell[0] + dr, cell[1] + dg, cell[2] + db)
+            if all(0 <= t < n for t in target):
+                expected[target] |= bit
+    set_cells = np.argwhere(expected != 0)
+    near = np.zeros_like(expected, dtype=bool)
+    for r, g, b in set_cells:
+        near[max(r - 1, 0):r + 2, max(g - 1, 0):g + 2, max(b - 1, 0):b + 2] = True
+    expected[near] |= 8
+    return model.table, expected
+
+
+@pytest.mark.parametrize("shadow_ratio", [(0.4, 0.8), None])
+def test_table_matches_its_definition(shadow_ratio):
+    rgb = _u8(_two_colour_tiles((40, 42)))
+    rgb[30:, 5:12] = (20, 160, 30)                       # an object in one strip only
+    params = GroundColourParameters(n_strips=3, quorum=2)
+    table, expected = _slow_table(rgb, (0, 30, 42, 40), params, shadow_ratio)
+    np.testing.assert_array_equal(table, expected)
+    assert np.count_nonzero(table & GROUND_BIT) > 0
+    assert bool(np.any(table & SHADOW_BIT)) == (shadow_ratio is not None)
+    assert bool(np.any(table & SUNLIT_BIT)) == (shadow_ratio is not None)
+
+
+def test_shifts_are_darker_and_bluer():
+    shifts = shadow_shifts(GroundColourParameters(), (0.4, 0.8))
+    shadow = shifts[shifts[:, 3] == SHADOW_BIT, :3]
+    assert np.all(shadow[:, 1] < 0)                      # darker
+    assert np.all(shadow[:, 0] < shadow[:, 2])           # red falls more than blue
+    sunlit = shifts[shifts[:, 3] == SUNLIT_BIT, :3]
+    np.testing.assert_array_equal(np.sort(-sunlit, axis=0), np.sort(shadow, axis=0))
+
+
+def test_shadow_on_two_colour_tiles_is_ground():
+    image = _two_colour_tiles()
+    region = np.s_[20:70, 30:130]
+    image[region] *= SKYLIGHT
+    labels = segment(_u8(image)).labels
+    assert np.mean(labels[region] == Label.SHADOW) > 0.95
+    assert np.mean(labels[80:, :] == Label.GROUND) > 0.95
+    off = segment(_u8(image), params=SegmentationParameters(shadow_rule=False)).labels
+    assert np.mean(off[region] == Label.OBSTACLE) > 0.95
+
+
+@pytest.mark.xfail(strict=True, reason="known weakness: a uniformly darkened grey-brown paver colour "
+                   "falls on cells of the shadow table (61 % of its pixels); not yet diagnosed")
+def test_dark_obstacle_of_ground_colour_on_tiles_is_an_obstacle():
+    image = _two_colour_tiles()
+    region = np.s_[20:60, 60:100]
+    image[region] *= 0.62                                # same colours, as dark as a shadow
+    labels = segment(_u8(image)).labels
+    assert np.mean(labels[region] == Label.OBSTACLE) > 0.95
+
+
+def test_grey_ground_shadow_and_grey_obstacle():
+    rng = np.random.default_rng(2)
+    image = rng.normal((118, 118, 122), 3, (120, 160, 3))
+    shadow, box = np.s_[10:50, 10:70], np.s_[10:50, 100:140]
+    image[shadow] *= SKYLIGHT
+    image[box] = rng.normal((175, 175, 178), 3, (40, 40, 3))   # lighter grey object
+    labels = segment(_u8(image)).labels
+    assert np.mean(labels[shadow] == Label.SHADOW) > 0.95
+    assert np.mean(labels[box] == Label.OBSTACLE) > 0.95
+
+
+def test_obstacle_in_part_of_the_reference_area_is_not_ground():
+    image = _two_colour_tiles()
+    image[70:, 10:40] = (40, 70, 170)                    # a blue box standing in the area
+    labels = segment(_u8(image)).labels
+    assert np.mean(labels[75:, 15:35] == Label.OBSTACLE) > 0.95
+    assert np.mean(labels[:60, :] == Label.GROUND) > 0.95
+
+
+def test_flags_need_the_model_bit_depth():
+    rgb = _u8(_two_colour_tiles((40, 42)))
+    model = build_ground_colour_model(rgb, (0, 30, 42, 40))
+    with pytest.raises(InvalidInputError, match="bit depth"):
+        colour_flags(rgb.astype(np.uint16), model, 0.05)
+    flags, veto = colour_flags(rgb, model, 0.05)
+    assert flags.shape == (40, 42, 4) and flags.dtype == np.uint8 and veto.dtype == bool
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"bin": 0.0}, "bin"), ({"quorum": 9}, "quorum"), ({"texture_scales_px": (0,)}, "texture"),
+    ({"min_blueness": 0.8, "max_blueness": 0.5}, "blueness"), ({"green_tolerance_bins": -1}, "green"),
+])
+def test_parameters_are_validated(kwargs, match):
+    with pytest.raises(InvalidInputError, match=match):
+        GroundColourParameters(**kwargs)
+
+
+def test_narrow_area_and_bad_ratio_are_rejected():
+    rgb = _u8(_two_colour_tiles((40, 42)))
+    with pytest.raises(InvalidInputError, match="wide"):
+        build_ground_colour_model(rgb, (0, 30, 4, 40))
+    with pytest.raises(InvalidInputError, match="shadow_ratio"):
+        shadow_shifts(GroundColourParameters(), (0.8, 0.4))
+
+
+def test_every_cell_bit_combination_is_read_back():
+    rgb = np.array([[[v, v, v] for v in range(0, 256, 16)]], dtype=np.uint8)
+    model = build_ground_colour_model(np.repeat(rgb, 8, axis=0), (0, 0, 16, 8),
+                                      params=GroundColourParameters(n_strips=1, quorum=1, min_count=1))
+    flags, veto = colour_flags(rgb, model, 0.0)
+    for x, (r, g, b) in enumerate(rgb[0]):
+        cell = int(model.table[model.lut[r], model.lut[g], model.lut[b]])
+        assert [int(v) for v in flags[0, x, :3]] == [cell & 1, (cell >> 1) & 1, (cell >> 2) & 1]
+        assert veto[0, x] == (cell & 8 == 0)
+    assert list(itertools.islice(flags[0, :, 3], 1)) == [1]
