@@ -27,17 +27,24 @@ def _bucket_by(col, idx, w):
     return start, items
 
 
+@njit(cache=CACHE)
+def _rows(t_y, h):
+    """Candidate indices grouped by row (counting sort): ``(start, items)``, row y is ``items[start[y]:start[y+1]]``."""
+    return _bucket_by(t_y, np.arange(t_y.shape[0]), h)
+
+
 @njit(cache=CACHE, parallel=True)
 def _stable_matching_kernel(t_y, t_x, t_xr, t_c, h, w, margin):
     n = t_y.shape[0]
-    key = t_y.astype(np.float64) * 4.0 + (1.0 - t_c.astype(np.float64))
-    order = np.argsort(key)
-    row_start = np.searchsorted(t_y[order], np.arange(h + 1))
+    row_start, by_row = _rows(t_y, h)
     winner = np.full(n, False)
     for y in prange(h):
-        idx = order[row_start[y]:row_start[y + 1]]
-        if idx.shape[0] == 0:
+        cand = by_row[row_start[y]:row_start[y + 1]]
+        if cand.shape[0] == 0:
             continue
+        # best first, ties by (x, x'): a stable sort by similarity of the candidates in (x, x') order
+        cand = cand[np.argsort(t_x[cand] * w + t_xr[cand], kind="mergesort")]
+        idx = cand[np.argsort(-t_c[cand], kind="mergesort")]
         start_l, items_l = _bucket_by(t_x, idx, w)
         start_r, items_r = _bucket_by(t_xr, idx, w)
         done_l = np.zeros(w, np.bool_)

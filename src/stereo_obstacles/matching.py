@@ -33,7 +33,7 @@ VARIANTS = ("stable", "greedy")
 MIN_SIZE = 2 * RADIUS + 1
 """Smallest accepted image side in pixels (one correlation window)."""
 
-SEED_SPACING = 1
+SEED_SPACING = 8
 """Default side in pixels of the cells that keep one edge seed pixel each (see ``docs/matching.md``)."""
 
 DEFAULT_MAX_DISPARITY_FRACTION = 1.0 / 3.0
@@ -196,7 +196,8 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         A scanline seed must beat its runner-up (outside ``d +- 1``) by this similarity.
     seed_spacing : int
         At most one edge seed pixel (the strongest gradient) per ``seed_spacing`` square cell;
-        random seeds are thinned by its square. 1 searches every edge pixel (the paper).
+        random seeds are thinned by the same factor. 1 searches every edge pixel (the paper);
+        the default 8 searches ~14x fewer with the same accuracy (``docs/matching.md``).
 
     Returns
     -------

@@ -14,7 +14,8 @@ neighbouring integer disparity; they are eliminated but do not count as ambiguit
 (otherwise every surface with a half-pixel disparity would be rejected; subpixel
 refinement resolves them).
 
-Cost: a sort of the candidates plus ``O(K)`` work per candidate; rows run in parallel.
+Cost: a counting sort of the candidates by row, a sort of each row by similarity and ``O(K)``
+work per candidate; rows run in parallel.
 """
 
 from __future__ import annotations
