@@ -69,6 +69,8 @@ class DetectionConfig:
 
     ``geometric_min_height_m``: ground-labelled pixels this far above the ground plane become
     obstacle candidates (needs a calibration; ``0`` switches it off).
+    ``check_rectification``: match ORB features first and warn when the pair does not look
+    rectified (a stream can check its first frame only).
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -77,6 +79,7 @@ class DetectionConfig:
     grouping: GroupingParameters = field(default_factory=GroupingParameters)
     obstacles: ObstacleParameters = field(default_factory=ObstacleParameters)
     geometric_min_height_m: float = 0.15
+    check_rectification: bool = True
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
@@ -141,6 +144,9 @@ def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
 LOWER_PART_FOR_GROUND = 1.0 / 3.0
 """Fraction of the image rows, from the bottom, searched for the ground when colour fails."""
 
+
+RECTIFICATION_CHECK_SIDE_PX = 640
+"""The rectification check matches features on images shrunk to at most this side (speed)."""
 
 MIN_GROUND_COLOURED_FRACTION = 0.05
 """Matched ground-coloured pixels (fraction of the image) that must lie on a ground-like plane
@@ -256,7 +262,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     timings["segmentation"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    rectification = check_rectification(left, right)
+    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX)
+                     if config.check_rectification else None)
     timings["rectification_check"] = time.perf_counter() - t
 
     t = time.perf_counter()

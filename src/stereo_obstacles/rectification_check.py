@@ -52,7 +52,7 @@ class RectificationCheck:
 
 
 def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: float = MAX_MEDIAN_OFFSET_PX,
-                        method: str = "sift", warn: bool = True) -> RectificationCheck:
+                        method: str = "sift", warn: bool = True, max_side_px: int | None = None) -> RectificationCheck:
     """Measure whether ``left`` and ``right`` are rectified, warning when they are not.
 
     Parameters
@@ -65,6 +65,9 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
         Feature detector.
     warn : bool
         Log a warning (``logging.warning``) when the pair is not rectified.
+    max_side_px : int, optional
+        Match features on copies shrunk so that their longer side is at most this (faster);
+        offsets are scaled back to full-size pixels.
 
     Returns
     -------
@@ -90,8 +93,13 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
     if not threshold_px > 0:
         raise InvalidInputError(f"threshold_px: expected > 0, got {threshold_px}")
     check_same_size(left, right)
+    scale = 1.0
+    if max_side_px is not None and max(left.shape[:2]) > max_side_px:
+        scale = max(left.shape[:2]) / max_side_px
+        size = (round(left.shape[1] / scale), round(left.shape[0] / scale))
+        left, right = (cv2.resize(image, size, interpolation=cv2.INTER_AREA) for image in (left, right))
     matches = match_features(left, right, method=method)
-    left_px, right_px = matches.left_px, matches.right_px
+    left_px, right_px = matches.left_px * scale, matches.right_px * scale
     if len(matches) >= 8:
         # Keep the matches consistent with one epipolar geometry (an unrectified pair has one too).
         _, mask = cv2.findFundamentalMat(left_px, right_px, cv2.USAC_MAGSAC, 1.0, 0.999)
