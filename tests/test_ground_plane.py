@@ -78,3 +78,9 @@ def test_rejects_bad_parameters_and_maps():
         fit_ground_plane(np.zeros((4, 4), np.uint8))
     with pytest.raises(InvalidInputError, match="mask"):
         fit_ground_plane(np.zeros((4, 4), np.float32), mask=np.ones((3, 3), bool))
+
+
+def test_points_on_one_row_define_no_plane():
+    xs = np.arange(200, dtype=float)
+    with pytest.raises(InvalidInputError, match="collinear|no usable plane"):
+        fit_plane_points(xs, np.full(200, 50.0), 0.01 * xs + 3.0)

@@ -1,0 +1,88 @@
+"""Whole-pipeline speed: seconds per stage and pairs per second on a 640x480 colour pair.
+
+Runs ``stereo_obstacles.pipeline.detect`` on the built-in synthetic scene (and on the shared
+KITTI frame when present) after a warm-up, takes the median of ``--repeat`` runs per stage,
+reports the first call (numba compilation, cached on disk after the first process) apart, and
+puts OpenCV StereoSGBM on the same pair in the same run beside it for scale. Prints a Markdown
+table; ``--json FILE`` writes the raw figures.
+
+    python benchmarks/bench_pipeline.py [--repeat 9] [--json pipeline.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve()
+SHARED_DATA = HERE.parents[1].parent / "shared" / "data"
+
+
+def _time_pipeline(left, right, calibration, repeat: int) -> dict:
+    from stereo_obstacles.pipeline import detect
+
+    started = time.perf_counter()
+    detect(left, right, calibration)
+    first = time.perf_counter() - started
+    runs = [detect(left, right, calibration).timings_s for _ in range(repeat)]
+    medians = {stage: statistics.median(r[stage] for r in runs) for stage in runs[0]}
+    return {"first_call_s": first, "median_s": medians, "pairs_per_second": 1.0 / medians["total"]}
+
+
+def _time_sgbm(left, right, max_disparity: int, repeat: int) -> float:
+    from stereo_obstacles.peers import sgbm_disparity
+
+    sgbm_disparity(left, right, max_disparity=max_disparity)
+    times = []
+    for _ in range(repeat):
+        started = time.perf_counter()
+        sgbm_disparity(left, right, max_disparity=max_disparity)
+        times.append(time.perf_counter() - started)
+    return statistics.median(times)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=9)
+    parser.add_argument("--json", metavar="FILE")
+    args = parser.parse_args(argv)
+
+    from stereo_obstacles.evaluation import machine_info
+    from stereo_obstacles.matching import warm_up
+    from stereo_obstacles.synthetic import default_scene, render_pair
+
+    compile_s = warm_up()
+    cases = {}
+    pair = render_pair(default_scene(640, 480))
+    cases["synthetic default scene 640x480"] = (pair.left, pair.right, pair.calibration, 64)
+    kitti = SHARED_DATA / "kitti2015_000005"
+    if kitti.is_dir():
+        from stereo_obstacles.datasets import load_pair
+
+        k = load_pair(kitti)
+        cases["KITTI 2015 000005 1242x375"] = (k.left, k.right, k.calibration, 128)
+    results = {"machine": machine_info(), "warm_up_s": compile_s, "cases": {}}
+    print(f"Machine: {results['machine']['cpu']}, {results['machine']['logical_cpus']} logical CPUs; "
+          f"median of {args.repeat} runs after a warm-up; warm_up() {compile_s:.2f} s\n")
+    print("| pair | first call [s] | segmentation [ms] | rectification check [ms] | matching [ms] | obstacles [ms] "
+          "| total [ms] | pairs/s | SGBM alone [ms] |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, (left, right, calibration, max_disparity) in cases.items():
+        figures = _time_pipeline(left, right, calibration, args.repeat)
+        figures["sgbm_s"] = _time_sgbm(left, right, max_disparity, args.repeat)
+        results["cases"][name] = figures
+        m = {k: 1000 * v for k, v in figures["median_s"].items()}
+        print(f"| {name} | {figures['first_call_s']:.2f} | {m['segmentation']:.0f} | "
+              f"{m.get('rectification_check', 0):.0f} | {m['matching']:.0f} | {m['obstacles']:.0f} | "
+              f"{m['total']:.0f} | {figures['pairs_per_second']:.1f} | {1000 * figures['sgbm_s']:.0f} |")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
