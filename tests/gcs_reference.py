@@ -100,13 +100,16 @@ def grow(left, right, seeds, *, d_min, d_max, tau=0.6, mu=0.1, k_max=10, use_max
 
 
 def stable_matching(table, margin=0.1):
-    """Winners (set of ``(y, x, xr)``) of the confidently stable matching of ``{(y, x, xr): c}``."""
+    """Winners (set of ``(y, x, xr)``) of the confidently stable matching of ``{(y, x, xr): c}``.
+
+    ``table`` lists the candidates in table order (a dict keeps insertion order).
+    """
     winners = set()
     rows = {}
     for q, c in table.items():
         rows.setdefault(q[0], []).append((q, c))
     for cands in rows.values():
-        cands.sort(key=lambda qc: (-qc[1], qc[0]))
+        cands.sort(key=lambda qc: -qc[1])  # stable: equal similarities stay in table order
         done_l, done_r = set(), set()
         for (y, x, xr), c in cands:
             if x in done_l or xr in done_r:

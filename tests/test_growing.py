@@ -7,7 +7,7 @@ import pytest
 
 import gcs_reference as ref
 from stereo_obstacles.growing import grow
-from stereo_obstacles.seeds import Seeds, find_seeds
+from stereo_obstacles.seeds import Seeds, find_seeds, match_pixels
 from stereo_obstacles.similarity import prepare_similarity, similarity_at
 from stereo_obstacles.stable_matching import stable_matching
 
@@ -111,3 +111,16 @@ def test_stable_matching_uniqueness_and_errors():
     assert {tuple(int(v) for v in k) for k in w} == ref.stable_matching(table, margin=0.05)
     with pytest.raises(ValueError, match="inside"):
         stable_matching(np.array([9]), np.array([1]), np.array([1]), np.array([0.9]), (5, 30))
+
+
+def test_points_of_seed_scanlines_are_not_counted_twice():
+    left, right = _scene(seed=4)
+    h, w = left.shape
+    inputs = prepare_similarity(left, right)
+    ys, xs = np.nonzero(np.ones((h, w), bool))
+    seeds = match_pixels(inputs, ys.astype(np.int32), xs.astype(np.int32), d_min=0, d_max=9, tau=0.6, margin=0.1)
+    g = grow(inputs, seeds, d_min=0, d_max=9, scanned_hi=seeds.scanned_hi)
+    assert g.n_computed > 0
+    assert g.n_rescanned == g.n_computed          # every pixel's whole range was scanned already
+    plain = grow(inputs, seeds, d_min=0, d_max=9)
+    assert plain.n_rescanned == 0 and plain.n_computed == g.n_computed

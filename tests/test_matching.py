@@ -130,3 +130,9 @@ def test_middlebury_accuracy(shared_dataset, name, scale, max_bad, min_density):
     bad, density = _bad1(shared_dataset, name, scale)
     assert bad <= max_bad
     assert density >= min_density
+
+
+def test_seed_spacing_is_validated():
+    a = np.zeros((20, 30), np.uint8)
+    with pytest.raises(InvalidInputError, match="seed_spacing"):
+        match(a, a, seed_spacing=0)

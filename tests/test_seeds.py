@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -73,3 +74,35 @@ def test_find_seeds_sources_and_user_list():
         user_seeds(inputs, np.array([1, 2, 3]), d_min=0, d_max=8)
     with pytest.raises(InvalidInputError, match="outside"):
         user_seeds(inputs, np.array([[1, 5, 3]]), d_min=0, d_max=8)
+
+
+def test_edge_spacing_keeps_the_strongest_edge_pixel_per_cell():
+    rng = np.random.default_rng(3)
+    img = rng.uniform(0, 255, (37, 53)).astype(np.float32)
+    all_ys, all_xs = edge_pixels(img, "canny")
+    spacing = 6
+    ys, xs = edge_pixels(img, "canny", spacing)
+    edges = set(zip(all_ys.tolist(), all_xs.tolist()))
+    assert set(zip(ys.tolist(), xs.tolist())) <= edges           # a subset of the edge pixels
+    cells = list(zip((ys // spacing).tolist(), (xs // spacing).tolist()))
+    assert len(set(cells)) == len(cells)                        # at most one per cell
+    assert set(cells) == {(y // spacing, x // spacing) for y, x in edges}   # every cell with an edge
+    gx = cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=3)
+    mag = np.hypot(gx, gy)
+    for y, x in zip(ys, xs):                                    # the strongest of its cell
+        in_cell = [mag[v, u] for v, u in edges if v // spacing == y // spacing and u // spacing == x // spacing]
+        assert mag[y, x] == pytest.approx(max(in_cell), rel=1e-5)
+    with pytest.raises(InvalidInputError, match="spacing"):
+        edge_pixels(img, "canny", 0)
+
+
+def test_scanned_pixels_are_recorded_for_visit_counting():
+    left, right = _pair(shift=4)
+    inputs = prepare_similarity(left, right)
+    seeds = match_pixels(inputs, np.array([5, 3], np.int32), np.array([20, 2], np.int32), d_min=1, d_max=8,
+                         tau=0.6, margin=0.1)
+    expected = np.full(left.shape, -1)
+    expected[5, 20] = 8
+    expected[3, 2] = 2
+    np.testing.assert_array_equal(seeds.scanned_hi, expected)

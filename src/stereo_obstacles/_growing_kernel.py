@@ -38,14 +38,17 @@ SLOTS = 5
 FILL, NEXT, CNT_L, CNT_R, BEST_L, BEST_R, KEY = 0, 1, 2, 3, 4, 5, 6
 """Word offsets inside a record (blocks use NEXT and the slots only)."""
 
-# The 16-point disparity-space neighbourhood of (y, x, x') in 4 groups: (dy, dx, dx').
+# The 16-point disparity-space neighbourhood of (y, x, x') in 4 groups: (dy, dx, dx'); a fifth
+# group, the point itself, is how a seed enters (one code path for both).
 _NEIGHBOURS = np.array([
     (0, -1, -1), (0, -2, -1), (0, -1, -2),
     (0, 1, 1), (0, 2, 1), (0, 1, 2),
     (-1, 0, 0), (-1, -1, 0), (-1, 1, 0), (-1, 0, -1), (-1, 0, 1),
     (1, 0, 0), (1, -1, 0), (1, 1, 0), (1, 0, -1), (1, 0, 1),
+    (0, 0, 0),
 ], dtype=np.int64)
-_GROUP_START = np.array([0, 3, 6, 11, 16], dtype=np.int64)
+_GROUP_START = np.array([0, 3, 6, 11, 16, 17], dtype=np.int64)
+_SEED_GROUP = 4
 
 N_COUNTERS = 4
 COUNT_COMPUTED = 0
@@ -81,8 +84,8 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
     """Grow the seeds; see ``growing.py`` for the rule and the module docstring for the data.
 
     ``scanned_hi[y, x]`` is the largest disparity a seed scanline search evaluated at the
-    pixel (-1 where none). ``buf`` is an int32 array of :func:`buffer_size` words. Returns the candidate table ``(t_y, t_x, t_xr, t_c)``, the record
-    buffer and the counters.
+    pixel (-1 where none). ``buf`` is an int32 array of :func:`buffer_size` words. Returns the
+    candidate table ``(t_y, t_x, t_xr, t_c)``, the record buffer and the counters.
     """
     h, w = ml.shape
     side = 2 * RADIUS + 1
@@ -106,7 +109,11 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
     while True:  # the seeds first (one point each), then pops until the queue is empty
         i += 1
         if i < n_seeds:
-            n_groups = 1
+            y = seed_y[i]
+            x = seed_x[i]
+            xr = seed_xr[i]
+            g_lo = _SEED_GROUP
+            g_hi = _SEED_GROUP + 1
         else:
             while top >= 0 and bucket_head[top] < 0:
                 top -= 1
@@ -117,29 +124,21 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             y = t_int[p, 0]
             x = t_int[p, 1]
             xr = t_int[p, 2]
-            n_groups = 4
-        for g in range(n_groups):
+            g_lo = 0
+            g_hi = _SEED_GROUP
+        for g in range(g_lo, g_hi):
             # the best point q of group g (or the seed), its similarity qc and memo word qslot
             qc = -3.0
             qslot = -1
             qy = 0
             qx = 0
             qxr = 0
-            k_lo = _GROUP_START[g]
-            k_hi = _GROUP_START[g + 1]
-            if i < n_seeds:
-                k_hi = k_lo + 1
-            for k in range(k_lo, k_hi):
-                if i < n_seeds:
-                    py = seed_y[i]
-                    px = seed_x[i]
-                    pxr = seed_xr[i]
-                else:
-                    py = y + _NEIGHBOURS[k, 0]
-                    px = x + _NEIGHBOURS[k, 1]
-                    pxr = xr + _NEIGHBOURS[k, 2]
-                    if py < 0 or py >= h or px < 0 or px >= w or pxr < 0 or pxr >= w:
-                        continue
+            for k in range(_GROUP_START[g], _GROUP_START[g + 1]):
+                py = y + _NEIGHBOURS[k, 0]
+                px = x + _NEIGHBOURS[k, 1]
+                pxr = xr + _NEIGHBOURS[k, 2]
+                if py < 0 or py >= h or px < 0 or px >= w or pxr < 0 or pxr >= w:
+                    continue
                 code = px - pxr - d_min
                 if code < 0 or code > d_max - d_min:
                     continue

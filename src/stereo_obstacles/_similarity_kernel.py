@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 CACHE = os.environ.get("STEREO_OBSTACLES_NUMBA_CACHE", "1") != "0"
 """Cache compiled kernels on disk (set ``STEREO_OBSTACLES_NUMBA_CACHE=0`` to opt out)."""
@@ -52,44 +52,43 @@ def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x,
     return c
 
 
-@njit(cache=CACHE, parallel=True, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH)
 def _scan_best(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, ys, xs, d_min, d_max,
                exclusion):
     """Best and runner-up similarity of each listed left pixel along its scanline.
 
     The runner-up ignores disparities within ``exclusion`` of the best one (the same peak).
     Returns ``(best_d, best_c, second_c, n_evaluated)``; ``best_d`` is -1 where the
-    scanline holds no admissible disparity.
+    scanline holds no admissible disparity. Serial: with thinned seeds the search is a few
+    milliseconds, less than waking a thread pool on a busy machine (measured: 0.5 ms serial,
+    25 ms with ``prange`` on Tsukuba).
     """
     n = ys.shape[0]
     best_d = np.full(n, -1, np.int32)
     best_c = np.full(n, UNDEFINED, np.float32)
     second_c = np.full(n, UNDEFINED, np.float32)
-    counts = np.zeros(n, np.int64)
-    n_blocks = min(n, 64)
-    for block in prange(n_blocks):
-        row = np.empty(d_max - d_min + 1, np.float64)
-        for k in range(block, n, n_blocks):
-            y = ys[k]
-            x = xs[k]
-            hi = min(d_max, x)
-            if hi < d_min:
-                continue
-            b = -2.0
-            bd = -1
-            for d in range(d_min, hi + 1):
-                c = _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind,
-                                y, x, x - d)
-                row[d - d_min] = c
-                if c > b:
-                    b = c
-                    bd = d
-            s = UNDEFINED
-            for d in range(d_min, hi + 1):
-                if abs(d - bd) > exclusion and row[d - d_min] > s:
-                    s = row[d - d_min]
-            best_d[k] = bd
-            best_c[k] = b
-            second_c[k] = s
-            counts[k] = hi - d_min + 1
-    return best_d, best_c, second_c, counts.sum()
+    n_evaluated = 0
+    row = np.empty(d_max - d_min + 1, np.float64)
+    for k in range(n):
+        y = ys[k]
+        x = xs[k]
+        hi = min(d_max, x)
+        if hi < d_min:
+            continue
+        b = -2.0
+        bd = -1
+        for d in range(d_min, hi + 1):
+            c = _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x, x - d)
+            row[d - d_min] = c
+            if c > b:
+                b = c
+                bd = d
+        s = UNDEFINED
+        for d in range(d_min, hi + 1):
+            if abs(d - bd) > exclusion and row[d - d_min] > s:
+                s = row[d - d_min]
+        best_d[k] = bd
+        best_c[k] = b
+        second_c[k] = s
+        n_evaluated += hi - d_min + 1
+    return best_d, best_c, second_c, n_evaluated

@@ -6,7 +6,7 @@ The public wrapper is :func:`stereo_obstacles.stable_matching.stable_matching`.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from stereo_obstacles._similarity_kernel import CACHE
 
@@ -33,17 +33,21 @@ def _rows(t_y, h):
     return _bucket_by(t_y, np.arange(t_y.shape[0]), h)
 
 
-@njit(cache=CACHE, parallel=True)
+@njit(cache=CACHE)
 def _stable_matching_kernel(t_y, t_x, t_xr, t_c, h, w, margin):
+    """Winners of the confidently stable matching, row by row (see ``stable_matching.py``).
+
+    Serial: rows in parallel (``prange``) were slower on the shared 2-core machine (Cones,
+    172 k candidates: 19.8 ms wall with two threads, 16.9 ms with one).
+    """
     n = t_y.shape[0]
     row_start, by_row = _rows(t_y, h)
     winner = np.full(n, False)
-    for y in prange(h):
+    for y in range(h):
         cand = by_row[row_start[y]:row_start[y + 1]]
         if cand.shape[0] == 0:
             continue
-        # best first, ties by (x, x'): a stable sort by similarity of the candidates in (x, x') order
-        cand = cand[np.argsort(t_x[cand] * w + t_xr[cand], kind="mergesort")]
+        # best first, ties in table order (the counting sort kept it)
         idx = cand[np.argsort(-t_c[cand], kind="mergesort")]
         start_l, items_l = _bucket_by(t_x, idx, w)
         start_r, items_r = _bucket_by(t_xr, idx, w)

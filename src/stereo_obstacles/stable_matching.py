@@ -1,7 +1,7 @@
 """The final decision of GCS: a confidently stable matching per scanline.
 
 The candidate table holds several candidates per pixel. On each row, candidates are taken
-best first. A candidate whose left or right pixel is already decided is eliminated
+best first (equal similarities in table order). A candidate whose left or right pixel is already decided is eliminated
 (uniqueness). Otherwise it is the best remaining one at both its pixels; it wins when every
 remaining competitor (a candidate sharing its left or its right pixel whose other pixel is
 still free) is worse by more than ``margin * |c|``. If one is not, the pair is ambiguous:
@@ -15,7 +15,7 @@ neighbouring integer disparity; they are eliminated but do not count as ambiguit
 refinement resolves them).
 
 Cost: a counting sort of the candidates by row, a sort of each row by similarity and ``O(K)``
-work per candidate; rows run in parallel.
+work per candidate.
 """
 
 from __future__ import annotations
