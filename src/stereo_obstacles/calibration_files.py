@@ -162,14 +162,35 @@ def _parse_kitti(fields: dict[str, list[float]], source: str) -> StereoCalibrati
                              doffs_px=float(right[0, 2] - left[0, 2]))
 
 
-def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:
+def open_opencv_storage(path: str | os.PathLike[str]):
+    """Open an OpenCV ``FileStorage`` YAML/XML file for reading.
+
+    Returns
+    -------
+    cv2.FileStorage
+        Open or not (check ``isOpened()``); the caller releases it.
+
+    Raises
+    ------
+    CalibrationError
+        OpenCV's parser rejects the file (it reports some parse errors as ``SystemError``
+        wrapping a ``cv2.error``).
+    """
     import cv2
 
-    source = str(path)
     try:
-        storage = cv2.FileStorage(source, cv2.FILE_STORAGE_READ)
-    except cv2.error as exc:
-        raise CalibrationError(f"{source}: OpenCV cannot parse this file: {exc.msg.strip()}") from exc
+        return cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError) as exc:
+        cause = exc if isinstance(exc, cv2.error) else exc.__cause__
+        reason = " ".join((cause.msg if isinstance(cause, cv2.error) else str(exc)).split())
+        where = re.search(r"in function '(.*)'", reason)  # OpenCV puts "file(line): problem" there
+        reason = where.group(1) if where else reason
+        raise CalibrationError(f"{path}: OpenCV cannot parse this file: {reason}") from exc
+
+
+def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:
+    source = str(path)
+    storage = open_opencv_storage(path)
     try:
         if not storage.isOpened():
             raise CalibrationError(f"{source}: OpenCV cannot open this file as YAML/XML")

@@ -268,9 +268,8 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
     InputFileError, CalibrationError
         As :func:`~stereo_obstacles.calibration_files.read_calibration`.
     """
-    import cv2
-
-    from stereo_obstacles.calibration_files import IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M, read_calibration
+    from stereo_obstacles.calibration_files import (IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M, open_opencv_storage,
+                                                    read_calibration)
 
     p = Path(path)
     if not p.is_file():
@@ -286,10 +285,7 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
     elif "opencv-matrix" in head or "<opencv_storage>" in head or head.lstrip().startswith("%YAML"):
         if length_unit is not None and length_unit not in LENGTH_UNITS_M:
             raise CalibrationError(f"length_unit must be one of {sorted(LENGTH_UNITS_M)}, got {length_unit!r}")
-        try:
-            storage = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
-        except cv2.error as exc:
-            raise CalibrationError(f"{p}: OpenCV cannot parse this file: {exc.msg.strip()}") from exc
+        storage = open_opencv_storage(p)
         try:
             pair = camera_pair_from_opencv_storage(storage, str(p), 1.0) if storage.isOpened() else None
         finally:

@@ -84,7 +84,10 @@ def read_image(path: PathLike, *, mode: str = "any") -> np.ndarray:
     data = _read_file_bytes(path, "image")
     buffer = np.frombuffer(data, dtype=np.uint8)
     flag = cv2.IMREAD_GRAYSCALE if mode == "gray" else cv2.IMREAD_UNCHANGED
-    image = cv2.imdecode(buffer, flag)
+    try:
+        image = cv2.imdecode(buffer, flag)
+    except cv2.error as exc:  # a header claiming more than OpenCV's pixel limit, for example
+        raise InputFileError(f"{path} cannot be decoded: {_opencv_reason(exc)}") from exc
     if image is None:
         raise InputFileError(f"{path} is not an image OpenCV can decode (truncated or wrong format?)")
     if image.dtype not in (np.uint8, np.uint16):
@@ -99,6 +102,45 @@ def read_image(path: PathLike, *, mode: str = "any") -> np.ndarray:
     elif mode == "color":
         raise InputFileError(f"{path} is a grey image; a colour image is needed")
     return np.ascontiguousarray(image)
+
+
+def _opencv_reason(exc: cv2.error) -> str:
+    """The human part of an OpenCV error (its assertion text), on one line."""
+    text = " ".join(str(exc).split())
+    if "CV_IO_MAX_IMAGE_PIXELS" in text or "CV_IO_MAX_IMAGE_WIDTH" in text or "CV_IO_MAX_IMAGE_HEIGHT" in text:
+        return "its header claims a size beyond OpenCV's decoding limit (2^30 pixels, sides up to 2^20)"
+    found = re.search(r"\(-\d+:[^)]*\) (.*?) in function", text)
+    return found.group(1) if found else text
+
+
+def to_uint8(*images: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The images as 8-bit, 16-bit ones scaled down together by their significant bits.
+
+    Parameters
+    ----------
+    *images : ndarray of uint8 or uint16, shape (H, W) or (H, W, 3)
+        Images that belong together (a stereo pair); 8-bit ones are returned unchanged.
+
+    Returns
+    -------
+    tuple of ndarray of uint8
+        Same shapes. 16-bit images are shifted right by ``bits - 8``, ``bits`` being the bit
+        length of the brightest pixel of them all (at least 8), so 12-bit data keeps its contrast
+        and both images of a pair keep the same scale.
+
+    Raises
+    ------
+    InvalidInputError
+        An image that is neither ``uint8`` nor ``uint16``.
+    """
+    arrays = [np.asarray(image) for image in images]
+    for array in arrays:
+        if array.dtype not in (np.uint8, np.uint16):
+            raise InvalidInputError(f"images must be uint8 or uint16, got {array.dtype}")
+    wide = [array for array in arrays if array.dtype == np.uint16]
+    brightest = max((int(array.max(initial=0)) for array in wide), default=0)
+    shift = max(brightest.bit_length() - 8, 0)
+    return tuple(array if array.dtype == np.uint8 else (array >> shift).astype(np.uint8) for array in arrays)
 
 
 def _is_grey_content(rgb: np.ndarray) -> bool:
@@ -301,5 +343,5 @@ __all__ = [
     "KITTI_DISPARITY_SCALE", "KITTI_MAX_DISPARITY",
     "read_image", "write_image", "read_pfm", "write_pfm", "read_kitti_disparity",
     "write_kitti_disparity", "read_npy", "write_npy", "read_disparity", "write_disparity",
-    "read_depth", "write_depth", "read_labels", "write_labels",
+    "read_depth", "write_depth", "read_labels", "write_labels", "to_uint8",
 ]

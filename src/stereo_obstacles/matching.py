@@ -17,6 +17,7 @@ import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.growing import MARGIN_REFERENCES, grow
+from stereo_obstacles.match_memory import check_matching_size
 from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 from stereo_obstacles.stable_matching import stable_matching
@@ -126,7 +127,7 @@ class MatchResult:
 
 
 def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity,
-                   max_disparity, margin_reference, seeds, seed_points, seed_spacing) -> None:
+                   max_disparity, margin_reference, seeds, seed_points, seed_spacing, rng_seed) -> None:
     if not 0.0 < tau < 1.0:
         raise InvalidInputError(f"tau: expected 0 < tau < 1, got {tau}")
     if not mu >= 0.0:
@@ -151,6 +152,32 @@ def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, m
         raise InvalidInputError(f"seed_spacing: expected an integer >= 1, got {seed_spacing}")
     if seed_points is None and seeds not in SEED_SOURCES:
         raise InvalidInputError(f"seeds: expected one of {list(SEED_SOURCES)}, got {seeds!r}")
+    if int(rng_seed) != rng_seed or rng_seed < 0:
+        raise InvalidInputError(f"rng_seed: expected an integer >= 0, got {rng_seed}")
+
+
+LOW_DENSITY = 0.01
+"""Below this fraction of matched pixels the result is flagged with a warning."""
+
+
+def _warn_if_doubtful(density: float, n_seed_pixels: int, n_seeds: int, zero_fraction: float, d_min: int,
+                      tau: float, user_seeds: bool) -> None:
+    """Log a warning when the result is empty, very sparse, or all at disparity 0."""
+    if density == 0.0:
+        if n_seed_pixels == 0 and not user_seeds:
+            reason = "the left image has no edges to start from (textureless)"
+        elif n_seeds == 0:
+            reason = (f"no seed reached the similarity threshold tau={tau} (textureless, unrelated or swapped "
+                      f"images?)")
+        else:
+            reason = "no candidate survived (textureless, unrelated or swapped images?)"
+        logger.warning("no match: %s; the disparity map is empty (density 0)", reason)
+    elif density < LOW_DENSITY:
+        logger.warning("only %.2f %% of the pixels matched: weak texture, unrelated or swapped images?",
+                       100 * density)
+    if density > 0 and d_min == 0 and zero_fraction > 0.9:
+        logger.warning("%.0f %% of the matches are at disparity 0: are the left and right images the same?",
+                       100 * zero_fraction)
 
 
 def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disparity: int | None = None,
@@ -208,7 +235,13 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     ImageMismatchError
         The images differ in shape.
     InvalidInputError
-        An image is too small or not an image, or an option is out of range.
+        An image is too small, too large for the memory (:mod:`stereo_obstacles.match_memory`)
+        or not an image, or an option is out of range.
+
+    Notes
+    -----
+    An empty result (density 0), a density below :data:`LOW_DENSITY` or matches nearly all at
+    disparity 0 (identical images) log a warning instead of raising: the result is honest.
 
     Examples
     --------
@@ -222,7 +255,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     """
     t0 = time.perf_counter()
     _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity, max_disparity,
-                   margin_reference, seeds, seed_points, seed_spacing)
+                   margin_reference, seeds, seed_points, seed_spacing, rng_seed)
     left_grey = to_grey(left, "left")
     right_grey = to_grey(right, "right")
     if left_grey.shape != right_grey.shape:
@@ -231,6 +264,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     h, w = left_grey.shape
     if h < MIN_SIZE or w < MIN_SIZE:
         raise InvalidInputError(f"left, right: images must be at least {MIN_SIZE}x{MIN_SIZE} pixels, got {w}x{h}")
+    check_matching_size(w, h)
     d_min = int(min_disparity)
     d_max = int(max_disparity) if max_disparity is not None else max(d_min, round(w * DEFAULT_MAX_DISPARITY_FRACTION))
     d_max = min(d_max, w - 1)
@@ -274,6 +308,8 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         density=float(my.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
         prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=t3 - t2, final_seconds=t4 - t3,
         subpixel_seconds=t5 - t4, match_seconds=t4 - t1, total_seconds=t5 - t0)
+    _warn_if_doubtful(stats.density, stats.n_seed_pixels, stats.n_seeds,
+                      float(np.mean(md == 0)) if md.size else 0.0, d_min, tau, seed_points is not None)
     logger.info("GCS: %d seeds, %d candidates, density %.1f %%, match %.1f ms", stats.n_seeds,
                 stats.n_candidates, 100 * stats.density, 1e3 * stats.match_seconds)
     return MatchResult(disparity, sim, stats)
