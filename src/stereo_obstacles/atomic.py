@@ -77,12 +77,17 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
 
 
 @contextlib.contextmanager
-def staged_directory(out_dir: str | os.PathLike[str]) -> Iterator[Path]:
+def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = ()) -> Iterator[Path]:
     """Yield a hidden staging folder; on success move its files into ``out_dir``.
 
     ``out_dir`` may exist already: files of the same names are replaced, other files are
     kept. On any exception the staging folder is deleted and ``out_dir`` is untouched.
     Only regular files at the top of the staging folder and in its sub-folders are moved.
+
+    ``last`` names the files (relative paths) that vouch for the set, such as a report's
+    ``index.html``: when ``out_dir`` exists their old copies are removed before anything is
+    moved and the new ones are moved after every other file, so a run killed while moving
+    leaves them absent rather than beside a mix of old and new files.
     """
     final = Path(out_dir)
     if final.exists() and not final.is_dir():
@@ -98,11 +103,13 @@ def staged_directory(out_dir: str | os.PathLike[str]) -> Iterator[Path]:
         if not final.exists():
             os.replace(stage, final)
             return
-        for src in sorted(stage.rglob("*")):
-            if src.is_file():
-                dest = final / src.relative_to(stage)
-                dest.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(src, dest)
+        for name in last:
+            (final / name).unlink(missing_ok=True)
+        files = [src for src in stage.rglob("*") if src.is_file()]
+        for src in sorted(files, key=lambda f: (f.relative_to(stage).as_posix() in last, f)):
+            dest = final / src.relative_to(stage)
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, dest)
     except OSError as exc:
         if isinstance(exc, OutputError):
             raise

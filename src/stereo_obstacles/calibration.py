@@ -20,6 +20,10 @@ from stereo_obstacles.errors import CalibrationError, InputFileError
 CALIBRATION_FORMAT = "stereo-obstacles/calibration"
 CALIBRATION_VERSION = 1
 
+MAX_FOCAL_PX = 1e6
+"""Largest focal length accepted, pixels: beyond it the field of view of any real image is a
+fraction of a degree, so the value is a unit or parsing mistake."""
+
 
 @dataclass(frozen=True)
 class StereoCalibration:
@@ -56,6 +60,9 @@ class StereoCalibration:
                 raise CalibrationError(f"calibration {name} must be a finite number, got {value!r}")
         if self.focal_px <= 0:
             raise CalibrationError(f"calibration focal_px must be > 0, got {self.focal_px}")
+        if self.focal_px > MAX_FOCAL_PX:
+            raise CalibrationError(f"calibration focal_px = {self.focal_px:g} px is implausible (at most "
+                                   f"{MAX_FOCAL_PX:g}; a focal length in pixels, not micrometres)")
         if self.baseline_m <= 0:
             raise CalibrationError(f"calibration baseline_m must be > 0 metres, got {self.baseline_m}")
         if self.baseline_m > 100:
@@ -67,6 +74,9 @@ class StereoCalibration:
                 continue
             if not isinstance(value, int) or isinstance(value, bool) or value <= 0:
                 raise CalibrationError(f"calibration {name} must be a positive integer, got {value!r}")
+        if self.width_px is not None and abs(self.doffs_px) >= self.width_px:
+            raise CalibrationError(f"calibration doffs_px = {self.doffs_px:g} px is implausible for "
+                                   f"{self.width_px} px wide images (|doffs| must be below the width)")
 
     @property
     def focal_baseline_px_m(self) -> float:

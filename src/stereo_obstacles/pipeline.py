@@ -35,6 +35,7 @@ import numpy as np
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import (GroundPlane, fit_ground_plane, height_above_ground_m,
@@ -224,7 +225,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     Parameters
     ----------
     left, right
-        ``uint8`` RGB images ``(H, W, 3)`` of the same size, rectified (rows correspond).
+        ``uint8`` RGB images ``(H, W, 3)`` of the same size, rectified (rows correspond);
+        ``uint16`` ones are scaled to 8 bits first (:func:`stereo_obstacles.fileio.to_uint8`).
     calibration
         The rectified calibration; without it distances stay in pixels and disparities.
     config
@@ -252,6 +254,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     from stereo_obstacles.matching import match
 
     _check_pair(left, right)
+    left, right = to_uint8(left, right)
     if calibration is not None:
         calibration.check_image_size(left.shape[1], left.shape[0])
     timings: dict[str, float] = {}

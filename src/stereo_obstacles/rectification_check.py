@@ -25,6 +25,10 @@ MAX_MEDIAN_OFFSET_PX = 1.0
 MIN_MATCHES = 12
 """Fewer consistent matches than this and the check cannot say anything."""
 
+SWAPPED_FRACTION = 0.8
+"""Above this fraction of consistent matches lying to the right in the right image (negative
+disparity), the pair is reported as swapped."""
+
 
 @dataclass(frozen=True)
 class RectificationCheck:
@@ -39,15 +43,19 @@ class RectificationCheck:
         ``None`` when too few features matched to tell.
     threshold_px : float
         The limit used, pixels.
+    swapped : bool or None
+        ``True`` when most consistent matches have a negative disparity (the left and right
+        images exchanged), ``None`` when too few features matched to tell.
     """
 
     offsets: VerticalOffsetStats
     rectified: bool | None
     threshold_px: float
+    swapped: bool | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready mapping."""
-        return {"rectified": self.rectified, "threshold_px": self.threshold_px,
+        return {"rectified": self.rectified, "threshold_px": self.threshold_px, "swapped": self.swapped,
                 "vertical_offset": self.offsets.to_dict()}
 
 
@@ -115,4 +123,11 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
                        offsets.p95_px, offsets.n_points)
     elif rectified is None:
         logger.info("rectification check: only %d consistent feature matches, cannot tell", offsets.n_points)
-    return RectificationCheck(offsets=offsets, rectified=rectified, threshold_px=float(threshold_px))
+    negative = float(np.mean(left_px[:, 0] - right_px[:, 0] < -0.5)) if len(left_px) else 0.0
+    swapped = None if offsets.n_points < MIN_MATCHES else negative > SWAPPED_FRACTION
+    if swapped and warn:
+        logger.warning("the left and right images look swapped: %.0f %% of %d matched features lie further right "
+                       "in the right image (negative disparity); give the left camera's image first",
+                       100 * negative, offsets.n_points)
+    return RectificationCheck(offsets=offsets, rectified=rectified, threshold_px=float(threshold_px),
+                              swapped=swapped)

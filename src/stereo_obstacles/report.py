@@ -36,7 +36,7 @@ from stereo_obstacles.atomic import staged_directory, write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import points_from_depth
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.fileio import write_depth, write_image, write_labels, write_pfm
+from stereo_obstacles.fileio import to_uint8, write_depth, write_image, write_labels, write_pfm
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_json import UNITS_NOTE_UNCALIBRATED, obstacles_to_dict, write_obstacles_json
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
@@ -207,8 +207,9 @@ def _html_report(obstacle_list: ObstacleList, calibration: StereoCalibration | N
 def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, depth_m: np.ndarray | None,
                   obstacle_list: ObstacleList, calibration: StereoCalibration | None) -> None:
     shape = np.shape(disparity)
-    if np.asarray(left).dtype != np.uint8 or np.ndim(left) != 3 or np.shape(left)[2] != 3:
-        raise InvalidInputError(f"left must be uint8 RGB (H, W, 3), got {np.asarray(left).dtype} {np.shape(left)}")
+    if np.asarray(left).dtype not in (np.uint8, np.uint16) or np.ndim(left) != 3 or np.shape(left)[2] != 3:
+        raise InvalidInputError(f"left must be uint8 RGB (H, W, 3) or uint16, got {np.asarray(left).dtype} "
+                                f"{np.shape(left)}")
     if len(shape) != 2:
         raise InvalidInputError(f"disparity must be (H, W), got shape {shape}")
     arrays = {"left": np.shape(left)[:2], "labels": np.shape(labels),
@@ -238,7 +239,7 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     out_dir
         Output folder (created if missing).
     left
-        ``uint8 (H, W, 3)`` RGB left image.
+        ``uint8 (H, W, 3)`` RGB left image (``uint16`` is scaled to 8 bits).
     labels
         ``uint8 (H, W)`` phase-1 labels.
     disparity
@@ -262,11 +263,12 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
         The files written, in the order of the table in this module's documentation.
     """
     _check_inputs(left, labels, disparity, depth_m, obstacle_list, calibration)
+    (left,) = to_uint8(left)
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]
     data_files += ["points.ply"] if calibrated else []
     pictures = ["obstacles.png", "disparity.png"] + (["depth.png"] if calibrated else []) + ["labels_picture.png"]
-    with staged_directory(out_dir) as stage:
+    with staged_directory(out_dir, last=("obstacles.json", "index.html")) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)
         write_pfm(stage / "disparity.pfm", disparity)

@@ -118,7 +118,7 @@ def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> 
     OutputError
         The folder cannot be created or written; nothing is left half-written.
     """
-    with staged_directory(out_dir) as stage:
+    with staged_directory(out_dir, last=("obstacles.json", "scene.json")) as stage:
         write_image(stage / "left.png", pair.left)
         write_image(stage / "right.png", pair.right)
         write_disparity(stage / "disparity.pfm", pair.disparity)
