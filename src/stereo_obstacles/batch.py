@@ -286,7 +286,7 @@ def _dask_results(jobs: list[BatchJob], scheduler: str) -> Iterable[PairOutcome]
         raise InvalidInputError("--scheduler needs Dask: pip install 'stereo-obstacles[dask]'") from exc
     try:
         client = Client(scheduler, timeout=30)
-    except (OSError, TimeoutError) as exc:
+    except (OSError, TimeoutError, ValueError) as exc:  # ValueError: an address Dask cannot parse
         raise InputFileError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from exc
     with client:
         futures = client.map(process_pair, jobs, pure=False)

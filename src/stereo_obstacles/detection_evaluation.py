@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacles import ObstacleList
 
@@ -163,7 +164,17 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
 
 def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, max_distance_m: float = 10.0,
               min_visible_px: int = 200) -> DetectionSummary:
-    """Found rate, distance errors and false alarms over many scene evaluations."""
+    """Found rate, distance errors and false alarms over many scene evaluations.
+
+    Raises
+    ------
+    InvalidInputError
+        ``min_height_m`` not a finite number >= 0 or ``max_distance_m`` not a finite number > 0.
+    """
+    if not (math.isfinite(min_height_m) and min_height_m >= 0):
+        raise InvalidInputError(f"min_height_m: expected a number >= 0 metres, got {min_height_m}")
+    if not (math.isfinite(max_distance_m) and max_distance_m > 0):
+        raise InvalidInputError(f"max_distance_m: expected a number > 0 metres, got {max_distance_m}")
     relevant = [(e.seed, c) for e in evaluations for c in e.comparisons
                 if c.height_m >= min_height_m and c.true_distance_m is not None
                 and c.true_distance_m <= max_distance_m and c.visible_pixels >= min_visible_px]
