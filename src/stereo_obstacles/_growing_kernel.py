@@ -172,11 +172,13 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                         if a <= 0.0 or b <= 0.0:
                             c = UNDEFINED
                         else:
-                            acc = 0.0
+                            acc = 0.0  # one partial sum per window row: five short dependency chains
                             for ii in range(side):
+                                row = 0.0
                                 for jj in range(side):
-                                    acc += np.float64(lp[py + ii, px + jj]) * np.float64(rp[py + ii, pxr + jj])
-                            cov = acc / (side * side) - np.float64(ml[py, px]) * np.float64(mr[py, pxr])
+                                    row += np.float64(lp[py + ii, px + jj]) * np.float64(rp[py + ii, pxr + jj])
+                                acc += row
+                            cov = acc * (1.0 / (side * side)) - np.float64(ml[py, px]) * np.float64(mr[py, pxr])
                             c = cov * a * b if kind == KIND_NCC else 2.0 * cov / (a + b)
                             c = np.float64(np.float32(min(max(c, -1.0), 1.0)))  # as stored
                         counters[COUNT_COMPUTED] += 1
@@ -288,11 +290,13 @@ def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, 
             if a <= 0.0 or b <= 0.0:
                 out[t, i] = UNDEFINED
                 continue
-            acc = 0.0
+            acc = 0.0  # one partial sum per window row: five short dependency chains
             for ii in range(side):
+                row = 0.0
                 for jj in range(side):
-                    acc += np.float64(lp[y + ii, x + jj]) * np.float64(rp[y + ii, xr + jj])
-            cov = acc / (side * side) - np.float64(ml[y, x]) * np.float64(mr[y, xr])
+                    row += np.float64(lp[y + ii, x + jj]) * np.float64(rp[y + ii, xr + jj])
+                acc += row
+            cov = acc * (1.0 / (side * side)) - np.float64(ml[y, x]) * np.float64(mr[y, xr])
             c = cov * a * b if kind == KIND_NCC else 2.0 * cov / (a + b)
             out[t, i] = min(max(c, -1.0), 1.0)
     return out[0], out[1]

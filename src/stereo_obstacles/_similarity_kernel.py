@@ -35,12 +35,14 @@ def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x,
     nr = norm_r[y, xr]
     if nl <= 0.0 or nr <= 0.0:
         return UNDEFINED
-    acc = 0.0
+    acc = 0.0  # one partial sum per window row: five short dependency chains
     side = 2 * RADIUS + 1
     for i in range(side):
+        row = 0.0
         for j in range(side):
-            acc += np.float64(left_pad[y + i, x + j]) * np.float64(right_pad[y + i, xr + j])
-    cov = acc / (side * side) - np.float64(mean_l[y, x]) * np.float64(mean_r[y, xr])
+            row += np.float64(left_pad[y + i, x + j]) * np.float64(right_pad[y + i, xr + j])
+        acc += row
+    cov = acc * (1.0 / (side * side)) - np.float64(mean_l[y, x]) * np.float64(mean_r[y, xr])
     if kind == KIND_NCC:
         c = cov * nl * nr
     else:
