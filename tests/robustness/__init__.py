@@ -1,0 +1,1 @@
+"""Robustness suite: every command and reader against bad input, odd images and interruptions (issue 8)."""

@@ -1,0 +1,54 @@
+"""Uniform, textureless, identical and swapped pairs: an honest result with a warning, never a crash."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+
+@pytest.mark.parametrize("image, reason", [("uniform.png", "no edges to start from (textureless)"),
+                                           ("smooth.png", "no seed reached the similarity threshold")])
+def test_textureless_pair_gives_density_0_and_says_why(inputs, run_cli, tmp_path, image, reason):
+    code, out, _, log = run_cli("disparity", inputs / image, inputs / image, "-o", tmp_path / "d.npy", "--json")
+    assert code == 0
+    assert json.loads(out)["density"] == 0.0
+    assert np.isnan(np.load(tmp_path / "d.npy")).all()
+    assert "no match:" in log and reason in log
+
+
+def test_textureless_pair_detects_nothing_with_a_warning(inputs, run_cli, tmp_path):
+    code, out, _, log = run_cli("detect", inputs / "uniform.png", inputs / "uniform.png", "--out", tmp_path / "o",
+                                "--focal", "138", "--baseline", "0.12")
+    assert code == 0 and "No obstacles found." in out
+    assert "no match:" in log
+    assert json.loads((tmp_path / "o" / "obstacles.json").read_text())["obstacles"] == []
+
+
+def test_identical_images_are_flagged_as_all_disparity_zero(inputs, run_cli, tmp_path):
+    code, out, _, log = run_cli("disparity", inputs / "left.png", inputs / "left.png", "-o", tmp_path / "d.npy")
+    assert code == 0
+    d = np.load(tmp_path / "d.npy")
+    assert np.nanmax(np.abs(d)) < 0.5
+    assert "are the left and right images the same?" in log
+
+
+def test_identical_images_report_no_obstacle(inputs, run_cli, tmp_path):
+    code, out, _, log = run_cli("detect", inputs / "left.png", inputs / "left.png", "--out", tmp_path / "o",
+                                "--calib", inputs / "scene" / "calibration.json")
+    assert code == 0 and "No obstacles found." in out
+    assert "are the left and right images the same?" in log
+
+
+def test_swapped_images_are_flagged(inputs, run_cli, tmp_path):
+    code, _, _, log = run_cli("detect", inputs / "right.png", inputs / "left.png", "--out", tmp_path / "o",
+                              "--calib", inputs / "scene" / "calibration.json")
+    assert code == 0
+    assert "the left and right images look swapped" in log
+
+
+def test_the_right_order_is_not_flagged_as_swapped(inputs, run_cli, tmp_path):
+    code, _, _, log = run_cli("detect", inputs / "left.png", inputs / "right.png", "--out", tmp_path / "o",
+                              "--calib", inputs / "scene" / "calibration.json")
+    assert code == 0 and "swapped" not in log and "no match" not in log
