@@ -37,6 +37,8 @@ SLOTS = 5
 """Memo slots per record and per overflow block."""
 FILL, NEXT, CNT_L, CNT_R, BEST_L, BEST_R, KEY = 0, 1, 2, 3, 4, 5, 6
 """Word offsets inside a record (blocks use NEXT and the slots only)."""
+EMPTY_KEY = -2
+"""Key of an unused record slot (its code, -1, matches no disparity)."""
 
 # The 16-point disparity-space neighbourhood of (y, x, x') in 4 groups: (dy, dx, dx'); a fifth
 # group, the point itself, is how a seed enters (one code path for both).
@@ -76,6 +78,8 @@ def _init_records(buf, n_px):
         buf[b + CNT_R] = 0
         bits[b + BEST_L] = -2.0
         bits[b + BEST_R] = -2.0
+        for j in range(SLOTS):
+            buf[b + KEY + j] = EMPTY_KEY
 
 
 @njit(cache=CACHE, fastmath=FASTMATH)
@@ -146,10 +150,9 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                 rec = (py * w + px) * REC
                 n = buf[rec + FILL]
                 s = -1
-                for j in range(min(n, SLOTS)):
+                for j in range(SLOTS):  # all slots, no early exit: selects instead of branches
                     if buf[rec + KEY + j] >> 1 == code:
                         s = rec + KEY + j
-                        break
                 if s < 0 and n > SLOTS:
                     blk = buf[rec + NEXT]
                     m = (n - SLOTS - 1) % SLOTS + 1  # slots used in the newest block
@@ -264,10 +267,9 @@ def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, 
                 continue
             code = d - d_min
             s = -1
-            for j in range(min(n, SLOTS)):
+            for j in range(SLOTS):
                 if buf[rec + KEY + j] >> 1 == code:
                     s = rec + KEY + j
-                    break
             if s < 0 and n > SLOTS:
                 blk = buf[rec + NEXT]
                 m = (n - SLOTS - 1) % SLOTS + 1
