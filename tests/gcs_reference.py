@@ -38,7 +38,7 @@ def similarity(left, right, y, x, xr, kind="ncc", min_std=1.0) -> float:
 
 
 def grow(left, right, seeds, *, d_min, d_max, tau=0.6, mu=0.1, k_max=10, use_max=True, greedy=False,
-         kind="ncc", min_std=1.0, n_buckets=4096):
+         kind="ncc", min_std=1.0, n_buckets=8):
     """Candidate table ``{(y, x, xr): c}`` grown from ``seeds`` = list of ``(y, x, xr, c)``.
 
     Seeds must be given best first; those below ``tau`` are skipped.

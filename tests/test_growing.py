@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import gcs_reference as ref
-from stereo_obstacles.growing import grow
+from stereo_obstacles.growing import QUEUE_BUCKETS, grow
 from stereo_obstacles.seeds import Seeds, find_seeds, match_pixels
 from stereo_obstacles.similarity import prepare_similarity, similarity_at
 from stereo_obstacles.stable_matching import stable_matching
@@ -28,20 +28,21 @@ def _scene(seed=0, shape=(18, 34)):
 
 
 @pytest.mark.parametrize("kind", ["ncc", "mncc"])
-@pytest.mark.parametrize("greedy, use_max, k_max", [(False, True, 10), (False, False, 3), (True, True, 10)])
-def test_growth_matches_reference(kind, greedy, use_max, k_max):
+@pytest.mark.parametrize("greedy, use_max, k_max, buckets", [(False, True, 10, QUEUE_BUCKETS), (False, False, 3, 4096),
+                                                             (True, True, 10, QUEUE_BUCKETS), (False, True, 10, 1)])
+def test_growth_matches_reference(kind, greedy, use_max, k_max, buckets):
     left, right = _scene(seed=7)
     inputs = prepare_similarity(left, right, kind=kind)
     seeds = find_seeds(inputs, left, "random", d_min=0, d_max=9, tau=0.6, margin=0.1, random_fraction=0.02)
     assert len(seeds) > 0
     growth = grow(inputs, seeds, d_min=0, d_max=9, tau=0.6, mu=0.1, max_candidates=k_max,
-                  margin_reference="max" if use_max else "min", greedy=greedy)
+                  margin_reference="max" if use_max else "min", greedy=greedy, queue_buckets=buckets)
     assert growth.n_overflow == 0
     order = np.argsort(-seeds.similarity, kind="stable")
     seed_list = [(int(seeds.y[i]), int(seeds.x[i]), int(seeds.x_right[i]), float(seeds.similarity[i]))
                  for i in order]
     expected = ref.grow(left, right, seed_list, d_min=0, d_max=9, tau=0.6, mu=0.1, k_max=k_max,
-                        use_max=use_max, greedy=greedy, kind=kind)
+                        use_max=use_max, greedy=greedy, kind=kind, n_buckets=buckets)
     got = {(int(y), int(x), int(xr)): float(c)
            for y, x, xr, c in zip(growth.y, growth.x, growth.x_right, growth.similarity)}
     assert set(got) == set(expected)
