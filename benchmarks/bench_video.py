@@ -67,8 +67,11 @@ def _run_mode(pairs, calibration, temporal) -> list[dict]:
     rows = []
     for detection, pair in zip(detect_stream(_frames(pairs, len(pairs)), calibration, temporal=temporal), pairs):
         bad, density = _accuracy(detection.result.disparity, pair)
+        stats = detection.result.match_stats
         rows.append({"seeds": detection.seeds, "total_s": detection.result.timings_s["total"],
-                     "matching_s": detection.result.timings_s["matching"], "bad1": bad, "density": density})
+                     "matching_s": detection.result.timings_s["matching"], "stages_s": dict(detection.result.timings_s),
+                     "seed_stage_s": stats.seeds_seconds, "growth_s": stats.growth_seconds, "bad1": bad,
+                     "density": density})
     return rows
 
 
@@ -108,6 +111,14 @@ def main() -> None:
                                   "per_frame": runs[0]}
         print(f"{name:<16} {1e3 * total:9.0f} {1 / total:6.2f} {1e3 * matching:9.0f} {100 * bad:8.2f} "
               f"{100 * density:10.1f}")
+    print("\nmedian seconds per stage (frames after warm-up):")
+    for name, runs in results.items():
+        timed = [row for run in runs for row in run[WARM_UP_FRAMES:]]
+        stages = {key: statistics.median(r["stages_s"][key] for r in timed) for key in timed[0]["stages_s"]}
+        stages["  of matching: seeds"] = statistics.median(r["seed_stage_s"] for r in timed)
+        stages["  of matching: growth"] = statistics.median(r["growth_s"] for r in timed)
+        summary["modes"][name]["stages_s"] = stages
+        print(f"  {name:<16} " + ", ".join(f"{key.strip()} {1e3 * v:.0f} ms" for key, v in stages.items()))
     edge = summary["modes"]["edge"]
     for name in ("temporal", "temporal+motion"):
         mode = summary["modes"][name]
