@@ -10,7 +10,6 @@ asked, and passes the obstacles to an :class:`~stereo_obstacles.tracking.Obstacl
 from __future__ import annotations
 
 import dataclasses
-import logging
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
@@ -28,8 +27,6 @@ from stereo_obstacles.tracking import ObstacleTracker, Track, TrackingParameters
 
 __all__ = ["STREAM_FORMAT", "FrameDetection", "annotate_frame", "detect_stream", "frame_record", "header_record",
            "tracked_list"]
-
-logger = logging.getLogger(__name__)
 
 STREAM_FORMAT = "stereo-obstacles/stream"
 """``format`` of the header line of a JSON-lines stream file."""
@@ -167,7 +164,8 @@ def annotate_frame(detection: FrameDetection) -> np.ndarray:
     approaching = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
     if approaching:
         nearest = min(approaching, key=lambda t: t.distance_m)
-        status += f"  APPROACHING #{nearest.track_id} {nearest.distance_m:.1f} m, contact in {nearest.time_to_contact_s:.1f} s"
+        status += (f"  APPROACHING #{nearest.track_id} {nearest.distance_m:.1f} m, "
+                   f"contact in {nearest.time_to_contact_s:.1f} s")
     scale = max(0.35, h / 960)
     origin = (4, int(18 * scale / 0.5))
     cv2.putText(picture, status, origin, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
