@@ -29,7 +29,8 @@ def _give_default_permissions(path: Path, *, folder: bool) -> None:
     os.chmod(path, (0o777 if folder else 0o666) & ~_current_umask())
 
 
-def _prepare_parent(path: Path) -> None:
+def prepare_parent(path: Path) -> None:
+    """Create the folder ``path`` will be written into; raise :class:`OutputError` if it cannot be."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -45,7 +46,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     On any exception the temporary file is removed and ``path`` is left as it was.
     """
     final = Path(path)
-    _prepare_parent(final)
+    prepare_parent(final)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".part" + final.suffix,
                                     dir=final.parent)
     os.close(fd)
@@ -92,7 +93,7 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     final = Path(out_dir)
     if final.exists() and not final.is_dir():
         raise OutputError(f"output folder {final} exists and is not a folder")
-    _prepare_parent(final)
+    prepare_parent(final)
     try:
         stage = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".partial", dir=final.parent))
     except OSError as exc:

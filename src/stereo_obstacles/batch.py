@@ -239,11 +239,11 @@ def process_pair(job: BatchJob) -> PairOutcome:
     On success the pair's ``done.json`` (task, seconds, details) is written last, atomically.
     """
     from stereo_obstacles.atomic import write_text_atomic
-    from stereo_obstacles.obstacle_json import _jsonable
+    from stereo_obstacles.obstacle_json import jsonable
 
     start = time.perf_counter()
     try:
-        details = _jsonable(_run_task(job))
+        details = jsonable(_run_task(job))
         seconds = time.perf_counter() - start
         write_text_atomic(Path(job.out_dir) / DONE_FILE, json.dumps(
             {"name": job.pair.name, "task": job.task, "seconds": round(seconds, 4), **details}, indent=1) + "\n")

@@ -15,7 +15,7 @@ import json
 import os
 from pathlib import Path
 
-from stereo_obstacles.atomic import _prepare_parent
+from stereo_obstacles.atomic import prepare_parent
 from stereo_obstacles.errors import InputFileError, OutputError
 
 __all__ = ["JsonLinesWriter", "read_json_lines"]
@@ -39,7 +39,7 @@ class JsonLinesWriter:
     def __init__(self, path: str | os.PathLike[str], *, sync: bool = True) -> None:
         self.path = Path(path)
         self.sync = sync
-        _prepare_parent(self.path)
+        prepare_parent(self.path)
         try:
             self._fd: int | None = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
         except OSError as exc:

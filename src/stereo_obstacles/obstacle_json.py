@@ -94,26 +94,26 @@ class ObstacleRecord:
         return self.calibration is not None
 
 
-def _jsonable(value: Any) -> Any:
+def jsonable(value: Any) -> Any:
     """A JSON-ready copy of ``value``: NumPy scalars/arrays, paths, dataclasses, enums; NaN as null."""
     if isinstance(value, bool) or value is None or isinstance(value, (int, str)):
         return value
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, np.generic):
-        return _jsonable(value.item())
+        return jsonable(value.item())
     if isinstance(value, np.ndarray):
-        return _jsonable(value.tolist())
+        return jsonable(value.tolist())
     if isinstance(value, enum.Enum):
         return value.name
     if isinstance(value, os.PathLike):
         return os.fspath(value)
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return _jsonable(dataclasses.asdict(value))
+        return jsonable(dataclasses.asdict(value))
     if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple, set, frozenset)):
-        return [_jsonable(v) for v in value]
+        return [jsonable(v) for v in value]
     raise InvalidInputError(f"cannot store a {type(value).__name__} in the obstacles JSON: {value!r}")
 
 
@@ -159,7 +159,7 @@ def obstacles_to_dict(obstacle_list: ObstacleList, calibration: StereoCalibratio
     run = {"package_version": __version__}
     for key, extra in (("config", config), ("timings_s", timings_s), ("inputs", inputs)):
         if extra is not None:
-            run[key] = _jsonable(extra)
+            run[key] = jsonable(extra)
     return {
         "format": OBSTACLES_FORMAT,
         "version": OBSTACLES_VERSION,
@@ -168,9 +168,9 @@ def obstacles_to_dict(obstacle_list: ObstacleList, calibration: StereoCalibratio
         "frame": dict(FRAME),
         "calibration": calibration.to_dict() if calibrated else None,
         "image_size_px": {"width": int(width), "height": int(height)},
-        "obstacles": [_jsonable(o) for o in obstacle_list.obstacles],
-        "rejected": [_jsonable(r) for r in obstacle_list.rejected],
-        "corridor": _jsonable(obstacle_list.corridor),
+        "obstacles": [jsonable(o) for o in obstacle_list.obstacles],
+        "rejected": [jsonable(r) for r in obstacle_list.rejected],
+        "corridor": jsonable(obstacle_list.corridor),
         "run": run,
     }
 

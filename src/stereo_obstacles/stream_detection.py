@@ -11,13 +11,13 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
-from stereo_obstacles.obstacle_json import _jsonable
+from stereo_obstacles.obstacle_json import jsonable
 from stereo_obstacles.obstacles import ObstacleList
 from stereo_obstacles.pictures import draw_obstacles
 from stereo_obstacles.pipeline import DetectionConfig, DetectionResult, detect
@@ -80,9 +80,11 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
     """
     seeder = TemporalSeeder(temporal, calibration) if temporal is not None else None
     tracker = ObstacleTracker(tracking)
-    for frame in frames:
+    later_frames = replace(config, check_rectification=False)  # the rig does not change between frames
+    for number, frame in enumerate(frames):
         points = seeder.seeds() if seeder is not None else None
-        result = detect(frame.left, frame.right, calibration, config=config, seed_points=points)
+        result = detect(frame.left, frame.right, calibration, config=config if number == 0 else later_frames,
+                        seed_points=points)
         if seeder is not None:
             seeder.observe(result.disparity, d_min=result.match_stats.d_min, d_max=result.match_stats.d_max)
         tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
@@ -99,9 +101,9 @@ def header_record(*, source: str, calibration: StereoCalibration | None, config:
             "units": "metres" if calibration is not None else "pixels",
             "frame": "rectified left camera: x right, y down, z forward",
             "source": source, "calibration": calibration.to_dict() if calibration is not None else None,
-            "config": _jsonable(config.to_dict()),
-            "temporal_seeds": _jsonable(temporal) if temporal is not None else None,
-            "tracking": _jsonable(tracking)}
+            "config": jsonable(config.to_dict()),
+            "temporal_seeds": jsonable(temporal) if temporal is not None else None,
+            "tracking": jsonable(tracking)}
 
 
 def frame_record(detection: FrameDetection) -> dict:
@@ -125,7 +127,7 @@ def frame_record(detection: FrameDetection) -> dict:
         detected["detection_id"] = detected.pop("id")
         obstacles.append({**entry, **detected})
     stats = detection.result.match_stats
-    return _jsonable({"type": "frame", "frame": detection.frame.index, "timestamp_s": detection.frame.timestamp_s,
+    return jsonable({"type": "frame", "frame": detection.frame.index, "timestamp_s": detection.frame.timestamp_s,
                       "name": detection.frame.name, "seeds": detection.seeds,
                       "n_seed_points": detection.n_seed_points, "density": stats.density,
                       "timings_s": detection.result.timings_s, "obstacles": obstacles, "missed": missed})

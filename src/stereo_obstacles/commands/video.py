@@ -71,11 +71,11 @@ class _VideoOut:
 
         import cv2
 
-        from stereo_obstacles.atomic import _prepare_parent
+        from stereo_obstacles.atomic import prepare_parent
         from stereo_obstacles.errors import OutputError
 
         self.final = Path(path)
-        _prepare_parent(self.final)
+        prepare_parent(self.final)
         fd, name = tempfile.mkstemp(prefix=f".{self.final.name}.", suffix=".part" + (self.final.suffix or ".mp4"),
                                     dir=self.final.parent)
         os.close(fd)
