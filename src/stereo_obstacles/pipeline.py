@@ -142,8 +142,20 @@ def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
                                  f"and {right.shape[1]}x{right.shape[0]}")
 
 
+GROUND_COLOUR_ROWS = 0.5
+"""Fraction of the image rows, from the bottom, whose ground-coloured pixels the ground plane is
+fitted to: a camera looking ahead sees the ground below the middle row, and grey buildings or
+sky above it can take the colour of grey ground."""
+
 LOWER_PART_FOR_GROUND = 1.0 / 3.0
 """Fraction of the image rows, from the bottom, searched for the ground when colour fails."""
+
+
+def _bottom_rows(shape: tuple[int, int], fraction: float) -> np.ndarray:
+    """``bool`` mask of the bottom ``fraction`` of the rows of an image of ``shape``."""
+    mask = np.zeros(shape, dtype=bool)
+    mask[int(round(shape[0] * (1.0 - fraction))):] = True
+    return mask
 
 
 RECTIFICATION_CHECK_SIDE_PX = 640
@@ -177,7 +189,7 @@ def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray,
     no ground-like plane fits them: the reference area then shows a wall or a large object.
     """
     try:
-        return _fit_ground(disparity, ground_mask, calibration), True
+        return _fit_ground(disparity, ground_mask & _bottom_rows(disparity.shape, GROUND_COLOUR_ROWS), calibration), True
     except InvalidInputError as exc:
         colour_failure = str(exc)
     matched_ground = np.count_nonzero(ground_mask & np.isfinite(disparity))
@@ -186,10 +198,8 @@ def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray,
         logger.warning("the pixels coloured like the reference area do not lie on a ground plane (%s): an "
                        "obstacle may cover the reference area; obstacles are found from geometry alone",
                        colour_failure)
-    lower = np.zeros(disparity.shape, dtype=bool)
-    lower[int(round(disparity.shape[0] * (1.0 - LOWER_PART_FOR_GROUND))):] = True
     try:
-        return _fit_ground(disparity, lower, calibration), colour_trusted
+        return _fit_ground(disparity, _bottom_rows(disparity.shape, LOWER_PART_FOR_GROUND), calibration), colour_trusted
     except InvalidInputError as exc:
         logger.warning("no ground plane (%s); flat markings cannot be told from obstacles", exc)
         return None, colour_trusted
