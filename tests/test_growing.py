@@ -125,3 +125,14 @@ def test_points_of_seed_scanlines_are_not_counted_twice():
     assert g.n_rescanned == g.n_computed          # every pixel's whole range was scanned already
     plain = grow(inputs, seeds, d_min=0, d_max=9)
     assert plain.n_rescanned == 0 and plain.n_computed == g.n_computed
+
+
+@pytest.mark.parametrize("values", [
+    np.random.default_rng(8).uniform(0.6, 1.0, 500),
+    np.round(np.random.default_rng(9).uniform(0.6, 1.0, 300), 2),   # many ties
+    np.full(7, 0.9), np.array([0.7]),
+])
+def test_best_first_order_is_a_stable_descending_sort(values):
+    from stereo_obstacles._stable_matching_kernel import _best_first
+    c = values.astype(np.float32)
+    np.testing.assert_array_equal(_best_first(c), np.argsort(-c, kind="stable"))
