@@ -114,18 +114,22 @@ class SimilarityInputs:
 
 
 def _window_stats(grey: np.ndarray, kind: int, min_std: float) -> tuple[np.ndarray, ...]:
-    centred = grey.astype(np.float64) - float(grey.mean())
-    pad = cv2.copyMakeBorder(centred, RADIUS, RADIUS, RADIUS, RADIUS, cv2.BORDER_REFLECT_101)
+    centred = grey.astype(np.float64)
+    centred -= float(grey.mean())
     side = 2 * RADIUS + 1
-    inner = (slice(RADIUS, -RADIUS), slice(RADIUS, -RADIUS))
-    mean = cv2.boxFilter(pad, -1, (side, side), normalize=True)[inner]
-    var = np.maximum(cv2.boxFilter(pad * pad, -1, (side, side), normalize=True)[inner] - mean * mean, 0.0)
-    flat = var < min_std * min_std
+    # OpenCV's own border handling gives the same windows as filtering the padded image
+    mean = cv2.boxFilter(centred, cv2.CV_64F, (side, side), normalize=True, borderType=cv2.BORDER_REFLECT_101)
+    var = cv2.sqrBoxFilter(centred, cv2.CV_64F, (side, side), normalize=True, borderType=cv2.BORDER_REFLECT_101)
+    var -= mean * mean
+    flat = var < max(min_std * min_std, 1e-12)  # a zero variance is flat even with min_std 0
+    var[flat] = 1.0  # any positive value: flat windows get norm 0 below
     if kind == KIND_NCC:
-        norm = np.where(flat, 0.0, 1.0 / np.sqrt(np.where(flat, 1.0, var)))
+        norm = 1.0 / np.sqrt(var)
     else:
-        norm = np.where(flat, 0.0, var)
-    return (pad.astype(np.float32), mean.astype(np.float32), norm.astype(np.float32))
+        norm = var
+    norm[flat] = 0.0
+    pad = cv2.copyMakeBorder(centred.astype(np.float32), RADIUS, RADIUS, RADIUS, RADIUS, cv2.BORDER_REFLECT_101)
+    return pad, mean.astype(np.float32), norm.astype(np.float32)
 
 
 def prepare_similarity(left_grey: np.ndarray, right_grey: np.ndarray, *, kind: str = "ncc",
