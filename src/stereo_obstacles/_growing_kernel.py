@@ -1,15 +1,16 @@
 """Compiled growth of correspondence seeds over the disparity space (private).
 
 The public wrapper is :func:`stereo_obstacles.growing.grow`. The growth is bound by memory
-latency (profiled: the hot instructions were the loads of the memo), so everything a visit
-of a left pixel needs lives in one 64-byte record of one int32 buffer ``buf``:
+latency (profiled: the hot instructions were the loads of the memo), so consecutive pops are
+kept near each other (a coarse priority queue, see ``growing.QUEUE_BUCKETS``) and everything a
+visit of a left pixel needs lives in one 64-byte record of one int32 buffer ``buf``:
 
 * pixel record ``(y * W + x) * REC``: slot count, first overflow block, the candidate counts
   of the pixel as a left and as a right pixel, its best candidate similarity as a left and
   as a right pixel (float32 bits), and :data:`SLOTS` memo slots: key ``(d - d_min) * 2 +
   in_T`` at ``KEY + j`` and the float32 similarity at ``KEY + SLOTS + j``;
 * overflow blocks after the ``H * W`` records, taken in order of use, with the same slot
-  layout and a link to the next block in the first word. A pixel's slots: the record's,
+  layout and the index of the next (older) block at ``NEXT``. A pixel's slots: the record's,
   then its newest block (partly filled), then older full blocks.
 
 Every point's similarity is computed at most once; a point arriving at a pixel already
