@@ -189,6 +189,8 @@ def open_opencv_storage(path: str | os.PathLike[str]):
 
 
 def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:
+    import cv2
+
     source = str(path)
     storage = open_opencv_storage(path)
     try:
@@ -197,6 +199,8 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
         left, right = storage.getNode("P1").mat(), storage.getNode("P2").mat()
         size_node = storage.getNode("imageSize")
         size = [int(size_node.at(i).real()) for i in range(size_node.size())] if not size_node.empty() else []
+    except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
+        raise CalibrationError(f"{source}: malformed OpenCV calibration: {' '.join(exc.msg.split())}") from exc
     finally:
         storage.release()
     if left is None or right is None:

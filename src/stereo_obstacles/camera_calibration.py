@@ -268,6 +268,8 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
     InputFileError, CalibrationError
         As :func:`~stereo_obstacles.calibration_files.read_calibration`.
     """
+    import cv2
+
     from stereo_obstacles.calibration_files import (IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M, open_opencv_storage,
                                                     read_calibration)
 
@@ -288,6 +290,8 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
         storage = open_opencv_storage(p)
         try:
             pair = camera_pair_from_opencv_storage(storage, str(p), 1.0) if storage.isOpened() else None
+        except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
+            raise CalibrationError(f"{p}: malformed OpenCV calibration: {' '.join(exc.msg.split())}") from exc
         finally:
             storage.release()
         if pair is not None:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import io
 import os
 import re
+import tokenize
 from pathlib import Path
 
 import cv2
@@ -256,7 +257,7 @@ def read_npy(path: PathLike) -> np.ndarray:
     data = _read_file_bytes(path, ".npy file")
     try:
         a = np.load(io.BytesIO(data), allow_pickle=False)
-    except (ValueError, EOFError, OSError) as exc:
+    except (ValueError, EOFError, OSError, SyntaxError, tokenize.TokenError) as exc:  # the header is parsed as Python
         raise InputFileError(f"{path} is not a valid .npy file: {exc}") from exc
     if a.ndim != 2 or not np.issubdtype(a.dtype, np.floating):
         raise InputFileError(f"{path}: expected a 2-D float array, got {a.dtype} {a.shape}")
