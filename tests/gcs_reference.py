@@ -37,6 +37,11 @@ def similarity(left, right, y, x, xr, kind="ncc", min_std=1.0) -> float:
     return float(np.clip(c, -1.0, 1.0))
 
 
+def stored(c: float) -> float:
+    """A similarity as the growth stores it: rounded to a multiple of 1 / 32767."""
+    return float(np.rint(c * 32767.0)) / 32767.0
+
+
 def grow(left, right, seeds, *, d_min, d_max, tau=0.6, mu=0.1, k_max=10, use_max=True, greedy=False,
          kind="ncc", min_std=1.0, n_buckets=8):
     """Candidate table ``{(y, x, xr): c}`` grown from ``seeds`` = list of ``(y, x, xr, c)``.
@@ -48,7 +53,7 @@ def grow(left, right, seeds, *, d_min, d_max, tau=0.6, mu=0.1, k_max=10, use_max
 
     def sim(y, x, xr):
         if (y, x, xr) not in memo:
-            memo[(y, x, xr)] = float(np.float32(similarity(left, right, y, x, xr, kind, min_std)))
+            memo[(y, x, xr)] = stored(similarity(left, right, y, x, xr, kind, min_std))
         return memo[(y, x, xr)]
 
     table = {}
@@ -80,7 +85,7 @@ def grow(left, right, seeds, *, d_min, d_max, tau=0.6, mu=0.1, k_max=10, use_max
         return is_seed or c + mu >= (max(bl, br) if use_max else min(bl, br))
 
     for y, x, xr, c in seeds:
-        memo.setdefault((y, x, xr), float(c))
+        memo.setdefault((y, x, xr), stored(c))
         if admissible((y, x, xr), memo[(y, x, xr)], True):
             add((y, x, xr), memo[(y, x, xr)])
     while heap:

@@ -12,6 +12,10 @@ from stereo_obstacles.similarity import prepare_similarity, similarity_at
 from stereo_obstacles.stable_matching import stable_matching
 
 
+STEP = 0.5 / 32767 + 1e-6
+"""Largest difference between a stored (quantised) similarity and the computed one."""
+
+
 def _scene(seed=0, shape=(18, 34)):
     """Two fronto-parallel layers (disparity 3 behind, 6 in front) with noise: occlusions included."""
     rng = np.random.default_rng(seed)
@@ -47,7 +51,7 @@ def test_growth_matches_reference(kind, greedy, use_max, k_max, buckets):
            for y, x, xr, c in zip(growth.y, growth.x, growth.x_right, growth.similarity)}
     assert set(got) == set(expected)
     for q, c in expected.items():
-        assert got[q] == pytest.approx(c, abs=1e-5)
+        assert got[q] == pytest.approx(c, abs=2 * STEP)   # float32 window statistics may round one step apart
     if not greedy:
         won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, left.shape, margin=0.1)
         winners = {(int(growth.y[i]), int(growth.x[i]), int(growth.x_right[i])) for i in np.flatnonzero(won)}
@@ -91,9 +95,9 @@ def test_memo_side_similarities_equal_direct_ones():
     c_minus, c_plus = g.side_similarities(g.y[inside], g.x[inside], d[inside])
     direct_minus = similarity_at(inputs, g.y[inside], g.x[inside], g.x_right[inside] + 1)
     direct_plus = similarity_at(inputs, g.y[inside], g.x[inside], g.x_right[inside] - 1)
-    np.testing.assert_allclose(c_minus, direct_minus, atol=1e-5)
-    np.testing.assert_allclose(c_plus, direct_plus, atol=1e-5)
-    np.testing.assert_allclose(g.similarity, similarity_at(inputs, g.y, g.x, g.x_right), atol=1e-5)
+    np.testing.assert_allclose(c_minus, direct_minus, atol=STEP)
+    np.testing.assert_allclose(c_plus, direct_plus, atol=STEP)
+    np.testing.assert_allclose(g.similarity, similarity_at(inputs, g.y, g.x, g.x_right), atol=STEP)
 
 
 def test_stable_matching_uniqueness_and_errors():

@@ -3,15 +3,19 @@
 The public wrapper is :func:`stereo_obstacles.growing.grow`. The growth is bound by memory
 latency (profiled: the hot instructions were the loads of the memo), so consecutive pops are
 kept near each other (a coarse priority queue, see ``growing.QUEUE_BUCKETS``) and everything a
-visit of a left pixel needs lives in one 64-byte record of one int32 buffer ``buf``:
+visit of a left pixel needs lives in one 32-byte record (two per cache line) of one int16
+buffer ``buf``:
 
-* pixel record ``(y * W + x) * REC``: slot count, first overflow block, the candidate counts
-  of the pixel as a left and as a right pixel, its best candidate similarity as a left and
-  as a right pixel (float32 bits), and :data:`SLOTS` memo slots: key ``(d - d_min) * 2 +
-  in_T`` at ``KEY + j`` and the float32 similarity at ``KEY + SLOTS + j``;
-* overflow blocks after the ``H * W`` records, taken in order of use, with the same slot
-  layout and the index of the next (older) block at ``NEXT``. A pixel's slots: the record's,
-  then its newest block (partly filled), then older full blocks.
+* pixel record ``(y * W + x) * REC``: slot count, the candidate counts of the pixel as a left
+  and as a right pixel, its best candidate similarity as a left and as a right pixel, the
+  first overflow block (an int32 at int32 index ``rec // 2 + NEXT32``), and :data:`SLOTS` memo
+  slots: key ``(d - d_min) * 2 + in_T`` at ``KEY + j`` and the similarity at ``KEY + SLOTS + j``;
+* overflow blocks after the ``H * W`` records, taken in order of use, with the same slot and
+  link layout. A pixel's slots: the record's, then its newest block (partly filled), then
+  older full blocks.
+
+Similarities are stored as int16 in steps of ``1 / QUANT`` (3e-5; :func:`quantise`), and every
+decision of the growth uses the stored value, so the reference implementation reproduces it.
 
 Every point's similarity is computed at most once; a point arriving at a pixel already
 holding ``n_slots`` is computed but not stored (counted as an overflow) and can never join the
@@ -33,13 +37,21 @@ from numba import njit
 from stereo_obstacles._similarity_kernel import CACHE, FASTMATH, KIND_NCC, RADIUS, UNDEFINED
 
 REC = 16
-"""int32 words per pixel record and per overflow block (64 bytes, one cache line)."""
-SLOTS = 5
+"""int16 words per pixel record and per overflow block (32 bytes)."""
+SLOTS = 4
 """Memo slots per record and per overflow block."""
-FILL, NEXT, CNT_L, CNT_R, BEST_L, BEST_R, KEY = 0, 1, 2, 3, 4, 5, 6
-"""Word offsets inside a record (blocks use NEXT and the slots only)."""
+FILL, CNT_L, CNT_R, BEST_L, BEST_R, KEY = 0, 1, 2, 3, 4, 8
+"""int16 word offsets inside a record (blocks use the link and the slots only)."""
+NEXT32 = 3
+"""int32 offset of the overflow link inside a record or block (int16 words 6 and 7)."""
 EMPTY_KEY = -2
 """Key of an unused record slot (its code, -1, matches no disparity)."""
+QUANT = 32767.0
+"""Stored similarities are multiples of ``1 / QUANT``."""
+MAX_CODE = 16383
+"""Largest ``d - d_min`` a key holds (``code * 2 + 1`` must fit in int16)."""
+MAX_COUNT = 32767
+"""Largest per-pixel candidate cap a record counts."""
 
 # The 16-point disparity-space neighbourhood of (y, x, x') in 4 groups: (dy, dx, dx'); a fifth
 # group, the point itself, is how a seed enters (one code path for both).
@@ -63,22 +75,28 @@ seed scanline search had already evaluated (so that visited points can be counte
 
 
 def buffer_size(h, w, n_slots):
-    """int32 words of the record buffer of an ``h x w`` image: records and every overflow block."""
+    """int16 words of the record buffer of an ``h x w`` image: records and every overflow block."""
     return h * w * (1 + max(0, (n_slots - 1) // SLOTS)) * REC
+
+
+@njit(cache=CACHE, inline="always")
+def quantise(c):
+    """The stored int16 form of a similarity ``c`` in [-1, 1]."""
+    return np.int16(np.rint(c * QUANT))
 
 
 @njit(cache=CACHE)
 def _init_records(buf, n_px):
-    """Initialise the ``n_px`` pixel records at the start of ``buf``."""
-    bits = buf.view(np.float32)
+    """Initialise the ``n_px`` pixel records at the start of ``buf`` (bests: -1, below any tau)."""
+    wide = buf.view(np.int32)
     for p in range(n_px):
         b = p * REC
         buf[b + FILL] = 0
-        buf[b + NEXT] = -1
         buf[b + CNT_L] = 0
         buf[b + CNT_R] = 0
-        bits[b + BEST_L] = -2.0
-        bits[b + BEST_R] = -2.0
+        buf[b + BEST_L] = -32767
+        buf[b + BEST_R] = -32767
+        wide[(b >> 1) + NEXT32] = -1
         for j in range(SLOTS):
             buf[b + KEY + j] = EMPTY_KEY
 
@@ -89,14 +107,14 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
     """Grow the seeds; see ``growing.py`` for the rule and the module docstring for the data.
 
     ``scanned_hi[y, x]`` is the largest disparity a seed scanline search evaluated at the
-    pixel (-1 where none). ``buf`` is an int32 array of :func:`buffer_size` words. Returns the
+    pixel (-1 where none). ``buf`` is an int16 array of :func:`buffer_size` words. Returns the
     candidate table ``(t_y, t_x, t_xr, t_c)``, the record buffer and the counters.
     """
     h, w = ml.shape
     side = 2 * RADIUS + 1
     n_px = h * w
     _init_records(buf, n_px)
-    bits = buf.view(np.float32)
+    wide = buf.view(np.int32)
     counters = np.zeros(N_COUNTERS, np.int64)
     cap = n_px * (1 if greedy else k_max)  # the per-pixel cap bounds the table
     t_int = np.empty((cap, 4), np.int32)
@@ -155,7 +173,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                     if buf[rec + KEY + j] >> 1 == code:
                         s = rec + KEY + j
                 if s < 0 and n > SLOTS:
-                    blk = buf[rec + NEXT]
+                    blk = wide[(rec >> 1) + NEXT32]
                     m = (n - SLOTS - 1) % SLOTS + 1  # slots used in the newest block
                     while blk >= 0 and s < 0:
                         base = (n_px + blk) * REC
@@ -163,13 +181,13 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                             if buf[base + KEY + j] >> 1 == code:
                                 s = base + KEY + j
                                 break
-                        blk = buf[base + NEXT]
+                        blk = wide[(base >> 1) + NEXT32]
                         m = SLOTS
                 if s >= 0:
-                    c = np.float64(bits[s + SLOTS])
+                    c = buf[s + SLOTS] / QUANT
                 else:
                     if i < n_seeds:
-                        c = np.float64(seed_c[i])
+                        c = quantise(seed_c[i]) / QUANT
                     else:  # same formula as _similarity_kernel._similarity (tests check they agree)
                         a = nl[py, px]
                         b = nr[py, pxr]
@@ -184,7 +202,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                                 acc += row
                             cov = acc * (1.0 / (side * side)) - np.float64(ml[py, px]) * np.float64(mr[py, pxr])
                             c = cov * a * b if kind == KIND_NCC else 2.0 * cov / (a + b)
-                            c = np.float64(np.float32(min(max(c, -1.0), 1.0)))  # as stored
+                            c = quantise(min(max(c, -1.0), 1.0)) / QUANT  # as stored
                         counters[COUNT_COMPUTED] += 1
                         if code + d_min <= scanned_hi[py, px]:
                             counters[COUNT_RESCANNED] += 1
@@ -194,12 +212,12 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                         else:
                             if (n - SLOTS) % SLOTS == 0:  # a new block becomes the newest
                                 base = (n_px + n_blocks) * REC
-                                buf[base + NEXT] = buf[rec + NEXT]
-                                buf[rec + NEXT] = n_blocks
+                                wide[(base >> 1) + NEXT32] = wide[(rec >> 1) + NEXT32]
+                                wide[(rec >> 1) + NEXT32] = n_blocks
                                 n_blocks += 1
-                            s = (n_px + buf[rec + NEXT]) * REC + KEY + (n - SLOTS) % SLOTS
+                            s = (n_px + wide[(rec >> 1) + NEXT32]) * REC + KEY + (n - SLOTS) % SLOTS
                         buf[s] = code * 2
-                        bits[s + SLOTS] = c
+                        buf[s + SLOTS] = quantise(c)
                         buf[rec + FILL] = n + 1
                     else:
                         counters[COUNT_OVERFLOW] += 1
@@ -219,9 +237,9 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             else:
                 if buf[rl + CNT_L] >= k_max or buf[rr + CNT_R] >= k_max:
                     continue
-                bl = bits[rl + BEST_L]
-                br = bits[rr + BEST_R]
-                ref = max(bl, br) if use_max else min(bl, br)
+                bl = buf[rl + BEST_L]
+                br = buf[rr + BEST_R]
+                ref = (max(bl, br) if use_max else min(bl, br)) / QUANT
                 if i >= n_seeds and qc + mu < ref:
                     continue
             buf[qslot] |= 1
@@ -235,8 +253,9 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             if b > top:
                 top = b
             n_t += 1
-            bits[rl + BEST_L] = max(bits[rl + BEST_L], qc)
-            bits[rr + BEST_R] = max(bits[rr + BEST_R], qc)
+            qq = quantise(qc)
+            buf[rl + BEST_L] = max(buf[rl + BEST_L], qq)
+            buf[rr + BEST_R] = max(buf[rr + BEST_R], qq)
             buf[rl + CNT_L] += 1
             buf[rr + CNT_R] += 1
     counters[COUNT_BLOCKS] = n_blocks
@@ -254,7 +273,7 @@ def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, 
     h, w = ml.shape
     n_px = h * w
     side = 2 * RADIUS + 1
-    bits = buf.view(np.float32)
+    wide = buf.view(np.int32)
     out = np.full((2, n_pts), np.nan, np.float32)
     for i in range(n_pts):
         y = ys[i]
@@ -272,7 +291,7 @@ def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, 
                 if buf[rec + KEY + j] >> 1 == code:
                     s = rec + KEY + j
             if s < 0 and n > SLOTS:
-                blk = buf[rec + NEXT]
+                blk = wide[(rec >> 1) + NEXT32]
                 m = (n - SLOTS - 1) % SLOTS + 1
                 while blk >= 0 and s < 0:
                     base = (n_px + blk) * REC
@@ -280,10 +299,10 @@ def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, 
                         if buf[base + KEY + j] >> 1 == code:
                             s = base + KEY + j
                             break
-                    blk = buf[base + NEXT]
+                    blk = wide[(base >> 1) + NEXT32]
                     m = SLOTS
             if s >= 0:
-                out[t, i] = bits[s + SLOTS]
+                out[t, i] = buf[s + SLOTS] / QUANT
                 continue
             a = nl[y, x]
             b = nr[y, xr]

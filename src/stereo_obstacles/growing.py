@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles._growing_kernel import (COUNT_BLOCKS, COUNT_COMPUTED, COUNT_OVERFLOW, COUNT_RESCANNED,
-                                                 _grow_kernel, _side_similarities, buffer_size)
+                                                 MAX_CODE, MAX_COUNT, _grow_kernel, _side_similarities,
+                                                 buffer_size)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.seeds import Seeds
 from stereo_obstacles.similarity import SimilarityInputs
@@ -58,6 +59,7 @@ class Growth:
     y, x, x_right : ndarray of int32, shape (N,)
         Candidate correspondences.
     similarity : ndarray of float32, shape (N,)
+        As stored by the growth: a multiple of ``1 / 32767`` (see ``_growing_kernel.QUANT``).
     inputs : SimilarityInputs
         The prepared images the similarities were computed on.
     d_min, d_max : int
@@ -162,6 +164,11 @@ def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau:
     keep = seeds.similarity[order] >= tau
     seed_arrays = [a[keep] for a in seed_arrays]
     seed_c = np.ascontiguousarray(seeds.similarity[order][keep], np.float32)
+    if d_max - d_min > MAX_CODE:
+        raise InvalidInputError(f"d_min, d_max: the range must span at most {MAX_CODE + 1} disparities, got "
+                                f"[{d_min}, {d_max}]")
+    if max_candidates > MAX_COUNT:
+        raise InvalidInputError(f"max_candidates: expected at most {MAX_COUNT}, got {max_candidates}")
     if int(queue_buckets) != queue_buckets or queue_buckets < 1:
         raise InvalidInputError(f"queue_buckets: expected an integer >= 1, got {queue_buckets}")
     if scanned_hi is None:
@@ -171,7 +178,7 @@ def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau:
     scanned_hi = np.ascontiguousarray(scanned_hi, np.int32)
     # allocated by NumPy, which asks the kernel for transparent huge pages: the growth is
     # bound by memory latency and 4 kB pages cost a TLB miss on most record visits
-    buf = np.empty(buffer_size(*inputs.shape, MEMO_SLOTS), np.int32)
+    buf = np.empty(buffer_size(*inputs.shape, MEMO_SLOTS), np.int16)
     t_y, t_x, t_xr, t_c, *memo = _grow_kernel(
         *inputs.kernel_args(), *seed_arrays, seed_c, scanned_hi, buf,
         int(d_min), int(d_max), float(tau), float(mu),
