@@ -200,7 +200,11 @@ def read_pfm(path: PathLike) -> np.ndarray:
     match = _PFM_HEADER.match(data[:256])
     if match is None:
         raise InputFileError(f"{path} is not a PFM file (bad header)")
-    kind, w, h, scale = match.group(1), int(match.group(2)), int(match.group(3)), float(match.group(4))
+    kind, w, h = match.group(1), int(match.group(2)), int(match.group(3))
+    try:
+        scale = float(match.group(4))
+    except ValueError as exc:  # the pattern admits "-1-0" or "-": not numbers
+        raise InputFileError(f"{path}: bad PFM scale {match.group(4).decode('ascii')!r}") from exc
     if kind == b"PF":
         raise InputFileError(f"{path} is a 3-channel PFM; a single-channel map is expected")
     if w <= 0 or h <= 0 or scale == 0:
