@@ -116,6 +116,22 @@ def option_grammar(files: dict[str, str]):
                         ("--max-frames", numbers))),
         st.tuples(st.just(["rectify"]), image, image, st.just(["--uncalibrated"]),
                   out_dir.map(lambda o: ["--out", o])),
+        st.tuples(st.just(["video", "--kind"]), st.sampled_from(["images", "auto", "videos", "side-by-side"]),
+                  st.sampled_from([[files["seq_left"], files["seq_right"]], [files["left"], files["right"]],
+                                   [files["folder"], files["folder"]], [files["text"]], [files["missing"]]]),
+                  flags(("--fps", numbers), ("--max-frames", numbers), ("--seed-step", numbers),
+                        ("--refresh-every", numbers), ("--jsonl", out_file), ("--focal", numbers),
+                        ("--baseline", numbers), ("--no-temporal-seeds", None), ("--reference", st.just("x")))),
+        st.tuples(st.just(["batch"]), st.sampled_from([files["batch"], files["folder"], files["missing"]]),
+                  out_dir.map(lambda o: ["--out", o]), st.just(["--workers", "1"]),
+                  flags(("--task", st.sampled_from(["detect", "disparity"])), ("--max-disparity", numbers),
+                        ("--calib", calib))),
+        st.tuples(st.just(["evaluate-segmentation", "--seeds", "0"]),
+                  flags(("--kitti", st.sampled_from([files["dataset"], files["folder"], files["missing"]])),
+                        ("--json", out_file), ("--first-seed", numbers))),
+        st.tuples(st.just(["evaluate-detection", "--seeds", "0"]),
+                  flags(("--dataset", st.sampled_from([files["dataset"], files["folder"], files["missing"]])),
+                        ("--json", out_file), ("--min-height", numbers), ("--max-distance", numbers))),
         st.tuples(st.just(["calibrate", "--folder"]), st.sampled_from([files["folder"], files["missing"]]),
                   flags(("--square", numbers), ("--board", st.sampled_from(["9x6", "0x0", "x"]))),
                   st.just(["--out", files["out"] + "/c.json"])),
@@ -161,11 +177,17 @@ def make_cli_files(folder: Path, seeds_folder: Path) -> dict[str, str]:
     (folder / "bad.png").write_bytes((scene / "left.png").read_bytes()[:100])
     (folder / "seeds.txt").write_text("10 10 2\n20 12 3\n")
     shutil.copytree(scene, folder / "dataset", dirs_exist_ok=True)
+    shutil.copytree(scene, folder / "batch" / "pair", dirs_exist_ok=True)
+    for side in ("left", "right"):
+        (folder / f"seq_{side}").mkdir(exist_ok=True)
+        for k in range(2):
+            shutil.copy(scene / f"{side}.png", folder / f"seq_{side}" / f"{k}.png")
     return {"left": str(scene / "left.png"), "right": str(scene / "right.png"), "bad": str(folder / "bad.png"),
             "missing": str(folder / "missing.png"), "folder": str(folder / "folder"), "grey": str(folder / "grey.png"),
             "text": str(folder / "text.png"), "out": str(folder / "out"), "under_file": str(folder / "a_file" / "o"),
             "file": str(folder / "a_file"), "calib": str(scene / "calibration.json"), "seeds": str(folder / "seeds.txt"),
-            "dataset": str(folder / "dataset")}
+            "dataset": str(folder / "dataset"), "batch": str(folder / "batch"),
+            "seq_left": str(folder / "seq_left"), "seq_right": str(folder / "seq_right")}
 
 
 def fuzz(seconds: float, *, batch: int = 25, seed: int | None = None) -> dict:
