@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     from stereo_obstacles.evaluation import machine_info
-    from stereo_obstacles.matching import warm_up
+    from stereo_obstacles.pipeline import warm_up
     from stereo_obstacles.synthetic import default_scene, render_pair
 
     compile_s = warm_up()

@@ -76,6 +76,14 @@ def test_tilt_tells_the_ground_from_a_wall():
     assert tilt_from_camera_vertical_deg(wall_2m, RIG) == pytest.approx(90.0)
 
 
+def test_group_numbers_need_not_be_contiguous():
+    scene = detection()
+    groups = group_obstacle_pixels(scene.disparity, scene.calibrated.id_map > 0)
+    gappy = np.where(groups > 0, groups * 5, 0)
+    result = measure_obstacles(gappy, scene.disparity, RIG, GROUND)
+    assert [o.distance_m for o in result.obstacles] == [o.distance_m for o in scene.calibrated.obstacles]
+
+
 def test_small_groups_are_noise():
     d = np.full((50, 50), 20.0, np.float32)
     mask = np.zeros((50, 50), bool)

@@ -182,7 +182,7 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     Parameters
     ----------
     groups
-        ``int (H, W)`` group number per pixel, 0 for none (from
+        ``int (H, W)`` group number per pixel, 0 for none, numbers need not be contiguous (from
         :func:`stereo_obstacles.obstacle_grouping.group_obstacle_pixels`).
     disparity
         ``float32 (H, W)`` disparity in pixels, NaN where unmatched.
@@ -206,6 +206,8 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     rejected: list[RejectedGroup] = []
     for group in range(1, len(bounds)):
         index = order[bounds[group - 1]:bounds[group]]
+        if index.size == 0:  # group numbers need not be contiguous
+            continue
         ys, xs = np.divmod(index, w)
         outcome = _measure_group(xs, ys, d[ys, xs].astype(np.float64), calibration, ground, params)
         if isinstance(outcome, Obstacle):

@@ -30,6 +30,7 @@ import math
 import time
 from dataclasses import asdict, dataclass, field, replace
 
+import cv2
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
@@ -228,6 +229,35 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
     return candidates
 
 
+FOOT_REACH_PX = 2
+"""A flat group within this many pixels of a reported obstacle is that obstacle's foot."""
+
+
+def _without_feet(flat_groups: np.ndarray, id_map: np.ndarray) -> np.ndarray:
+    """Flat groups with those touching a reported obstacle removed.
+
+    The bottom few centimetres of an object standing on the ground are as flat as a marking;
+    they belong to the object and are not reported as a rejected marking.
+    """
+    size = 2 * FOOT_REACH_PX + 1
+    near = cv2.dilate((id_map > 0).astype(np.uint8), np.ones((size, size), np.uint8)) > 0
+    feet = np.unique(flat_groups[near & (flat_groups > 0)])
+    return np.where(np.isin(flat_groups, feet), 0, flat_groups)
+
+
+def warm_up() -> float:
+    """Compile every kernel of :func:`detect` on a small rendered pair; return the seconds spent.
+
+    numba caches the compiled code on disk, so only the first process pays in full.
+    """
+    from stereo_obstacles.synthetic import default_scene, render_pair
+
+    started = time.perf_counter()
+    pair = render_pair(default_scene(160, 120))
+    detect(pair.left, pair.right, pair.calibration)
+    return time.perf_counter() - started
+
+
 def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration | None = None, *,
            config: DetectionConfig = DetectionConfig(), seed_points: np.ndarray | None = None) -> DetectionResult:
     """Find the obstacles in a rectified colour stereo pair.
@@ -293,8 +323,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     obstacles = measure_obstacles(group_obstacle_pixels(disparity, standing, config.grouping), disparity,
                                   calibration, ground, config.obstacles)
     if ground is not None:
-        flat = measure_obstacles(group_obstacle_pixels(disparity, candidates & ~standing, config.grouping),
-                                 disparity, calibration, ground, config.obstacles)
+        flat_groups = _without_feet(group_obstacle_pixels(disparity, candidates & ~standing, config.grouping),
+                                    obstacles.id_map)
+        flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles)
         obstacles = replace(obstacles, rejected=obstacles.rejected + flat.rejected)
     timings["obstacles"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - start

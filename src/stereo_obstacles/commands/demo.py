@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands.scene import _parse_size
     from stereo_obstacles.detection_evaluation import compare_with_truth
     from stereo_obstacles.errors import InvalidInputError
-    from stereo_obstacles.matching import warm_up
+    from stereo_obstacles.pipeline import warm_up
     from stereo_obstacles.report import format_obstacle_table
     from stereo_obstacles.synthetic import default_scene, random_scene, render_pair, write_scene_folder
 

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.detection_evaluation import evaluate_synthetic_scene, summarise
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.evaluation import machine_info
-    from stereo_obstacles.matching import warm_up
+    from stereo_obstacles.pipeline import warm_up
 
     if args.seeds < 0 or args.first_seed < 0:
         raise InvalidInputError("--seeds and --first-seed must be >= 0")
