@@ -85,7 +85,7 @@ def quantise(c):
     return np.int16(np.rint(c * QUANT))
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, nogil=True)
 def _init_records(buf, n_px):
     """Initialise the ``n_px`` pixel records at the start of ``buf`` (bests: -1, below any tau)."""
     wide = buf.view(np.int32)
@@ -101,7 +101,7 @@ def _init_records(buf, n_px):
             buf[b + KEY + j] = EMPTY_KEY
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, scanned_hi, buf, d_min,
                  d_max, tau, mu, k_max, use_max, greedy, n_slots, n_buckets):
     """Grow the seeds; see ``growing.py`` for the rule and the module docstring for the data.
@@ -263,7 +263,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             buf, counters)
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, nogil=True)
 def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, ys, xs, ds, d_min, d_max):
     """Similarities at ``d - 1`` and ``d + 1`` of matches ``(ys, xs, ds)``; NaN where out of range.
 

@@ -11,7 +11,7 @@ from numba import njit
 from stereo_obstacles._similarity_kernel import CACHE
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, nogil=True)
 def _bucket_by(col, idx, w):
     """CSR lists of the candidate indices ``idx`` by column value ``col[idx]`` in ``[0, w)``."""
     start = np.zeros(w + 1, np.int64)
@@ -27,7 +27,7 @@ def _bucket_by(col, idx, w):
     return start, items
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, nogil=True)
 def _best_first(c):
     """Stable order of ``c`` by decreasing value: a counting sort on ``2 * len(c)`` value bins,
     then an insertion sort that only moves items inside their bin. O(n) for spread values
@@ -57,13 +57,13 @@ def _best_first(c):
     return order
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, nogil=True)
 def _rows(t_y, h):
     """Candidate indices grouped by row (counting sort): ``(start, items)``, row y is ``items[start[y]:start[y+1]]``."""
     return _bucket_by(t_y, np.arange(t_y.shape[0]), h)
 
 
-@njit(cache=CACHE)
+@njit(cache=CACHE, nogil=True)
 def _stable_matching_kernel(t_y, t_x, t_xr, t_c, h, w, margin):
     """Winners of the confidently stable matching, row by row (see ``stable_matching.py``).
 

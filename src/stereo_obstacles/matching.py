@@ -16,12 +16,11 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
-from stereo_obstacles.growing import MARGIN_REFERENCES, grow
+from stereo_obstacles.banded import match_bands
+from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
 from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
-from stereo_obstacles.stable_matching import stable_matching
-from stereo_obstacles.subpixel import parabola_offset
 
 __all__ = ["DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult", "MatchStats", "match",
            "warm_up"]
@@ -127,7 +126,7 @@ class MatchResult:
 
 
 def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity,
-                   max_disparity, margin_reference, seeds, seed_points, seed_spacing, rng_seed) -> None:
+                   max_disparity, margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands) -> None:
     if not 0.0 < tau < 1.0:
         raise InvalidInputError(f"tau: expected 0 < tau < 1, got {tau}")
     if not mu >= 0.0:
@@ -154,6 +153,8 @@ def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, m
         raise InvalidInputError(f"seeds: expected one of {list(SEED_SOURCES)}, got {seeds!r}")
     if int(rng_seed) != rng_seed or rng_seed < 0:
         raise InvalidInputError(f"rng_seed: expected an integer >= 0, got {rng_seed}")
+    if int(bands) != bands or bands < 1:
+        raise InvalidInputError(f"bands: expected an integer >= 1, got {bands}")
 
 
 LOW_DENSITY = 0.01
@@ -184,7 +185,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
           min_disparity: int = 0, tau: float = 0.6, mu: float = 0.1, max_candidates: int = 10,
           final_margin: float = 0.1, similarity: str = "ncc", variant: str = "stable", rng_seed: int = 0,
           seed_points: np.ndarray | None = None, margin_reference: str = "max", min_std: float = 1.0,
-          seed_margin: float = 0.1, seed_spacing: int = SEED_SPACING) -> MatchResult:
+          seed_margin: float = 0.1, seed_spacing: int = SEED_SPACING, bands: int = 1) -> MatchResult:
     """Match a rectified stereo pair by Growing Correspondence Seeds.
 
     Parameters
@@ -225,6 +226,10 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         At most one edge seed pixel (the strongest gradient) per ``seed_spacing`` square cell;
         random seeds are thinned by the same factor. 1 searches every edge pixel (the paper);
         the default 8 searches ~14x fewer with the same accuracy (``docs/matching.md``).
+    bands : int
+        Horizontal row bands grown, matched and refined in parallel threads
+        (:mod:`stereo_obstacles.banded`); 1 (default) is the published single-queue growth. More
+        bands give results close to, not equal to, the single growth.
 
     Returns
     -------
@@ -255,7 +260,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     """
     t0 = time.perf_counter()
     _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity, max_disparity,
-                   margin_reference, seeds, seed_points, seed_spacing, rng_seed)
+                   margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands)
     left_grey = to_grey(left, "left")
     right_grey = to_grey(right, "right")
     if left_grey.shape != right_grey.shape:
@@ -280,34 +285,30 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
                            rng_seed=rng_seed, spacing=seed_spacing)
     t2 = time.perf_counter()
 
-    growth = grow(inputs, found, d_min=d_min, d_max=d_max, tau=tau, mu=mu, max_candidates=int(max_candidates),
-                  margin_reference=margin_reference, greedy=variant == "greedy", scanned_hi=found.scanned_hi)
-    t3 = time.perf_counter()
-
-    if variant == "greedy":
-        won = np.ones(growth.y.shape[0], bool)
-    else:
-        won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, (h, w), margin=final_margin)
-    my, mx, mxr, mc = growth.y[won], growth.x[won], growth.x_right[won], growth.similarity[won]
+    scanned_hi = found.scanned_hi if found.scanned_hi is not None else np.full((h, w), -1, np.int32)
+    banded = match_bands(inputs, found, scanned_hi=scanned_hi, n_bands=int(bands), d_min=d_min, d_max=d_max, tau=tau,
+                         mu=mu, max_candidates=int(max_candidates), margin_reference=margin_reference,
+                         greedy=variant == "greedy", final_margin=final_margin)
     t4 = time.perf_counter()
 
-    md = mx - mxr
-    c_minus, c_plus = growth.side_similarities(my, mx, md)
+    my, mx, md = banded.y, banded.x, banded.x - banded.x_right
     disparity = np.full((h, w), np.nan, np.float32)
     sim = np.full((h, w), np.nan, np.float32)
-    disparity[my, mx] = md + parabola_offset(c_minus, mc, c_plus)
-    sim[my, mx] = mc
+    disparity[my, mx] = md + banded.offset
+    sim[my, mx] = banded.similarity
     t5 = time.perf_counter()
 
-    n_visited = found.n_evaluated + growth.n_computed - growth.n_rescanned
+    n_visited = found.n_evaluated + banded.n_computed - banded.n_rescanned
     n_range = d_max - d_min + 1
     stats = MatchStats(
         n_seeds=int(np.count_nonzero(found.similarity >= tau)), n_seed_pixels=found.n_candidates,
-        n_candidates=int(growth.y.shape[0]), n_visited=int(n_visited), n_memo_overflow=growth.n_overflow,
+        n_candidates=banded.n_candidates, n_visited=int(n_visited), n_memo_overflow=banded.n_overflow,
         visited_fraction_full=n_visited / (w * w * h), visited_fraction_range=n_visited / (w * h * n_range),
         density=float(my.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
-        prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=t3 - t2, final_seconds=t4 - t3,
-        subpixel_seconds=t5 - t4, match_seconds=t4 - t1, total_seconds=t5 - t0)
+        prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=banded.growth_seconds,
+        final_seconds=banded.matched_seconds - banded.growth_seconds,
+        subpixel_seconds=t5 - t2 - banded.matched_seconds, match_seconds=t2 - t1 + banded.matched_seconds,
+        total_seconds=t5 - t0)
     _warn_if_doubtful(stats.density, stats.n_seed_pixels, stats.n_seeds,
                       float(np.mean(md == 0)) if md.size else 0.0, d_min, tau, seed_points is not None)
     logger.info("GCS: %d seeds, %d candidates, density %.1f %%, match %.1f ms", stats.n_seeds,

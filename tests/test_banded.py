@@ -1,0 +1,90 @@
+"""Row bands grown in parallel threads: one band is the single growth, several stay close to it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.banded import band_rows, match_bands
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.growing import grow
+from stereo_obstacles.matching import match
+from stereo_obstacles.seeds import find_seeds
+from stereo_obstacles.similarity import prepare_similarity
+from stereo_obstacles.stable_matching import stable_matching
+from stereo_obstacles.subpixel import parabola_offset
+
+OPTIONS = dict(d_min=0, d_max=12, tau=0.6, mu=0.1, max_candidates=10, margin_reference="max", greedy=False)
+
+
+def _layers(shape=(60, 90), seed=3):
+    """Random texture at disparity 4 with a square at disparity 9 in front of it."""
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    back = rng.uniform(0, 255, (h, w + 20))
+    front = rng.uniform(0, 255, (h, w + 20))
+    left, right = back[:, 0:w].copy(), back[:, 4:w + 4].copy()
+    left[15:45, 40:70] = front[15:45, 40:70]
+    right[15:45, 31:61] = front[15:45, 40:70]
+    return left.astype(np.float32), right.astype(np.float32)
+
+
+def test_band_rows_cover_the_image_once():
+    for h, n, overlap in [(100, 2, 16), (7, 3, 0), (5, 8, 2), (375, 4, 9)]:
+        rows = band_rows(h, n, overlap)
+        owned = np.concatenate([np.arange(lo, hi) for lo, hi, _, _ in rows])
+        assert owned.tolist() == list(range(h))
+        for lo, hi, g_lo, g_hi in rows:
+            assert g_lo == max(0, lo - overlap) and g_hi == min(h, hi + overlap)
+    with pytest.raises(InvalidInputError, match="n_bands"):
+        band_rows(10, 0, 4)
+    with pytest.raises(InvalidInputError, match="overlap"):
+        band_rows(10, 2, -1)
+
+
+def test_one_band_is_the_single_growth():
+    left, right = _layers()
+    inputs = prepare_similarity(left, right)
+    seeds = find_seeds(inputs, left, "canny", d_min=0, d_max=12, tau=0.6, margin=0.1)
+    banded = match_bands(inputs, seeds, scanned_hi=seeds.scanned_hi, n_bands=1, final_margin=0.1, **OPTIONS)
+    growth = grow(inputs, seeds, scanned_hi=seeds.scanned_hi, **OPTIONS)
+    won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, left.shape, margin=0.1)
+    y, x, xr, c = growth.y[won], growth.x[won], growth.x_right[won], growth.similarity[won]
+    c_minus, c_plus = growth.side_similarities(y, x, x - xr)
+    np.testing.assert_array_equal(banded.y, y)
+    np.testing.assert_array_equal(banded.x, x)
+    np.testing.assert_array_equal(banded.x_right, xr)
+    np.testing.assert_array_equal(banded.similarity, c)
+    np.testing.assert_array_equal(banded.offset, parabola_offset(c_minus, c, c_plus))
+    assert banded.n_candidates == growth.y.shape[0] and banded.n_computed == growth.n_computed
+    assert 0 < banded.growth_seconds <= banded.matched_seconds
+
+
+@pytest.mark.parametrize("n_bands, overlap", [(2, 16), (3, 0), (4, 6)])
+def test_several_bands_recover_the_layers(n_bands, overlap):
+    left, right = _layers()
+    inputs = prepare_similarity(left, right)
+    seeds = find_seeds(inputs, left, "canny", d_min=0, d_max=12, tau=0.6, margin=0.1)
+    banded = match_bands(inputs, seeds, scanned_hi=seeds.scanned_hi, n_bands=n_bands, overlap=overlap,
+                         final_margin=0.1, **OPTIONS)
+    keys = banded.y * 1000 + banded.x
+    assert np.unique(keys).size == keys.size  # each left pixel once: bands own disjoint rows
+    truth = np.where((banded.y >= 15) & (banded.y < 45) & (banded.x >= 40) & (banded.x < 70), 9, 4)
+    disparity = banded.x - banded.x_right
+    assert np.mean(disparity == truth) > 0.97
+    assert banded.y.size > 0.8 * left.size
+    # the bands find about as many matches as the single growth
+    single = match_bands(inputs, seeds, scanned_hi=seeds.scanned_hi, n_bands=1, final_margin=0.1, **OPTIONS)
+    assert abs(banded.y.size - single.y.size) < 0.02 * single.y.size
+
+
+def test_match_bands_option_gives_the_same_accuracy():
+    left, right = _layers()
+    one = match(left, right, max_disparity=12)
+    two = match(left, right, max_disparity=12, bands=2)
+    both = np.isfinite(one.disparity) & np.isfinite(two.disparity)
+    assert both.mean() > 0.8
+    assert np.mean(np.abs(one.disparity[both] - two.disparity[both]) < 1e-6) > 0.97
+    assert abs(one.stats.density - two.stats.density) < 0.02
+    with pytest.raises(InvalidInputError, match="bands"):
+        match(left, right, max_disparity=12, bands=0)
