@@ -99,3 +99,14 @@ def test_bad_arguments():
         GroupingParameters(cell_px=1)
     with pytest.raises(InvalidInputError, match="max_distance_m"):
         ObstacleParameters(max_distance_m=float("nan"))
+
+
+def test_near_face_depth_equals_the_percentile_of_patch_medians():
+    from stereo_obstacles.obstacles import DISTANCE_PATCH_PX, _near_face_depth
+
+    rng = np.random.default_rng(1)
+    xs, ys, z = rng.integers(0, 100, 5000), rng.integers(0, 80, 5000), rng.uniform(1.0, 10.0, 5000)
+    patch = (ys // DISTANCE_PATCH_PX) * (xs.max() // DISTANCE_PATCH_PX + 1) + xs // DISTANCE_PATCH_PX
+    medians = [np.median(z[patch == p]) for p in np.unique(patch)]
+    for percentile in (0.0, 10.0, 50.0):
+        assert _near_face_depth(xs, ys, z, percentile) == pytest.approx(np.percentile(medians, percentile))

@@ -280,9 +280,11 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
 def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, percentile: float) -> float:
     """``percentile`` over patches of the patch-median depth (metres)."""
     patch = (ys // DISTANCE_PATCH_PX) * (int(xs.max()) // DISTANCE_PATCH_PX + 1) + xs // DISTANCE_PATCH_PX
-    order = np.argsort(patch, kind="stable")
-    starts = np.flatnonzero(np.r_[True, np.diff(patch[order]) != 0])
-    medians = [float(np.median(chunk)) for chunk in np.split(z[order], starts[1:])]
+    order = np.lexsort((z, patch))
+    sorted_patch, sorted_z = patch[order], z[order]
+    starts = np.flatnonzero(np.r_[True, sorted_patch[1:] != sorted_patch[:-1]])
+    counts = np.diff(np.r_[starts, sorted_patch.size])
+    medians = 0.5 * (sorted_z[starts + (counts - 1) // 2] + sorted_z[starts + counts // 2])
     return float(np.percentile(medians, percentile))
 
 
