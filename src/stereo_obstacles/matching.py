@@ -20,6 +20,7 @@ from stereo_obstacles.banded import match_bands
 from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
 from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
+from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 
 __all__ = ["DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult", "MatchStats", "match",
@@ -69,9 +70,14 @@ class MatchStats:
     prepare_seconds, seeds_seconds, growth_seconds, final_seconds, subpixel_seconds : float
         Wall time of each stage.
     match_seconds : float
-        ``seeds + growth + final`` (the matching proper, as in the benchmark targets).
+        ``seeds + growth + final + edge_check`` (the matching proper, as in the benchmark targets).
     total_seconds : float
         Every stage.
+    n_edge_checked, n_edge_rejected : int
+        Matches next to a disparity jump that the shifted-window check compared, and rejected
+        (0 without ``shifted_windows``).
+    edge_check_seconds : float
+        Wall time of the shifted-window check (0 without it).
     """
 
     n_seeds: int
@@ -91,6 +97,9 @@ class MatchStats:
     subpixel_seconds: float
     match_seconds: float
     total_seconds: float
+    n_edge_checked: int = 0
+    n_edge_rejected: int = 0
+    edge_check_seconds: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.density <= 1.0:
@@ -185,7 +194,8 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
           min_disparity: int = 0, tau: float = 0.6, mu: float = 0.1, max_candidates: int = 10,
           final_margin: float = 0.1, similarity: str = "ncc", variant: str = "stable", rng_seed: int = 0,
           seed_points: np.ndarray | None = None, margin_reference: str = "max", min_std: float = 1.0,
-          seed_margin: float = 0.1, seed_spacing: int = SEED_SPACING, bands: int = 1) -> MatchResult:
+          seed_margin: float = 0.1, seed_spacing: int = SEED_SPACING, bands: int = 1,
+          shifted_windows: bool = False) -> MatchResult:
     """Match a rectified stereo pair by Growing Correspondence Seeds.
 
     Parameters
@@ -230,6 +240,10 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         Horizontal row bands grown, matched and refined in parallel threads
         (:mod:`stereo_obstacles.banded`); 1 (default) is the published single-queue growth. More
         bands give results close to, not equal to, the single growth.
+    shifted_windows : bool
+        Reject matches next to a disparity jump that a neighbouring disparity beats on the best
+        of the windows containing the pixel (:mod:`stereo_obstacles.shifted_windows`; not part
+        of the published method): fewer foreground-fattening errors, slightly lower density.
 
     Returns
     -------
@@ -291,11 +305,17 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
                          greedy=variant == "greedy", final_margin=final_margin)
     t4 = time.perf_counter()
 
-    my, mx, md = banded.y, banded.x, banded.x - banded.x_right
+    my, mx, md, offset, mc = banded.y, banded.x, banded.x - banded.x_right, banded.offset, banded.similarity
+    n_checked = n_rejected = 0
+    if shifted_windows:
+        keep, n_checked = shifted_window_check(inputs, my, mx, md)
+        n_rejected = int(keep.size - np.count_nonzero(keep))
+        my, mx, md, offset, mc = my[keep], mx[keep], md[keep], offset[keep], mc[keep]
+    t_checked = time.perf_counter()
     disparity = np.full((h, w), np.nan, np.float32)
     sim = np.full((h, w), np.nan, np.float32)
-    disparity[my, mx] = md + banded.offset
-    sim[my, mx] = banded.similarity
+    disparity[my, mx] = md + offset
+    sim[my, mx] = mc
     t5 = time.perf_counter()
 
     n_visited = found.n_evaluated + banded.n_computed - banded.n_rescanned
@@ -307,8 +327,9 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         density=float(my.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
         prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=banded.growth_seconds,
         final_seconds=banded.matched_seconds - banded.growth_seconds,
-        subpixel_seconds=t5 - t2 - banded.matched_seconds, match_seconds=t2 - t1 + banded.matched_seconds,
-        total_seconds=t5 - t0)
+        subpixel_seconds=t4 - t2 - banded.matched_seconds + t5 - t_checked,
+        match_seconds=t2 - t1 + banded.matched_seconds + t_checked - t4, total_seconds=t5 - t0,
+        n_edge_checked=n_checked, n_edge_rejected=n_rejected, edge_check_seconds=t_checked - t4)
     _warn_if_doubtful(stats.density, stats.n_seed_pixels, stats.n_seeds,
                       float(np.mean(md == 0)) if md.size else 0.0, d_min, tau, seed_points is not None)
     logger.info("GCS: %d seeds, %d candidates, density %.1f %%, match %.1f ms", stats.n_seeds,

@@ -1,0 +1,87 @@
+"""Shifted-window check: the compiled kernel against a slow NumPy reference, and its effect."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.matching import match
+from stereo_obstacles.shifted_windows import shifted_window_check
+from stereo_obstacles.similarity import prepare_similarity, similarity_at
+
+
+def _fattening_scene(shape=(40, 80), seed=5):
+    """Weak background texture at disparity 3, a strongly textured square at disparity 10."""
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    back = 100 + rng.normal(0, 6, (h, w + 20))
+    front = rng.uniform(0, 255, (h, w + 20))
+    left, right = back[:, 0:w].copy(), back[:, 3:w + 3].copy()
+    left[10:30, 35:60] = front[10:30, 35:60]
+    right[10:30, 25:50] = front[10:30, 35:60]
+    truth = np.full(shape, 3.0)
+    truth[10:30, 35:60] = 10.0
+    return left.astype(np.float32), right.astype(np.float32), truth
+
+
+def _reference(inputs, ys, xs, ds):
+    """Per match: alternatives are the distinct disparities of matches in its 5x5 square more than
+    1 px away; best over the 25 windows containing the pixel; rejected if an alternative beats d."""
+    h, w = inputs.shape
+    d_map = np.full((h + 4, w + 4), -100)
+    d_map[ys + 2, xs + 2] = ds
+
+    def best(y, x, d):
+        values = [similarity_at(inputs, yc, xc, xc - d)[()] for yc in range(y - 2, y + 3) for xc in range(x - 2, x + 3)
+                  if 0 <= yc < h and 0 <= xc < w and 0 <= xc - d < w]
+        return max(values, default=-1.0)
+
+    keep, n_checked = [], 0
+    for y, x, d in zip(ys, xs, ds):
+        square = d_map[y:y + 5, x:x + 5]
+        alts = {int(a) for a in square[(square >= 0) & (np.abs(square - d) > 1)]}
+        if alts:
+            n_checked += 1
+        own = best(y, x, d) if alts else None
+        keep.append(all(best(y, x, a) <= own for a in alts))
+    return np.array(keep), n_checked
+
+
+def test_kernel_agrees_with_reference():
+    left, right, _ = _fattening_scene()
+    result = match(left, right, max_disparity=14)
+    ys, xs = np.nonzero(np.isfinite(result.disparity))
+    ds = np.rint(result.disparity[ys, xs]).astype(int)
+    inputs = prepare_similarity(left, right)
+    keep, n_checked = shifted_window_check(inputs, ys, xs, ds)
+    expected, expected_checked = _reference(inputs, ys, xs, ds)
+    assert n_checked == expected_checked > 0
+    np.testing.assert_array_equal(keep, expected)
+    assert not keep.all()
+
+
+def test_check_removes_fattened_pixels():
+    left, right, truth = _fattening_scene()
+    plain = match(left, right, max_disparity=14)
+    checked = match(left, right, max_disparity=14, shifted_windows=True)
+
+    def n_bad(result):
+        m = np.isfinite(result.disparity)
+        return int(np.count_nonzero(np.abs(result.disparity[m] - truth[m]) > 1))
+
+    assert n_bad(plain) > 0
+    assert n_bad(checked) < n_bad(plain)
+    assert checked.stats.n_edge_rejected > 0 and checked.stats.n_edge_checked >= checked.stats.n_edge_rejected
+    assert plain.stats.n_edge_checked == 0
+    assert checked.stats.density > plain.stats.density - 0.05
+
+
+def test_validation():
+    inputs = prepare_similarity(*(np.random.default_rng(0).uniform(0, 255, (2, 12, 20)).astype(np.float32)))
+    with pytest.raises(InvalidInputError, match="inside"):
+        shifted_window_check(inputs, np.array([3]), np.array([2]), np.array([5]))
+    with pytest.raises(InvalidInputError, match="at most once"):
+        shifted_window_check(inputs, np.array([3, 3]), np.array([9, 9]), np.array([1, 2]))
+    with pytest.raises(InvalidInputError, match="one length"):
+        shifted_window_check(inputs, np.array([3, 4]), np.array([9]), np.array([1]))
