@@ -85,3 +85,22 @@ def test_validation():
         shifted_window_check(inputs, np.array([3, 3]), np.array([9, 9]), np.array([1, 2]))
     with pytest.raises(InvalidInputError, match="one length"):
         shifted_window_check(inputs, np.array([3, 4]), np.array([9]), np.array([1]))
+
+
+def test_disparity_command_options(tmp_path, capsys):
+    import json
+
+    from stereo_obstacles.cli import main
+    from stereo_obstacles.fileio import read_disparity, write_image
+
+    left, right, truth = _fattening_scene()
+    write_image(tmp_path / "l.png", np.clip(left, 0, 255).astype(np.uint8))
+    write_image(tmp_path / "r.png", np.clip(right, 0, 255).astype(np.uint8))
+    out = tmp_path / "d.npy"
+    assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(out),
+                 "--max-disparity", "14", "--bands", "2", "--shifted-windows", "--json"]) == 0
+    stats = json.loads(capsys.readouterr().out.strip())
+    assert stats["n_edge_checked"] > 0 and stats["edge_check_seconds"] > 0
+    d = read_disparity(out)
+    m = np.isfinite(d)
+    assert m.mean() > 0.5 and np.mean(np.abs(d[m] - truth[m]) <= 1) > 0.9

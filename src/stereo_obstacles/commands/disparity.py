@@ -27,6 +27,10 @@ def register(subparsers) -> None:
     p.add_argument("--variant", choices=("stable", "greedy"), default="stable")
     p.add_argument("--similarity", choices=("ncc", "mncc"), default="ncc")
     p.add_argument("--rng-seed", type=int, default=0, help="random seed for --seeds random")
+    p.add_argument("--bands", type=int, default=2,
+                   help="row bands grown in parallel threads (default 2; 1: the published single growth)")
+    p.add_argument("--shifted-windows", action="store_true",
+                   help="reject fattened matches next to depth edges (extension, off by default)")
     p.add_argument("--picture", default=None, help="also write a turbo picture of the disparity (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON line of statistics on stdout")
     add_rectification_options(p, with_calib_file=True)
@@ -71,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
                    seed_points=None if named else _seed_points(args.seeds),
                    max_disparity=args.max_disparity, min_disparity=args.min_disparity, tau=args.tau, mu=args.mu,
                    max_candidates=args.max_candidates, final_margin=args.final_margin, similarity=args.similarity,
-                   variant=args.variant, rng_seed=args.rng_seed)
+                   variant=args.variant, rng_seed=args.rng_seed, bands=args.bands,
+                   shifted_windows=args.shifted_windows)
     write_disparity(args.output, result.disparity)
     if args.picture:
         write_image(args.picture, colorize_disparity(result.disparity, 0, result.stats.d_max))
