@@ -66,6 +66,12 @@ class GroundPlane:
         return (d - self.disparity_map(*d.shape)).astype(np.float32)
 
 
+REFIT_POINTS = 20000
+"""The least-squares refits of the RANSAC plane use at most this many random points (a plane of
+three parameters is fixed to far better than the disparity noise by them); the inliers reported
+are counted over all points."""
+
+
 @dataclass(frozen=True)
 class PlaneFitParameters:
     """RANSAC settings.
@@ -77,8 +83,8 @@ class PlaneFitParameters:
     iterations
         Random minimal samples tried.
     max_points
-        Points scored per sample (a random subset when there are more); the final least
-        squares uses all points.
+        Points scored per sample (a random subset when there are more); the least-squares
+        refits use up to :data:`REFIT_POINTS`, the inlier count all points.
     min_inliers
         Error when the best plane has fewer inliers than this.
     min_slope_y
@@ -179,16 +185,21 @@ def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
     points = np.stack([xs[scored], ys[scored], np.ones(scored.size)])
     residuals = np.abs(candidates[usable] @ points - ds[scored])
     best = candidates[usable][np.argmax((residuals <= params.inlier_threshold_px).sum(axis=1))]
-    inliers = np.abs(best[0] * xs + best[1] * ys + best[2] - ds) <= params.inlier_threshold_px
+    refit_points = rng.choice(n, size=REFIT_POINTS, replace=False) if n > REFIT_POINTS else np.arange(n)
+    rx, ry, rd = xs[refit_points], ys[refit_points], ds[refit_points]
+    refit_inliers = np.abs(best[0] * rx + best[1] * ry + best[2] - rd) <= params.inlier_threshold_px
     for _ in range(10):
-        refit = _least_squares(xs[inliers], ys[inliers], ds[inliers])
+        if refit_inliers.sum() < 3:
+            break
+        refit = _least_squares(rx[refit_inliers], ry[refit_inliers], rd[refit_inliers])
         if params.min_slope_y is not None and refit[1] < params.min_slope_y:
             break  # the inliers mix in a wall; keep the last ground-like plane
         best = refit
-        new_inliers = np.abs(best[0] * xs + best[1] * ys + best[2] - ds) <= params.inlier_threshold_px
-        if np.array_equal(new_inliers, inliers):
+        new_inliers = np.abs(best[0] * rx + best[1] * ry + best[2] - rd) <= params.inlier_threshold_px
+        if np.array_equal(new_inliers, refit_inliers):
             break
-        inliers = new_inliers
+        refit_inliers = new_inliers
+    inliers = np.abs(best[0] * xs + best[1] * ys + best[2] - ds) <= params.inlier_threshold_px
     if inliers.sum() < max(3, params.min_inliers):
         raise InvalidInputError(f"no ground plane found: best plane has {int(inliers.sum())} "
                                 f"inliers, need {params.min_inliers}")

@@ -113,6 +113,11 @@ def _label_cells(cells: np.ndarray, pure: np.ndarray, params: GroupingParameters
     return labels
 
 
+def _per_pixel(per_cell: np.ndarray, cell_px: int, h: int, w: int) -> np.ndarray:
+    """Expand a per-cell array to ``(h, w)`` pixels (each cell value repeated over its block)."""
+    return np.repeat(np.repeat(per_cell, cell_px, axis=0), cell_px, axis=1)[:h, :w]
+
+
 def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
                           params: GroupingParameters = GroupingParameters()) -> np.ndarray:
     """Label each obstacle pixel with the object it belongs to.
@@ -140,11 +145,11 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
     usable = m & np.isfinite(d)
     cells, pure = _cell_disparities(d, usable, params)
     cell_labels = _label_cells(cells, pure, params)
-    c = params.cell_px
-    pixel_cell = cell_labels[np.arange(h)[:, None] // c, np.arange(w)[None, :] // c]
-    pixel_cell_d = cells[np.arange(h)[:, None] // c, np.arange(w)[None, :] // c]
-    consistent = usable & (pixel_cell >= 0) & (
-        np.abs(np.nan_to_num(d) - np.nan_to_num(pixel_cell_d)) <= _tolerance(np.nan_to_num(pixel_cell_d), params))
+    pixel_cell = _per_pixel(cell_labels, params.cell_px, h, w)
+    pixel_cell_d = _per_pixel(np.where(np.isfinite(cells), cells, 0.0).astype(np.float32), params.cell_px, h, w)
+    with np.errstate(invalid="ignore"):
+        consistent = usable & (pixel_cell >= 0) & (
+            np.abs(d - pixel_cell_d) <= _tolerance(pixel_cell_d, params))
     raw = np.where(consistent, pixel_cell, -1)
     ids, counts = np.unique(raw[raw >= 0], return_counts=True)
     keep = ids[counts >= params.min_object_pixels]
