@@ -20,7 +20,8 @@ def register(subparsers) -> None:
                    help="canny, sobel, random, or a text/.npy file of 'x y d' rows (default canny)")
     p.add_argument("--max-disparity", type=int, default=None, help="largest disparity, px (default width/3)")
     p.add_argument("--min-disparity", type=int, default=0, help="smallest disparity, px (default 0)")
-    p.add_argument("--tau", type=float, default=0.6, help="similarity threshold (default 0.6)")
+    p.add_argument("--tau", type=float, default=0.55,
+                   help="similarity threshold (default 0.55; the published method uses 0.6)")
     p.add_argument("--mu", type=float, default=0.1, help="growth margin (default 0.1)")
     p.add_argument("--max-candidates", type=int, default=10, help="candidates per pixel, K (default 10)")
     p.add_argument("--final-margin", type=float, default=0.1, help="stable matching margin (default 0.1)")
@@ -29,8 +30,9 @@ def register(subparsers) -> None:
     p.add_argument("--rng-seed", type=int, default=0, help="random seed for --seeds random")
     p.add_argument("--bands", type=int, default=2,
                    help="row bands grown in parallel threads (default 2; 1: the published single growth)")
-    p.add_argument("--shifted-windows", action="store_true",
-                   help="reject fattened matches next to depth edges (extension, off by default)")
+    p.add_argument("--shifted-windows", action=argparse.BooleanOptionalAction, default=True,
+                   help="reject fattened matches next to depth edges (an extension, on by default; "
+                        "--no-shifted-windows --tau 0.6 is the published method)")
     p.add_argument("--picture", default=None, help="also write a turbo picture of the disparity (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON line of statistics on stdout")
     add_rectification_options(p, with_calib_file=True)
