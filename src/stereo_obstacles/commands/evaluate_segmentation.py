@@ -26,8 +26,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="first seed (default 0)")
     parser.add_argument("--size", default="640x480", metavar="WxH",
                         help="synthetic image size (default 640x480)")
-    parser.add_argument("--kitti", nargs="*", default=[], metavar="DIR",
-                        help="KITTI folders with a left image and ground-truth disparity")
+    parser.add_argument("--kitti", nargs="+", action="extend", default=[], metavar="DIR",
+                        help="KITTI folders with a left image and ground-truth disparity "
+                             "(several after one --kitti, or --kitti repeated)")
     parser.add_argument("--json", metavar="FILE", default=None, help="also write the results as JSON")
     parser.set_defaults(handler=run)
 
