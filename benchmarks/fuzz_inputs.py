@@ -15,13 +15,11 @@ import argparse
 import contextlib
 import io
 import logging
-import os
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

@@ -42,14 +42,14 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.commands.detect import config_from_args, run_detection, timing_line
-    from stereo_obstacles.commands.scene import _parse_size
+    from stereo_obstacles.commands._arguments import image_size
     from stereo_obstacles.detection_evaluation import compare_with_truth
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.pipeline import warm_up
     from stereo_obstacles.report import format_obstacle_table
     from stereo_obstacles.synthetic import default_scene, random_scene, render_pair, write_scene_folder
 
-    width, height = _parse_size(args.size)
+    width, height = image_size(args.size)
     if args.seed < 0:
         raise InvalidInputError(f"--seed must be >= 0, got {args.seed}")
     scene = default_scene(width, height) if args.seed == 0 else random_scene(args.seed, width_px=width,

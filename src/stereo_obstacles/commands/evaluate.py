@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import positive_int
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``evaluate`` sub-command."""
     parser = subparsers.add_parser(
@@ -26,10 +28,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "(default: every available one)")
     parser.add_argument("--json", metavar="FILE", default=None,
                         help="also write the full results as JSON to FILE")
-    parser.add_argument("--repeat", type=_positive_int, default=3, metavar="N",
+    parser.add_argument("--repeat", type=positive_int, default=3, metavar="N",
                         help="timed runs after the first call; the median is reported "
                              "(default 3)")
-    parser.add_argument("--max-frames", type=_positive_int, default=None, metavar="N",
+    parser.add_argument("--max-frames", type=positive_int, default=None, metavar="N",
                         help="evaluate at most N frames of each multi-frame (KITTI) folder")
     parser.set_defaults(handler=run)
 
@@ -39,16 +41,6 @@ def _method_list(text: str) -> list[str]:
     if not names:
         raise argparse.ArgumentTypeError("give at least one method")
     return names
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
-    return value
 
 
 def run(args: argparse.Namespace) -> int:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import non_negative_int
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``evaluate-detection`` sub-command."""
@@ -13,8 +15,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "found (found rate, distance error against the nearest visible depth, false alarms on "
                     "shadows and markings); on calibrated dataset folders (KITTI), compare depth from our "
                     "disparity with depth from the ground-truth disparity.")
-    parser.add_argument("--seeds", type=int, default=20, metavar="N", help="synthetic scenes to render (default 20)")
-    parser.add_argument("--first-seed", type=int, default=0, metavar="S",
+    parser.add_argument("--seeds", type=non_negative_int, default=20, metavar="N", help="synthetic scenes to render (default 20)")
+    parser.add_argument("--first-seed", type=non_negative_int, default=0, metavar="S",
                         help="first scene seed (0 = the built-in scene; default 0)")
     parser.add_argument("--size", default="640x480", metavar="WxH", help="synthetic image size (default 640x480)")
     parser.add_argument("--min-height", type=float, default=0.3, metavar="M",
@@ -49,15 +51,12 @@ def run(args: argparse.Namespace) -> int:
     import json
 
     from stereo_obstacles.atomic import write_text_atomic
-    from stereo_obstacles.commands.scene import _parse_size
+    from stereo_obstacles.commands._arguments import image_size
     from stereo_obstacles.detection_evaluation import evaluate_synthetic_scene, summarise
-    from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.evaluation import machine_info
     from stereo_obstacles.pipeline import warm_up
 
-    if args.seeds < 0 or args.first_seed < 0:
-        raise InvalidInputError("--seeds and --first-seed must be >= 0")
-    width, height = _parse_size(args.size)
+    width, height = image_size(args.size)
     warm_up()
     evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height)
                    for seed in range(args.first_seed, args.first_seed + args.seeds)]

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import image_size, non_negative_int
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``evaluate-segmentation`` sub-command."""
@@ -19,10 +21,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "against labels derived from the road plane fitted to the ground truth. Prints "
             "Markdown tables; --json writes everything."),
     )
-    parser.add_argument("--seeds", type=_count, default=40, metavar="N",
+    parser.add_argument("--seeds", type=non_negative_int, default=40, metavar="N",
                         help="number of synthetic scenes (seeds 0..N-1 from --first-seed; "
                              "default 40; 0 skips them)")
-    parser.add_argument("--first-seed", type=_count, default=0, metavar="S",
+    parser.add_argument("--first-seed", type=non_negative_int, default=0, metavar="S",
                         help="first seed (default 0)")
     parser.add_argument("--size", default="640x480", metavar="WxH",
                         help="synthetic image size (default 640x480)")
@@ -31,28 +33,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "(several after one --kitti, or --kitti repeated)")
     parser.add_argument("--json", metavar="FILE", default=None, help="also write the results as JSON")
     parser.set_defaults(handler=run)
-
-
-def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {value}")
-    return value
-
-
-def _size(text: str) -> tuple[int, int]:
-    from stereo_obstacles.errors import InvalidInputError
-
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise InvalidInputError(f"--size must be WIDTHxHEIGHT, got {text!r}") from None
-    if width < 32 or height < 32:
-        raise InvalidInputError(f"--size must be at least 32x32, got {text!r}")
-    return width, height
 
 
 def _percent(value: float) -> str:
@@ -90,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
                                                           kitti_truth, score_image, total)
 
     log = logging.getLogger(__name__)
-    width, height = _size(args.size)
+    width, height = image_size(args.size)
     params = SegmentationParameters()
     quiet = not sys.stderr.isatty()
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import re
 
 GROUNDS = ("pavement", "grass", "tiles", "asphalt")
 
@@ -46,18 +45,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def _parse_size(text: str) -> tuple[int, int]:
-    from stereo_obstacles.errors import InvalidInputError
-
-    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
-    if match is None:
-        raise InvalidInputError(f"--size must look like 640x480, got {text!r}")
-    width, height = int(match.group(1)), int(match.group(2))
-    if not (16 <= width <= 8192 and 16 <= height <= 8192):
-        raise InvalidInputError(f"--size must be between 16x16 and 8192x8192 pixels, got {width}x{height}")
-    return width, height
-
-
 def run(args: argparse.Namespace) -> int:
     """Render the scene and write its folder."""
     from dataclasses import replace
@@ -68,7 +55,9 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.synthetic import (Lighting, RenderOptions, RightCameraError, default_scene,
                                             random_scene, render_pair, render_sequence, write_scene_folder)
 
-    width, height = _parse_size(args.size)
+    from stereo_obstacles.commands._arguments import image_size
+
+    width, height = image_size(args.size)
     if args.seed < 0:
         raise InvalidInputError(f"--seed must be >= 0, got {args.seed}")
     if args.seed == 0:

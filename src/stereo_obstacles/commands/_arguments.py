@@ -1,0 +1,49 @@
+"""Argument types shared by several sub-commands (sizes, counts)."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+MIN_IMAGE_SIDE_PX = 16
+MAX_IMAGE_SIDE_PX = 8192
+
+
+def image_size(text: str) -> tuple[int, int]:
+    """Parse ``WxH`` (e.g. ``640x480``) into ``(width, height)`` pixels.
+
+    Raises
+    ------
+    InvalidInputError
+        Not of the form ``WxH``, or a side outside 16..8192 pixels.
+    """
+    from stereo_obstacles.errors import InvalidInputError
+
+    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if match is None:
+        raise InvalidInputError(f"--size must look like 640x480, got {text!r}")
+    width, height = int(match.group(1)), int(match.group(2))
+    if not (MIN_IMAGE_SIDE_PX <= width <= MAX_IMAGE_SIDE_PX and MIN_IMAGE_SIDE_PX <= height <= MAX_IMAGE_SIDE_PX):
+        raise InvalidInputError(f"--size must be between {MIN_IMAGE_SIDE_PX}x{MIN_IMAGE_SIDE_PX} and "
+                                f"{MAX_IMAGE_SIDE_PX}x{MAX_IMAGE_SIDE_PX} pixels, got {width}x{height}")
+    return width, height
+
+
+def _integer_at_least(text: str, lowest: int, what: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+    if value < lowest:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    return _integer_at_least(text, 1, "a positive integer")
+
+
+def non_negative_int(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    return _integer_at_least(text, 0, "an integer >= 0")
