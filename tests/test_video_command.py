@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -45,6 +46,9 @@ def test_video_pair_gives_tracked_obstacles_as_json_lines_and_a_video(tmp_path):
     assert (int(capture.get(cv2.CAP_PROP_FRAME_WIDTH)), int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT))) == SIZE
     capture.release()
     assert [p.name for p in out_video.parent.iterdir()] == ["annotated.mp4"]     # no temporary left
+    mask = os.umask(0)
+    os.umask(mask)
+    assert out_video.stat().st_mode & 0o777 == 0o666 & ~mask    # a plain file's mode, not the temp file's 0600
 
 
 def test_image_sequences_without_temporal_seeds_and_with_frame_outputs(tmp_path, capsys):

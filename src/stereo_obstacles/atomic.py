@@ -39,6 +39,28 @@ def prepare_parent(path: Path) -> None:
         raise OutputError(f"cannot write to folder {path.parent}: permission denied")
 
 
+def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:
+    """Create an empty private temporary file in ``path``'s folder (created if needed).
+
+    Its name is hidden and ends in ``.part`` plus ``suffix`` (default: ``path``'s own), so
+    writers that choose the format by extension (OpenCV) still see it. For writers that
+    cannot use :func:`atomic_path` because the file stays open across calls; finish with
+    :func:`move_into_place`.
+    """
+    prepare_parent(path)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.",
+                                    suffix=".part" + (path.suffix if suffix is None else suffix),
+                                    dir=path.parent)
+    os.close(fd)
+    return Path(tmp_name)
+
+
+def move_into_place(tmp: Path, final: Path) -> None:
+    """Give ``tmp`` the permissions a plain ``open`` would and rename it over ``final``."""
+    _give_default_permissions(tmp, folder=False)
+    os.replace(tmp, final)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it to ``path`` if the block succeeds.
@@ -46,15 +68,10 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     On any exception the temporary file is removed and ``path`` is left as it was.
     """
     final = Path(path)
-    prepare_parent(final)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".part" + final.suffix,
-                                    dir=final.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
+    tmp = temporary_beside(final)
     try:
         yield tmp
-        _give_default_permissions(tmp, folder=False)
-        os.replace(tmp, final)
+        move_into_place(tmp, final)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         if isinstance(exc, OutputError):

@@ -65,21 +65,15 @@ class _VideoOut:
     """An mp4v video written beside its final name and renamed into place when closed."""
 
     def __init__(self, path: str, fps: float, size: tuple[int, int]) -> None:
-        import os
-        import tempfile
         from pathlib import Path
 
         import cv2
 
-        from stereo_obstacles.atomic import prepare_parent
+        from stereo_obstacles.atomic import temporary_beside
         from stereo_obstacles.errors import OutputError
 
         self.final = Path(path)
-        prepare_parent(self.final)
-        fd, name = tempfile.mkstemp(prefix=f".{self.final.name}.", suffix=".part" + (self.final.suffix or ".mp4"),
-                                    dir=self.final.parent)
-        os.close(fd)
-        self.tmp = Path(name)
+        self.tmp = temporary_beside(self.final, suffix=self.final.suffix or ".mp4")
         self.writer = cv2.VideoWriter(str(self.tmp), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
         if not self.writer.isOpened():
             self.tmp.unlink(missing_ok=True)
@@ -94,11 +88,11 @@ class _VideoOut:
 
     def close(self) -> None:
         """Finish the file; keep it when it holds at least one frame."""
-        import os
+        from stereo_obstacles.atomic import move_into_place
 
         self.writer.release()
         if self.frames:
-            os.replace(self.tmp, self.final)
+            move_into_place(self.tmp, self.final)
         else:
             self.tmp.unlink(missing_ok=True)
 
