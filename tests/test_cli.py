@@ -63,3 +63,16 @@ def test_python_dash_m_runs_the_same_command():
     result = subprocess.run([sys.executable, "-m", "stereo_obstacles", "--version"],
                             capture_output=True, text=True, check=False)
     assert result.returncode == 0 and __version__ in result.stdout
+
+
+def test_every_reference_option_states_the_default_it_uses():
+    from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
+
+    commands = next(a for a in cli.build_parser()._actions
+                    if isinstance(a, argparse._SubParsersAction)).choices
+    helps = {name: action.help % {} for name, sub in commands.items() for action in sub._actions
+             if "--reference" in action.option_strings}
+    assert {"detect", "segment", "demo", "video", "batch"} <= set(helps)
+    stated = {name: text.rsplit(" ", 1)[-1].rstrip(")") for name, text in helps.items()}
+    for name, value in stated.items():
+        assert ReferenceArea.parse(value) == DEFAULT_REFERENCE_AREA, (name, helps[name])

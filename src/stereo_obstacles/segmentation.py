@@ -271,7 +271,8 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     rgb
         ``uint8`` or ``uint16`` ``(H, W, 3)`` RGB image.
     reference
-        The rectangle assumed to be ground (default: bottom centre).
+        The rectangle assumed to be ground (default: the full-width bottom 15 %,
+        :data:`~stereo_obstacles.reference_area.DEFAULT_REFERENCE_AREA`).
     params
         Thresholds; see :class:`SegmentationParameters`.
 

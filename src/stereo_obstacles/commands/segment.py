@@ -11,8 +11,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "segment",
         help="label ground, ground in shadow and obstacles in one colour image (phase 1)",
         description=(
-            "Shadow-robust HSI segmentation: the ground's colour and brightness are measured in "
-            "a reference rectangle in front of the camera; every pixel becomes ground (1), "
+            "Shadow-robust colour segmentation: the ground's colours (log-RGB by default, HSI "
+            "as in the paper via the library) are measured in a reference rectangle in front of "
+            "the camera; every pixel becomes ground (1), "
             "shadow (2, ground in shadow), obstacle (3) or unknown (0). The labels are written "
             "as an 8-bit PNG; --overlay writes a picture for people. See docs/segmentation.md."),
     )
@@ -23,8 +24,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="also write the image with the labels blended over it")
     parser.add_argument("--reference", metavar="X0,Y0,X1,Y1", default=None,
                         help="ground reference rectangle, in pixels or, when every value is <= 1, "
-                             "in fractions of the image (default: bottom centre "
-                             "0.35,0.85,0.65,1)")
+                             "in fractions of the image (default: the full-width bottom 15 %%, "
+                             "0,0.85,1,1)")
     parser.add_argument("--no-shadow-rule", action="store_true",
                         help="do not recognise shadows (the ablation: shadows become obstacles)")
     parser.set_defaults(handler=run)
