@@ -44,3 +44,19 @@ def test_disparity_command_seed_file_and_errors(tmp_path, capsys):
     assert main(["disparity", str(left), str(right), "-o", str(tmp_path / "d.npy"), "--seeds", "nope"]) == 1
     assert main(["disparity", str(left), str(tmp_path / "missing.png"), "-o", str(tmp_path / "e.npy")]) == 1
     assert not (tmp_path / "e.npy").exists()
+
+
+def test_disparity_command_defaults_are_the_matchers(tmp_path, capsys):
+    import inspect
+
+    from stereo_obstacles.cli import build_parser
+    from stereo_obstacles.matching import match
+
+    args = build_parser().parse_args(["disparity", "l.png", "r.png", "-o", "d.npy"])
+    defaults = inspect.signature(match).parameters
+    for name in ("seeds", "max_disparity", "min_disparity", "tau", "mu", "max_candidates", "final_margin",
+                 "variant", "similarity", "rng_seed", "bands", "shifted_windows"):
+        assert getattr(args, name) == defaults[name].default, name
+    left, right = _write_pair(tmp_path)
+    assert main(["disparity", str(left), str(right), "-o", str(tmp_path / "d.npy"), "--max-disparity", "10"]) == 0
+    assert capsys.readouterr().out.startswith(f"wrote {tmp_path / 'd.npy'}: ")

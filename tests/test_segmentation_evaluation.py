@@ -72,7 +72,7 @@ def test_synthetic_scene_scores_show_the_ablation():
     assert 0.0 <= on.ber_percent <= 100.0
 
 
-def test_segment_command_writes_labels_overlay_and_record(tmp_path):
+def test_segment_command_writes_labels_overlay_and_record(tmp_path, capsys):
     rng = np.random.default_rng(0)
     image = np.clip(rng.normal((90, 140, 60), 3.0, (60, 80, 3)), 0, 255).astype(np.uint8)
     image[10:25, 30:45] = (200, 40, 40)
@@ -86,6 +86,8 @@ def test_segment_command_writes_labels_overlay_and_record(tmp_path):
     assert (tmp_path / "overlay.png").is_file()
     record = json.loads((tmp_path / "labels.png.json").read_text())
     assert record["reference"]["box_px"] == [24, 48, 56, 60]
+    said = capsys.readouterr().out
+    assert said.startswith(f"wrote {out}: ground ") and "obstacle" in said
 
 
 def test_segment_command_reports_a_bad_reference(tmp_path, capsys):

@@ -15,25 +15,27 @@ def register(subparsers) -> None:
                               ".npy (float32, NaN unmatched), .pfm, or KITTI 16-bit .png.")
     p.add_argument("left", help="left (reference) image")
     p.add_argument("right", help="right image")
-    p.add_argument("-o", "--output", required=True, help="disparity file (.npy, .pfm or .png)")
-    p.add_argument("--seeds", default="canny",
+    p.add_argument("-o", "--output", required=True, metavar="OUT", help="disparity file (.npy, .pfm or .png)")
+    p.add_argument("--seeds", default="canny", metavar="SEEDS",
                    help="canny, sobel, random, or a text/.npy file of 'x y d' rows (default canny)")
-    p.add_argument("--max-disparity", type=int, default=None, help="largest disparity, px (default width/3)")
-    p.add_argument("--min-disparity", type=int, default=0, help="smallest disparity, px (default 0)")
-    p.add_argument("--tau", type=float, default=0.55,
+    p.add_argument("--max-disparity", type=int, default=None, metavar="PX",
+                   help="largest disparity, px (default width/3)")
+    p.add_argument("--min-disparity", type=int, default=0, metavar="PX",
+                   help="smallest disparity, px (default 0)")
+    p.add_argument("--tau", type=float, default=0.55, metavar="C",
                    help="similarity threshold (default 0.55; the published method uses 0.6)")
-    p.add_argument("--mu", type=float, default=0.1, help="growth margin (default 0.1)")
-    p.add_argument("--max-candidates", type=int, default=10, help="candidates per pixel, K (default 10)")
-    p.add_argument("--final-margin", type=float, default=0.1, help="stable matching margin (default 0.1)")
+    p.add_argument("--mu", type=float, default=0.1, metavar="C", help="growth margin (default 0.1)")
+    p.add_argument("--max-candidates", type=int, default=10, metavar="K", help="candidates per pixel, K (default 10)")
+    p.add_argument("--final-margin", type=float, default=0.1, metavar="C", help="stable matching margin (default 0.1)")
     p.add_argument("--variant", choices=("stable", "greedy"), default="stable")
     p.add_argument("--similarity", choices=("ncc", "mncc"), default="ncc")
-    p.add_argument("--rng-seed", type=int, default=0, help="random seed for --seeds random")
-    p.add_argument("--bands", type=int, default=2,
+    p.add_argument("--rng-seed", type=int, default=0, metavar="N", help="random seed for --seeds random")
+    p.add_argument("--bands", type=int, default=2, metavar="N",
                    help="row bands grown in parallel threads (default 2; 1: the published single growth)")
     p.add_argument("--shifted-windows", action=argparse.BooleanOptionalAction, default=True,
                    help="reject fattened matches next to depth edges (an extension, on by default; "
                         "--no-shifted-windows --tau 0.6 is the published method)")
-    p.add_argument("--picture", default=None, help="also write a turbo picture of the disparity (PNG)")
+    p.add_argument("--picture", default=None, metavar="PICTURE.png", help="also write a turbo picture of the disparity (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON line of statistics on stdout")
     add_rectification_options(p, with_calib_file=True)
     p.set_defaults(handler=run)
@@ -84,4 +86,8 @@ def run(args: argparse.Namespace) -> int:
         write_image(args.picture, colorize_disparity(result.disparity, 0, result.stats.d_max))
     if args.json:
         print(json.dumps({"output": str(args.output), **result.stats.to_dict(), "rectification": rectification}))
+    else:
+        print(f"wrote {args.output}: {100 * result.stats.density:.1f} % of the pixels matched, "
+              f"disparities {result.stats.d_min}..{result.stats.d_max} px searched, "
+              f"{1000 * result.stats.total_seconds:.0f} ms")
     return 0

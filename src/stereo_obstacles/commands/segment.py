@@ -34,7 +34,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Segment the image and write the outputs; returns the exit code."""
     import json
-    import logging
 
     import numpy as np
 
@@ -45,7 +44,6 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
     from stereo_obstacles.segmentation import SegmentationParameters, segment
 
-    log = logging.getLogger(__name__)
     rgb = read_image(args.image, mode="color")
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
     params = SegmentationParameters(shadow_rule=not args.no_shadow_rule)
@@ -64,5 +62,6 @@ def run(args: argparse.Namespace) -> int:
                "fractions": {label.name.lower(): float(np.mean(result.labels == label))
                              for label in (Label.GROUND, Label.SHADOW, Label.OBSTACLE, Label.UNKNOWN)}}
     write_text_atomic(f"{args.output}.json", json.dumps(sidecar, indent=2) + "\n")
-    log.info("labels written to %s (%s)", args.output, sidecar["fractions"])
+    print(f"wrote {args.output}: " + ", ".join(f"{name} {100 * value:.1f} %"
+                                                for name, value in sidecar["fractions"].items()))
     return 0
