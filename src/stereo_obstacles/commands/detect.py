@@ -98,6 +98,6 @@ def run(args: argparse.Namespace) -> int:
                            inputs={"left": str(args.left), "right": str(args.right),
                                    "calibration": args.calib, "rectification": rectification})
     print(format_obstacle_table(result.obstacles, calibration is not None))
-    print(timing_line(result))
+    print(timing_line(result) + " (one call in a fresh process: includes loading the compiled kernels)")
     print(f"wrote {Path(args.out) / 'index.html'} and the data files beside it")
     return 0
