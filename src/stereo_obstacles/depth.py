@@ -10,16 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
-from stereo_obstacles.errors import InvalidInputError
-
-
-def _as_float_map(array: np.ndarray, name: str) -> np.ndarray:
-    a = np.asarray(array)
-    if a.ndim != 2:
-        raise InvalidInputError(f"{name} must be a 2-D (H, W) array, got shape {a.shape}")
-    if not np.issubdtype(a.dtype, np.floating):
-        raise InvalidInputError(f"{name} must be floating point with NaN for invalid, got {a.dtype}")
-    return a.astype(np.float32, copy=False)
+from stereo_obstacles.float_maps import check_float_map
 
 
 def disparity_to_depth(disparity: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
@@ -32,7 +23,8 @@ def disparity_to_depth(disparity: np.ndarray, calibration: StereoCalibration) ->
     calibration
         The rectified calibration (``focal_px``, ``baseline_m``, ``doffs_px``).
     """
-    d = _as_float_map(disparity, "disparity").astype(np.float64) + calibration.doffs_px
+    d = check_float_map(disparity, "disparity").astype(np.float32, copy=False)
+    d = d.astype(np.float64) + calibration.doffs_px
     depth = np.full(d.shape, np.nan, dtype=np.float32)
     valid = np.isfinite(d) & (d > 0)
     depth[valid] = (calibration.focal_baseline_px_m / d[valid]).astype(np.float32)
@@ -41,7 +33,7 @@ def disparity_to_depth(disparity: np.ndarray, calibration: StereoCalibration) ->
 
 def depth_to_disparity(depth_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
     """Disparity in pixels from depth in metres (the inverse of :func:`disparity_to_depth`)."""
-    z = _as_float_map(depth_m, "depth").astype(np.float64)
+    z = check_float_map(depth_m, "depth").astype(np.float32, copy=False).astype(np.float64)
     disparity = np.full(z.shape, np.nan, dtype=np.float32)
     valid = np.isfinite(z) & (z > 0)
     disparity[valid] = (calibration.focal_baseline_px_m / z[valid] - calibration.doffs_px).astype(np.float32)
@@ -50,7 +42,7 @@ def depth_to_disparity(depth_m: np.ndarray, calibration: StereoCalibration) -> n
 
 def points_from_depth(depth_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
     """3-D points ``float32 (H, W, 3)`` in metres in the left camera frame; NaN where depth is NaN."""
-    z = _as_float_map(depth_m, "depth")
+    z = check_float_map(depth_m, "depth").astype(np.float32, copy=False)
     h, w = z.shape
     xs = (np.arange(w, dtype=np.float32) - np.float32(calibration.cx_px)) / np.float32(calibration.focal_px)
     ys = (np.arange(h, dtype=np.float32) - np.float32(calibration.cy_px)) / np.float32(calibration.focal_px)
@@ -64,5 +56,5 @@ def points_from_depth(depth_m: np.ndarray, calibration: StereoCalibration) -> np
 def depth_uncertainty_m(depth_m: np.ndarray, calibration: StereoCalibration,
                         disparity_error_px: float = 1.0) -> np.ndarray:
     """Depth error caused by a disparity error: ``Z**2 / (f B) * disparity_error_px``, metres."""
-    z = _as_float_map(depth_m, "depth")
+    z = check_float_map(depth_m, "depth").astype(np.float32, copy=False)
     return (z * z / np.float32(calibration.focal_baseline_px_m) * np.float32(disparity_error_px)).astype(np.float32)

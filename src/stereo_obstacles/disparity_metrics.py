@@ -26,6 +26,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.float_maps import check_float_map
 
 D1_ABSOLUTE_PX = 3.0
 """KITTI D1: an error must exceed this many pixels ..."""
@@ -125,8 +126,8 @@ def evaluate_disparity(disparity: np.ndarray, gt_disparity: np.ndarray, *,
     >>> round(m.density_pct, 1), round(m.bad1_matched_pct, 1), round(m.bad1_all_pct, 1)
     (75.0, 33.3, 50.0)
     """
-    est = _check_float_map(disparity, "disparity")
-    gt = _check_float_map(gt_disparity, "gt_disparity")
+    est = check_float_map(disparity, "disparity")
+    gt = check_float_map(gt_disparity, "gt_disparity")
     if est.shape != gt.shape:
         raise ImageMismatchError(f"disparity has shape {est.shape} but gt_disparity has {gt.shape}")
     evaluated = np.isfinite(gt)
@@ -160,15 +161,6 @@ def evaluate_disparity(disparity: np.ndarray, gt_disparity: np.ndarray, *,
         d1_matched_pct=_percent(d1, n_matched),
         d1_all_pct=_percent(d1 + unmatched, n_eval),
     )
-
-
-def _check_float_map(array: np.ndarray, name: str) -> np.ndarray:
-    a = np.asarray(array)
-    if a.ndim != 2:
-        raise InvalidInputError(f"{name} must be a 2-D (H, W) array, got shape {a.shape}")
-    if not np.issubdtype(a.dtype, np.floating):
-        raise InvalidInputError(f"{name} must be floating point with NaN for invalid, got {a.dtype}")
-    return a
 
 
 __all__ = ["D1_ABSOLUTE_PX", "D1_RELATIVE", "DisparityMetrics", "evaluate_disparity"]

@@ -29,6 +29,7 @@ import numpy as np
 
 from stereo_obstacles.atomic import write_bytes_atomic
 from stereo_obstacles.errors import InputFileError, InvalidInputError, OutputError
+from stereo_obstacles.float_maps import check_float_map
 
 PathLike = str | os.PathLike[str]
 
@@ -170,18 +171,9 @@ def write_image(path: PathLike, image: np.ndarray) -> Path:
 
 # --- disparity -------------------------------------------------------------------------------
 
-def _check_map(array: np.ndarray, name: str) -> np.ndarray:
-    a = np.asarray(array)
-    if a.ndim != 2:
-        raise InvalidInputError(f"{name} must be a 2-D (H, W) array, got shape {a.shape}")
-    if not np.issubdtype(a.dtype, np.floating):
-        raise InvalidInputError(f"{name} must be floating point with NaN for invalid, got {a.dtype}")
-    return a.astype(np.float32, copy=False)
-
-
 def write_pfm(path: PathLike, array: np.ndarray) -> Path:
     """Write a float map as PFM: little-endian, rows bottom to top, NaN stored as ``+inf``."""
-    a = _check_map(array, "map")
+    a = check_float_map(array, "map").astype(np.float32, copy=False)
     out = np.where(np.isnan(a), np.float32(np.inf), a).astype("<f4")
     h, w = out.shape
     header = f"Pf\n{w} {h}\n-1.0\n".encode("ascii")
@@ -226,7 +218,7 @@ def write_kitti_disparity(path: PathLike, disparity: np.ndarray) -> Path:
     Disparities ``<= 0`` cannot be represented (0 means invalid) and are written as invalid;
     values above :data:`KITTI_MAX_DISPARITY` raise :class:`InvalidInputError`.
     """
-    d = _check_map(disparity, "disparity")
+    d = check_float_map(disparity, "disparity").astype(np.float32, copy=False)
     valid = np.isfinite(d) & (d > 0)
     if valid.any() and float(d[valid].max()) > KITTI_MAX_DISPARITY:
         raise InvalidInputError(
@@ -250,7 +242,7 @@ def read_kitti_disparity(path: PathLike) -> np.ndarray:
 
 def write_npy(path: PathLike, array: np.ndarray) -> Path:
     """Write a float map as ``.npy`` float32 (NaN = invalid)."""
-    a = _check_map(array, "map")
+    a = check_float_map(array, "map").astype(np.float32, copy=False)
     buffer = io.BytesIO()
     np.save(buffer, a, allow_pickle=False)
     return write_bytes_atomic(path, buffer.getvalue())
@@ -296,7 +288,7 @@ def write_depth(path: PathLike, depth_m: np.ndarray) -> Path:
     In the PNG, 0 means unknown (NaN) and depths beyond 65.535 m are clipped to 65535 mm.
     """
     suffix = Path(path).suffix.lower()
-    d = _check_map(depth_m, "depth")
+    d = check_float_map(depth_m, "depth").astype(np.float32, copy=False)
     if suffix == ".npy":
         return write_npy(path, d)
     if suffix == ".pfm":
