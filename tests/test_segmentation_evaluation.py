@@ -99,7 +99,7 @@ def test_segment_command_reports_a_bad_reference(tmp_path, capsys):
 
 
 def test_evaluate_segmentation_command_json(tmp_path, capsys):
-    code = main(["evaluate-segmentation", "--seeds", "1", "--first-seed", "3", "--size", "160x120",
+    code = main(["evaluate-segmentation", "--scenes", "1", "--first-seed", "3", "--size", "160x120",
                  "--json", str(tmp_path / "r.json")])
     assert code == 0
     assert "| all | 1 | on |" in capsys.readouterr().out

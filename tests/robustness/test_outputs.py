@@ -24,7 +24,7 @@ def _commands(inputs, out):
         "scene": ["scene", "--out", out, "--size", "32x24"],
         "demo": ["demo", "--out", out, "--size", "32x24"],
         "evaluate --json": ["evaluate", inputs / "scene", "--methods", "bm", "--json", out / "e.json"],
-        "evaluate-segmentation --json": ["evaluate-segmentation", "--seeds", "0", "--json", out / "s.json"],
+        "evaluate-segmentation --json": ["evaluate-segmentation", "--scenes", "0", "--json", out / "s.json"],
         "video --jsonl": ["video", "--kind", "images", inputs / "seq_left", inputs / "seq_right", "--jsonl",
                           out / "v.jsonl"],
         "batch": ["batch", inputs / "batch_in", "--out", out, "--workers", "1", "--task", "disparity"],

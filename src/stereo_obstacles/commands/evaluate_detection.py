@@ -15,7 +15,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "found (found rate, distance error against the nearest visible depth, false alarms on "
                     "shadows and markings); on calibrated dataset folders (KITTI), compare depth from our "
                     "disparity with depth from the ground-truth disparity.")
-    parser.add_argument("--seeds", type=non_negative_int, default=20, metavar="N", help="synthetic scenes to render (default 20)")
+    parser.add_argument("--scenes", type=non_negative_int, default=20, metavar="N",
+                        help="synthetic scenes to render (default 20)")
     parser.add_argument("--first-seed", type=non_negative_int, default=0, metavar="S",
                         help="first scene seed (0 = the built-in scene; default 0)")
     parser.add_argument("--size", default="640x480", metavar="WxH", help="synthetic image size (default 640x480)")
@@ -59,13 +60,13 @@ def run(args: argparse.Namespace) -> int:
     width, height = image_size(args.size)
     warm_up()
     evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height)
-                   for seed in range(args.first_seed, args.first_seed + args.seeds)]
+                   for seed in range(args.first_seed, args.first_seed + args.scenes)]
     summary = summarise(evaluations, min_height_m=args.min_height, max_distance_m=args.max_distance)
     report = {"machine": machine_info(), "synthetic": summary.to_dict(),
               "datasets": [_dataset_figures(folder) for folder in args.dataset]}
     s = summary
     if s.n_scenes:
-        print(f"synthetic scenes {args.first_seed}..{args.first_seed + args.seeds - 1} ({width}x{height}): "
+        print(f"synthetic scenes {args.first_seed}..{args.first_seed + args.scenes - 1} ({width}x{height}): "
               f"{s.n_found}/{s.n_obstacles} true obstacles >= {s.min_height_m:g} m high within "
               f"{s.max_distance_m:g} m found")
         if s.median_abs_error_pct is not None:

@@ -21,7 +21,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "against labels derived from the road plane fitted to the ground truth. Prints "
             "Markdown tables; --json writes everything."),
     )
-    parser.add_argument("--seeds", type=non_negative_int, default=40, metavar="N",
+    parser.add_argument("--scenes", type=non_negative_int, default=40, metavar="N",
                         help="number of synthetic scenes (seeds 0..N-1 from --first-seed; "
                              "default 40; 0 skips them)")
     parser.add_argument("--first-seed", type=non_negative_int, default=0, metavar="S",
@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
             c = score.with_rule
             print(f"  {score.name} ({score.ground}): BER {c.ber_percent:.1f} %", file=sys.stderr)
 
-    synthetic = evaluate_synthetic(range(args.first_seed, args.first_seed + args.seeds), params=params,
+    synthetic = evaluate_synthetic(range(args.first_seed, args.first_seed + args.scenes), params=params,
                                    width_px=width, height_px=height, progress=progress)
     kitti = []
     truth_params = KittiTruthParameters()
@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         for score in synthetic:
             by_ground.setdefault(score.ground, []).append(score)
         lines += [f"Synthetic scenes ({width}x{height}, seeds {args.first_seed}.."
-                  f"{args.first_seed + args.seeds - 1}), pixels pooled:", ""]
+                  f"{args.first_seed + args.scenes - 1}), pixels pooled:", ""]
         lines += _rows("ground", by_ground) + [""]
     if kitti:
         lines += ["KITTI (labels from the road plane fitted to the ground-truth disparity):", ""]
