@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.errors import InvalidInputError
 
 logger = logging.getLogger(__name__)
 
@@ -127,8 +127,3 @@ def match_features(left: np.ndarray, right: np.ndarray, *, method: str = "sift",
     return FeatureMatches(left_px, right_px, len(kp_left), len(kp_right))
 
 
-def check_same_size(left: np.ndarray, right: np.ndarray) -> None:
-    """Raise :class:`ImageMismatchError` when the two images differ in size."""
-    if left.shape[:2] != right.shape[:2]:
-        raise ImageMismatchError(f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} "
-                                 f"and {right.shape[1]}x{right.shape[0]}")

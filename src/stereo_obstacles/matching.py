@@ -15,7 +15,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.banded import match_bands
 from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
@@ -283,9 +284,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
                    margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands)
     left_grey = to_grey(left, "left")
     right_grey = to_grey(right, "right")
-    if left_grey.shape != right_grey.shape:
-        raise ImageMismatchError(f"left and right images differ in size: {left_grey.shape[1]}x"
-                                 f"{left_grey.shape[0]} vs {right_grey.shape[1]}x{right_grey.shape[0]}")
+    check_same_size(left_grey, right_grey)
     h, w = left_grey.shape
     if h < MIN_SIZE or w < MIN_SIZE:
         raise InvalidInputError(f"left, right: images must be at least {MIN_SIZE}x{MIN_SIZE} pixels, got {w}x{h}")

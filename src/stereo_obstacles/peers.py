@@ -29,6 +29,7 @@ import numpy as np
 
 from stereo_obstacles._exhaustive_ncc_kernel import _ncc_wta_kernel
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.image_pairs import check_same_size
 
 OPENCV_DISPARITY_SCALE = 16
 """OpenCV block matchers return ``round(d * 16)`` as ``int16``."""
@@ -211,7 +212,8 @@ def _check_pair(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.nda
         if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 3)):
             raise InvalidInputError(f"{name} image must be (H, W) or (H, W, 3), "
                                     f"got shape {image.shape}")
-    if left.shape != right.shape:
+    check_same_size(left, right)
+    if left.ndim != right.ndim:
         raise ImageMismatchError(f"left image is {left.shape} but right image is {right.shape}")
     return np.ascontiguousarray(left), np.ascontiguousarray(right)
 

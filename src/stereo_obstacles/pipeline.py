@@ -35,7 +35,8 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import disparity_to_depth
-from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
@@ -138,9 +139,7 @@ def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
         if not isinstance(image, np.ndarray) or image.ndim != 3 or image.shape[2] != 3:
             raise InvalidInputError(f"{name} must be an RGB (H, W, 3) image, got "
                                     f"{getattr(image, 'shape', type(image).__name__)}")
-    if left.shape != right.shape:
-        raise ImageMismatchError(f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} "
-                                 f"and {right.shape[1]}x{right.shape[0]}")
+    check_same_size(left, right)
 
 
 GROUND_COLOUR_ROWS = 0.5

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles.errors import RectificationError
-from stereo_obstacles.feature_matching import check_same_size, match_features
+from stereo_obstacles.feature_matching import match_features
+from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.rectification import PairMaps
 from stereo_obstacles.rectification_quality import VerticalOffsetStats, vertical_offset_stats
 
