@@ -85,6 +85,28 @@ def quantise(c):
     return np.int16(np.rint(c * QUANT))
 
 
+@njit(cache=CACHE, inline="always")
+def _memo_slot(buf, wide, rec, n, code, n_px):
+    """Index in ``buf`` of the key slot holding disparity ``code`` for the pixel record ``rec``
+    (``n`` candidates stored), searching its own slots then its overflow blocks; -1 if absent."""
+    s = -1
+    for j in range(SLOTS):  # all slots, no early exit: selects instead of branches
+        if buf[rec + KEY + j] >> 1 == code:
+            s = rec + KEY + j
+    if s < 0 and n > SLOTS:
+        blk = wide[(rec >> 1) + NEXT32]
+        m = (n - SLOTS - 1) % SLOTS + 1  # slots used in the newest block
+        while blk >= 0 and s < 0:
+            base = (n_px + blk) * REC
+            for j in range(m):
+                if buf[base + KEY + j] >> 1 == code:
+                    s = base + KEY + j
+                    break
+            blk = wide[(base >> 1) + NEXT32]
+            m = SLOTS
+    return s
+
+
 @njit(cache=CACHE, nogil=True)
 def _init_records(buf, n_px):
     """Initialise the ``n_px`` pixel records at the start of ``buf`` (bests: -1, below any tau)."""
@@ -168,21 +190,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                 # memo look-up, written out (see the module docstring on calls in this loop)
                 rec = (py * w + px) * REC
                 n = buf[rec + FILL]
-                s = -1
-                for j in range(SLOTS):  # all slots, no early exit: selects instead of branches
-                    if buf[rec + KEY + j] >> 1 == code:
-                        s = rec + KEY + j
-                if s < 0 and n > SLOTS:
-                    blk = wide[(rec >> 1) + NEXT32]
-                    m = (n - SLOTS - 1) % SLOTS + 1  # slots used in the newest block
-                    while blk >= 0 and s < 0:
-                        base = (n_px + blk) * REC
-                        for j in range(m):
-                            if buf[base + KEY + j] >> 1 == code:
-                                s = base + KEY + j
-                                break
-                        blk = wide[(base >> 1) + NEXT32]
-                        m = SLOTS
+                s = _memo_slot(buf, wide, rec, n, code, n_px)
                 if s >= 0:
                     c = buf[s + SLOTS] / QUANT
                 else:
@@ -286,21 +294,7 @@ def _side_similarities(lp, rp, ml, nl, mr, nr, kind, buf, counters, scanned_hi, 
             if d < d_min or d > d_max or xr < 0 or xr >= w:
                 continue
             code = d - d_min
-            s = -1
-            for j in range(SLOTS):
-                if buf[rec + KEY + j] >> 1 == code:
-                    s = rec + KEY + j
-            if s < 0 and n > SLOTS:
-                blk = wide[(rec >> 1) + NEXT32]
-                m = (n - SLOTS - 1) % SLOTS + 1
-                while blk >= 0 and s < 0:
-                    base = (n_px + blk) * REC
-                    for j in range(m):
-                        if buf[base + KEY + j] >> 1 == code:
-                            s = base + KEY + j
-                            break
-                    blk = wide[(base >> 1) + NEXT32]
-                    m = SLOTS
+            s = _memo_slot(buf, wide, rec, n, code, n_px)
             if s >= 0:
                 out[t, i] = buf[s + SLOTS] / QUANT
                 continue
