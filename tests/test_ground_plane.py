@@ -84,3 +84,15 @@ def test_points_on_one_row_define_no_plane():
     xs = np.arange(200, dtype=float)
     with pytest.raises(InvalidInputError, match="collinear|no usable plane"):
         fit_plane_points(xs, np.full(200, 50.0), 0.01 * xs + 3.0)
+
+
+def test_compiled_inlier_count_agrees_with_numpy():
+    from stereo_obstacles._ground_plane_kernel import _count_inliers
+
+    rng = np.random.default_rng(3)
+    planes = rng.normal(size=(40, 3))
+    x, y = rng.uniform(0, 100, 500), rng.uniform(0, 80, 500)
+    d = 0.3 * x - 0.2 * y + rng.normal(0, 5, 500)
+    expected = (np.abs(planes[:, :1] * x + planes[:, 1:2] * y + planes[:, 2:] - d) <= 2.0).sum(axis=1)
+    assert np.array_equal(_count_inliers(planes, x, y, d, 2.0), expected)
+    assert expected.max() > 0

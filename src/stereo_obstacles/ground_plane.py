@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stereo_obstacles._ground_plane_kernel import _count_inliers
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 
@@ -120,15 +121,27 @@ def _check_disparity(disparity: np.ndarray) -> np.ndarray:
     return d
 
 
+def _dot(u: np.ndarray, v: np.ndarray) -> float:
+    """``sum(u * v)`` of two 1-D arrays without BLAS.
+
+    The per-frame geometry here avoids NumPy's BLAS calls (``@``, ``dot``): OpenBLAS threads a
+    dot product of a few thousand elements, and its threads then spin, competing with the
+    matcher's threads; on the busy 2-core machine a 20,000-point refit took 17 ms through BLAS
+    and under 1 ms without it (``docs/pipeline.md``, "Speed").
+    """
+    return float(np.sum(u * v))
+
+
 def _least_squares(x: np.ndarray, y: np.ndarray, d: np.ndarray) -> np.ndarray:
     """``(a, b, c)`` minimising ``sum (a x + b y + c - d)**2``, by the 3x3 normal equations
     on centred coordinates (well conditioned, and far faster than a QR of an (n, 3) matrix)."""
     mx, my, md = x.mean(), y.mean(), d.mean()
     cx, cy, cd = x - mx, y - my, d - md
-    gram = np.array([[cx @ cx, cx @ cy], [cx @ cy, cy @ cy]])
+    sxy = _dot(cx, cy)
+    gram = np.array([[_dot(cx, cx), sxy], [sxy, _dot(cy, cy)]])
     if np.linalg.det(gram) <= 1e-9 * max(float(np.trace(gram)) ** 2, 1e-300):
         raise InvalidInputError("the plane's points are (nearly) collinear; no plane is defined by them")
-    a, b = np.linalg.solve(gram, np.array([cx @ cd, cy @ cd]))
+    a, b = np.linalg.solve(gram, np.array([_dot(cx, cd), _dot(cy, cd)]))
     return np.array([a, b, md - a * mx - b * my])
 
 
@@ -182,9 +195,9 @@ def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
         usable &= candidates[:, 1] >= params.min_slope_y
     if not usable.any():
         raise InvalidInputError("no usable plane sample (points collinear, or no plane slopes like a ground)")
-    points = np.stack([xs[scored], ys[scored], np.ones(scored.size)])
-    residuals = np.abs(candidates[usable] @ points - ds[scored])
-    best = candidates[usable][np.argmax((residuals <= params.inlier_threshold_px).sum(axis=1))]
+    planes = np.ascontiguousarray(candidates[usable])
+    counts = _count_inliers(planes, xs[scored], ys[scored], ds[scored], float(params.inlier_threshold_px))
+    best = planes[np.argmax(counts)]
     refit_points = rng.choice(n, size=REFIT_POINTS, replace=False) if n > REFIT_POINTS else np.arange(n)
     rx, ry, rd = xs[refit_points], ys[refit_points], ds[refit_points]
     refit_inliers = np.abs(best[0] * rx + best[1] * ry + best[2] - rd) <= params.inlier_threshold_px
@@ -262,7 +275,9 @@ def height_above_ground_m(ground: GroundPlane, points_m: np.ndarray, calibration
     Positive on the camera's side of the plane.
     """
     normal = _normal_camera(ground, calibration)
-    return (calibration.focal_baseline_px_m - np.asarray(points_m, dtype=np.float64) @ normal) / np.linalg.norm(normal)
+    p = np.asarray(points_m, dtype=np.float64)
+    along_normal = p[..., 0] * normal[0] + p[..., 1] * normal[1] + p[..., 2] * normal[2]  # no BLAS: see _dot
+    return (calibration.focal_baseline_px_m - along_normal) / np.linalg.norm(normal)
 
 
 def tilt_from_camera_vertical_deg(ground: GroundPlane, calibration: StereoCalibration) -> float:

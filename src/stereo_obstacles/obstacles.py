@@ -199,7 +199,8 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     if groups.shape != d.shape or d.ndim != 2:
         raise InvalidInputError(f"groups {groups.shape} and disparity {d.shape} must be the same 2-D shape")
     flat = groups.ravel()
-    order = np.argsort(flat, kind="stable")
+    grouped = np.flatnonzero(flat)  # sort only the grouped pixels (a few % of the image)
+    order = grouped[np.argsort(flat[grouped], kind="stable")]
     bounds = np.searchsorted(flat[order], np.arange(1, int(flat.max(initial=0)) + 2))
     w = d.shape[1]
     kept: list[tuple[Obstacle, int]] = []
