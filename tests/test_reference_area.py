@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 import pytest
@@ -94,6 +95,8 @@ def test_parameters_are_validated():
         ReferenceParameters(min_hue_fraction=2.0)
     with pytest.raises(InvalidInputError, match="max_hue_threshold_deg"):
         ReferenceParameters(min_hue_threshold_deg=50.0, max_hue_threshold_deg=10.0)
+    with pytest.raises(InvalidInputError, match="max_samples"):
+        ReferenceParameters(max_samples=0)
 
 
 def test_grey_ground_rejects_a_coloured_object_inside():
@@ -103,3 +106,12 @@ def test_grey_ground_rejects_a_coloured_object_inside():
     assert s.is_grey and s.max_saturation < 0.2
     assert s.rgb_median[0] == pytest.approx(120 / 255, abs=0.02)
     assert s.n_kept < 0.75 * s.n_pixels
+
+
+def test_sample_step_keeps_at_most_max_samples():
+    params = ReferenceParameters(max_samples=1000)
+    for height, width in ((1, 1), (10, 100), (31, 33), (72, 640), (56, 1242)):
+        step = params.sample_step(height, width)
+        assert math.ceil(height / step) * math.ceil(width / step) <= 1000
+        if step > 1:
+            assert math.ceil(height / (step - 1)) * math.ceil(width / (step - 1)) > 1000

@@ -141,3 +141,42 @@ def test_rejects_bad_arguments():
         segment(np.zeros((10, 10, 3), np.uint8), reference=(0, 0, 1, 1))
     with pytest.raises(InvalidInputError, match="shape"):
         segment(np.zeros((10, 10), np.uint8))
+
+
+def _clean_up_reference(labels, darker, params):
+    """The clean-up written with OpenCV component statistics (slow, obviously right)."""
+    import cv2
+
+    out = labels.copy()
+    if params.min_obstacle_area_px > 1:
+        _, components, stats, _ = cv2.connectedComponentsWithStats((out == Label.OBSTACLE).view(np.uint8),
+                                                                    connectivity=8)
+        small = stats[:, cv2.CC_STAT_AREA] < params.min_obstacle_area_px
+        small[0] = False
+        speck = small[components]
+        out[speck] = Label.GROUND
+        if darker is not None and params.shadow_rule:
+            out[speck & darker] = Label.SHADOW
+    if params.max_hole_area_px > 1:
+        _, components, stats, _ = cv2.connectedComponentsWithStats((out != Label.OBSTACLE).view(np.uint8),
+                                                                    connectivity=4)
+        small = stats[:, cv2.CC_STAT_AREA] < params.max_hole_area_px
+        small[0] = False
+        out[small[components]] = Label.OBSTACLE
+    return out
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_clean_up_matches_its_definition(seed):
+    from stereo_obstacles.segmentation import _clean_up
+
+    rng = np.random.default_rng(seed)
+    height, width = (int(v) for v in rng.integers(1, 50, 2))
+    labels = np.where(rng.uniform(size=(height, width)) < rng.uniform(0.2, 0.8), Label.OBSTACLE,
+                      rng.integers(0, 3, (height, width))).astype(np.uint8)
+    darker = rng.uniform(size=(height, width)) < 0.5 if seed % 3 else None
+    params = SegmentationParameters(min_obstacle_area_px=int(rng.integers(0, 20)),
+                                    max_hole_area_px=int(rng.integers(0, 20)), shadow_rule=seed % 4 != 0)
+    expected = _clean_up_reference(labels, darker, params)
+    _clean_up(labels, darker, params)
+    np.testing.assert_array_equal(labels, expected)

@@ -11,29 +11,34 @@ shadow, of sunlit ground seen from a shadowed reference, and "near any of them" 
 
 
 @njit(cache=True)
-def build_table_kernel(sample_bins, sample_strip, n_strips, quorum, min_count, n_bins, shifts,
+def build_table_kernel(samples, lut, column_strip, n_strips, quorum, min_count, n_bins, shifts,
                        table):
     """Fill ``table`` (``uint8 (n, n, n)``, zeroed) from reference samples.
 
-    A cell is ground when at least ``min_count`` samples of each of at least ``quorum``
-    strips fall in it. Every ground cell then sets ``shifts[k, 3]`` at itself plus
-    ``shifts[k, :3]`` (bins) for every row ``k``; finally ``NEAR_BIT`` marks every cell within
-    one bin (Chebyshev) of a set cell.
+    ``samples`` is ``(n_scales, h, w, 3)``: the reference area at each texture scale, raw
+    channel values mapped to cells by ``lut``; column ``x`` belongs to strip
+    ``column_strip[x]``. A cell is ground when at least ``min_count`` samples of each of at
+    least ``quorum`` strips fall in it. Every ground cell then sets ``shifts[k, 3]`` at itself
+    plus ``shifts[k, :3]`` (bins) for every row ``k``; finally ``NEAR_BIT`` marks every cell
+    within one bin (Chebyshev) of a set cell.
     """
     n_cells = n_bins * n_bins * n_bins
     counts = np.zeros((n_strips, n_cells), dtype=np.uint8)
     seen = np.zeros(n_cells, dtype=np.bool_)
-    cells = np.empty(sample_bins.shape[0], dtype=np.int64)
+    cells = np.empty(samples.shape[0] * samples.shape[1] * samples.shape[2], dtype=np.int64)
     n_seen = 0
-    for i in range(sample_bins.shape[0]):
-        flat = (sample_bins[i, 0] * n_bins + sample_bins[i, 1]) * n_bins + sample_bins[i, 2]
-        s = sample_strip[i]
-        if counts[s, flat] < 255:
-            counts[s, flat] += 1
-        if not seen[flat]:
-            seen[flat] = True
-            cells[n_seen] = flat
-            n_seen += 1
+    for k in range(samples.shape[0]):
+        for y in range(samples.shape[1]):
+            for x in range(samples.shape[2]):
+                flat = ((lut[samples[k, y, x, 0]] * n_bins + lut[samples[k, y, x, 1]]) * n_bins
+                        + lut[samples[k, y, x, 2]])
+                s = column_strip[x]
+                if counts[s, flat] < 255:
+                    counts[s, flat] += 1
+                if not seen[flat]:
+                    seen[flat] = True
+                    cells[n_seen] = flat
+                    n_seen += 1
     for j in range(n_seen):
         flat = cells[j]
         agree = 0

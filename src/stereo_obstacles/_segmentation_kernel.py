@@ -137,3 +137,27 @@ def classify_modes_kernel(counts, veto, measurable, unknown, ground, shadow, obs
                 labels[y, x] = unknown
             else:
                 labels[y, x] = obstacle
+
+
+@njit(cache=True)
+def fill_small_components_kernel(components, n_components, min_area, darker, fill, fill_darker,
+                                 labels):
+    """Relabel the pixels of every component smaller than ``min_area`` pixels, in place.
+
+    ``components`` is an ``int32 (H, W)`` component map with ``n_components`` labels, 0 the
+    background (never relabelled); a pixel of a small component becomes ``fill_darker`` where
+    ``darker`` is set and ``fill`` elsewhere.
+    """
+    height, width = components.shape
+    area = np.zeros(n_components, dtype=np.int32)
+    for y in range(height):
+        for x in range(width):
+            area[components[y, x]] += 1
+    small = area < min_area
+    small[0] = False
+    if not small.any():
+        return
+    for y in range(height):
+        for x in range(width):
+            if small[components[y, x]]:
+                labels[y, x] = fill_darker if darker[y, x] else fill

@@ -107,6 +107,7 @@ def _bin_lut(full_scale: int, offset: float, bin_width: float) -> tuple[np.ndarr
     return lut, int(lut[-1]) + 1
 
 
+@functools.lru_cache(maxsize=8)
 def shadow_shifts(params: GroundColourParameters, shadow_ratio: tuple[float, float] | None
                   ) -> np.ndarray:
     """Cell shifts of the model: ``int32 (K, 4)`` rows ``(dr, dg, db, bit)``.
@@ -114,7 +115,7 @@ def shadow_shifts(params: GroundColourParameters, shadow_ratio: tuple[float, flo
     Row 0 is the identity (``GROUND_BIT``). With ``shadow_ratio = (alpha, beta)``, the
     brightness ratio bounds of a shadow (``0 < alpha < beta < 1``), the skylight shifts
     (``SHADOW_BIT``) and their reverses (``SUNLIT_BIT``) follow, each distinct shift once;
-    ``None`` is the ablation without the shadow rule.
+    ``None`` is the ablation without the shadow rule. Cached: the result is read-only.
     """
     rows = {(0, 0, 0, GROUND_BIT): None}
     if shadow_ratio is not None:
@@ -130,7 +131,9 @@ def shadow_shifts(params: GroundColourParameters, shadow_ratio: tuple[float, flo
                     moved = shift + np.array([0, green, 0])
                     rows[(*moved, SHADOW_BIT)] = None
                     rows[(*(-moved), SUNLIT_BIT)] = None
-    return np.array(list(rows), dtype=np.int32)
+    shifts = np.array(list(rows), dtype=np.int32)
+    shifts.setflags(write=False)
+    return shifts
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,18 +199,17 @@ def build_ground_colour_model(rgb: np.ndarray, box_px: tuple[int, int, int, int]
     full_scale = int(np.iinfo(rgb.dtype).max)
     lut, n_bins = _bin_lut(full_scale, float(params.offset), float(params.bin))
     edges = np.linspace(x0, x1, params.n_strips + 1).round().astype(int)
-    bins, strips = [], []
-    for strip, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
-        area = rgb[y0:y1, a:b]
-        for k in params.texture_scales_px:
-            sample = area if k == 1 else cv2.blur(area, (k, k), borderType=cv2.BORDER_REFLECT)
-            flat = lut[sample.reshape(-1, 3)]
-            bins.append(flat)
-            strips.append(np.full(flat.shape[0], strip, dtype=np.int32))
+    area = rgb[y0:y1, x0:x1]
+    samples = np.empty((len(params.texture_scales_px),) + area.shape, dtype=rgb.dtype)
+    for i, k in enumerate(params.texture_scales_px):
+        for a, b in zip(edges[:-1] - x0, edges[1:] - x0):
+            strip = area[:, a:b]
+            samples[i, :, a:b] = strip if k == 1 else cv2.blur(strip, (k, k), borderType=cv2.BORDER_REFLECT)
+    column_strip = np.repeat(np.arange(params.n_strips, dtype=np.int32), np.diff(edges))
     table = np.zeros((n_bins, n_bins, n_bins), dtype=np.uint8)
-    build_table_kernel(np.ascontiguousarray(np.concatenate(bins)), np.concatenate(strips),
-                       params.n_strips, params.quorum, params.min_count, n_bins,
-                       shadow_shifts(params, shadow_ratio), table)
+    build_table_kernel(samples, lut, column_strip, params.n_strips, params.quorum, params.min_count,
+                       n_bins, shadow_shifts(params, None if shadow_ratio is None else
+                                             tuple(float(v) for v in shadow_ratio)), table)
     n_ground = int(np.count_nonzero(table & GROUND_BIT))
     return GroundColourModel(table=table, lut=lut, n_ground_cells=n_ground, params=params)
 

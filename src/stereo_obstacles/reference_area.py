@@ -157,6 +157,7 @@ class ReferenceParameters:
     warn_kept_fraction: float = 0.5
     warn_hue_spread_deg: float = 90.0
     warn_intensity_spread: float = 1.0
+    max_samples: int = 12000
 
     def __post_init__(self) -> None:
         fractions = ("min_valid_fraction", "min_hue_fraction", "warn_kept_fraction",
@@ -178,8 +179,23 @@ class ReferenceParameters:
         if not 0.0 <= self.min_hue_threshold_deg <= self.max_hue_threshold_deg <= 180.0:
             raise InvalidInputError("need 0 <= min_hue_threshold_deg <= max_hue_threshold_deg <= 180, got "
                                     f"{self.min_hue_threshold_deg!r} and {self.max_hue_threshold_deg!r}")
-        if isinstance(self.min_pixels, bool) or not isinstance(self.min_pixels, int) or self.min_pixels < 1:
-            raise InvalidInputError(f"min_pixels must be a positive integer, got {self.min_pixels!r}")
+        for name in ("min_pixels", "max_samples"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise InvalidInputError(f"{name} must be a positive integer, got {value!r}")
+
+    def sample_step(self, height: int, width: int) -> int:
+        """Smallest row and column step leaving at most ``max_samples`` pixels of an area.
+
+        Examples
+        --------
+        >>> ReferenceParameters().sample_step(72, 640), ReferenceParameters().sample_step(9, 80)
+        (2, 1)
+        """
+        step = 1
+        while math.ceil(height / step) * math.ceil(width / step) > self.max_samples:
+            step += 1
+        return step
 
 
 @dataclass(frozen=True)
@@ -204,7 +220,8 @@ class ReferenceStatistics:
     rgb_median
         Per-channel median colour of the kept pixels, fractions of full scale.
     n_pixels, n_measurable, n_kept
-        Pixels in the area, pixels bright enough to measure colour, pixels kept after rejection.
+        Pixels sampled from the area (:meth:`ReferenceParameters.sample_step`), those bright
+        enough to measure colour, those kept after rejection.
     """
 
     box_px: tuple[int, int, int, int]

@@ -52,7 +52,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_modes_kernel,
-                                                   match_flags_kernel)
+                                                   fill_small_components_kernel, match_flags_kernel)
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
@@ -247,19 +247,17 @@ def _clean_up(labels: np.ndarray, darker: np.ndarray | None, params: Segmentatio
     """
     if params.min_obstacle_area_px > 1:
         obstacle = (labels == Label.OBSTACLE).view(np.uint8)
-        _, components, stats, _ = cv2.connectedComponentsWithStats(obstacle, connectivity=8)
-        small = stats[:, cv2.CC_STAT_AREA] < params.min_obstacle_area_px
-        small[0] = False  # component 0 is the non-obstacle background
-        speck = small[components]
-        labels[speck] = Label.GROUND
-        if darker is not None and params.shadow_rule:
-            labels[speck & darker] = Label.SHADOW
+        n, components = cv2.connectedComponents(obstacle, connectivity=8, ltype=cv2.CV_32S)
+        if darker is None or not params.shadow_rule:
+            darker = np.zeros(labels.shape, dtype=np.bool_)
+        fill_small_components_kernel(components, n, params.min_obstacle_area_px, darker,
+                                     int(Label.GROUND), int(Label.SHADOW), labels)
     if params.max_hole_area_px > 1:
         free = (labels != Label.OBSTACLE).view(np.uint8)
-        _, components, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=4)
-        small = stats[:, cv2.CC_STAT_AREA] < params.max_hole_area_px
-        small[0] = False  # component 0 is the obstacle background
-        labels[small[components]] = Label.OBSTACLE
+        n, components = cv2.connectedComponents(free, connectivity=4, ltype=cv2.CV_32S)
+        fill_small_components_kernel(components, n, params.max_hole_area_px,
+                                     np.zeros(labels.shape, dtype=np.bool_), int(Label.OBSTACLE),
+                                     int(Label.OBSTACLE), labels)
 
 
 def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_AREA,
@@ -303,9 +301,10 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     if not isinstance(params, SegmentationParameters):
         raise InvalidInputError(f"params must be SegmentationParameters, got {type(params).__name__}")
     x0, y0, x1, y1 = box = reference.to_pixels(a.shape[0], a.shape[1])
-    area_hsi = rgb_to_hsi(a[y0:y1, x0:x1], min_intensity=params.min_intensity,
-                          min_saturation=params.min_saturation)
-    ref = reference_statistics(a[y0:y1, x0:x1], area_hsi, box, params=params.reference)
+    step = params.reference.sample_step(y1 - y0, x1 - x0)
+    area = a[y0:y1:step, x0:x1:step]
+    area_hsi = rgb_to_hsi(area, min_intensity=params.min_intensity, min_saturation=params.min_saturation)
+    ref = reference_statistics(area, area_hsi, box, params=params.reference)
     if params.colour_model == "hsi":
         labels = _hsi_labels(a, inv_full_scale, ref, params)
     else:
