@@ -59,6 +59,10 @@ def test_kernel_agrees_with_reference():
     assert n_checked == expected_checked > 0
     np.testing.assert_array_equal(keep, expected)
     assert not keep.all()
+    for n_threads in (2, 3):  # chunks in threads give the same answer
+        keep_t, checked_t = shifted_window_check(inputs, ys, xs, ds, n_threads=n_threads)
+        np.testing.assert_array_equal(keep_t, expected)
+        assert checked_t == expected_checked
 
 
 def test_check_removes_fattened_pixels():
@@ -85,6 +89,8 @@ def test_validation():
         shifted_window_check(inputs, np.array([3, 3]), np.array([9, 9]), np.array([1, 2]))
     with pytest.raises(InvalidInputError, match="one length"):
         shifted_window_check(inputs, np.array([3, 4]), np.array([9]), np.array([1]))
+    with pytest.raises(InvalidInputError, match="n_threads"):
+        shifted_window_check(inputs, np.array([3]), np.array([9]), np.array([1]), n_threads=0)
 
 
 def test_disparity_command_options(tmp_path, capsys):

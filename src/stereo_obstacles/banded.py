@@ -28,7 +28,7 @@ from stereo_obstacles.similarity import RADIUS, SimilarityInputs
 from stereo_obstacles.stable_matching import stable_matching
 from stereo_obstacles.subpixel import parabola_offset
 
-__all__ = ["BandedMatch", "BAND_OVERLAP", "band_rows", "match_bands"]
+__all__ = ["BandedMatch", "BAND_OVERLAP", "band_rows", "match_bands", "run_in_threads"]
 
 BAND_OVERLAP = 16
 """Rows of each neighbouring band a band also grows over (see ``docs/matching.md``)."""
@@ -133,6 +133,16 @@ def _executor(n_workers: int) -> ThreadPoolExecutor:
     return _pool
 
 
+def run_in_threads(function, arguments: list[tuple]) -> list:
+    """``[function(*a) for a in arguments]``, the first call on the calling thread and the others on
+    the persistent pool (``function`` should release the GIL to gain anything)."""
+    if not arguments:
+        return []
+    pool = _executor(len(arguments) - 1) if len(arguments) > 1 else None
+    futures = [pool.submit(function, *a) for a in arguments[1:]]
+    return [function(*arguments[0])] + [f.result() for f in futures]
+
+
 def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarray, n_bands: int,
                 overlap: int = BAND_OVERLAP, d_min: int, d_max: int, tau: float, mu: float,
                 max_candidates: int, margin_reference: str, greedy: bool, final_margin: float) -> BandedMatch:
@@ -167,9 +177,7 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
                             margin_reference=margin_reference, greedy=greedy),
                "greedy": greedy, "final_margin": final_margin}
     t_start = time.perf_counter()
-    futures = [_executor(len(bands) - 1).submit(_match_band, inputs, seeds, scanned_hi, rows, options, t_start)
-               for rows in bands[1:]] if len(bands) > 1 else []
-    parts = [_match_band(inputs, seeds, scanned_hi, bands[0], options, t_start)] + [f.result() for f in futures]
+    parts = run_in_threads(_match_band, [(inputs, seeds, scanned_hi, rows, options, t_start) for rows in bands])
     y, x, xr, c, offset = (np.concatenate([p[k] for p in parts]) for k in range(5))
     counts = np.sum([p[5] for p in parts], axis=0)
     return BandedMatch(y, x, xr, c, offset, *(int(v) for v in counts), max(p[6] for p in parts),

@@ -313,7 +313,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     my, mx, md, offset, mc = banded.y, banded.x, banded.x - banded.x_right, banded.offset, banded.similarity
     n_checked = n_rejected = 0
     if shifted_windows:
-        keep, n_checked = shifted_window_check(inputs, my, mx, md)
+        keep, n_checked = shifted_window_check(inputs, my, mx, md, n_threads=int(bands))
         n_rejected = int(keep.size - np.count_nonzero(keep))
         my, mx, md, offset, mc = my[keep], mx[keep], md[keep], offset[keep], mc[keep]
     t_checked = time.perf_counter()

@@ -7,7 +7,8 @@ Fusiello's symmetric multiple windows, the similarity of a match at disparity ``
 as the best over the 25 windows that contain the pixel. A match is checked only where a
 neighbouring match (in its 5 x 5 square) has a disparity more than 1 px away, and it is
 rejected when some such neighbouring disparity scores higher than ``d`` at the pixel. Only
-matches next to a disparity jump pay for the check. Measured in ``docs/matching.md``.
+matches next to a disparity jump pay for the check; the 25 windows at one disparity share the
+products of a 9 x 9 tile. Measured in ``docs/matching.md``.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from stereo_obstacles._shifted_windows_kernel import _shifted_window_kernel
+from stereo_obstacles.banded import run_in_threads
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.similarity import SimilarityInputs
 
@@ -22,7 +24,7 @@ __all__ = ["shifted_window_check"]
 
 
 def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
-                         d: np.ndarray) -> tuple[np.ndarray, int]:
+                         d: np.ndarray, *, n_threads: int = 1) -> tuple[np.ndarray, int]:
     """Which matches survive the shifted-window check.
 
     Parameters
@@ -33,6 +35,9 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
         Left pixels of the matches, each at most once, inside the image.
     d : ndarray of int, shape (N,)
         Integer disparities in pixels (>= 0; the right pixel ``x - d`` inside the image).
+    n_threads : int
+        The matches are checked in this many equal chunks, one thread each (the result does not
+        depend on it).
 
     Returns
     -------
@@ -62,5 +67,9 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     d_map[ys, xs] = ds
     if np.count_nonzero(d_map >= 0) != ys.size:
         raise InvalidInputError("y, x: expected each left pixel at most once")
-    keep, n_checked = _shifted_window_kernel(*inputs.kernel_args(), d_map, ys, xs)
-    return keep, int(n_checked)
+    if int(n_threads) != n_threads or n_threads < 1:
+        raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
+    edges = np.linspace(0, ys.size, int(n_threads) + 1).astype(int)
+    parts = run_in_threads(_shifted_window_kernel, [(*inputs.kernel_args(), d_map, ys[lo:hi], xs[lo:hi])
+                                                    for lo, hi in zip(edges[:-1], edges[1:])])
+    return np.concatenate([p[0] for p in parts]), int(sum(p[1] for p in parts))
