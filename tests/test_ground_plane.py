@@ -96,3 +96,20 @@ def test_compiled_inlier_count_agrees_with_numpy():
     expected = (np.abs(planes[:, :1] * x + planes[:, 1:2] * y + planes[:, 2:] - d) <= 2.0).sum(axis=1)
     assert np.array_equal(_count_inliers(planes, x, y, d, 2.0), expected)
     assert expected.max() > 0
+
+
+def test_pixel_heights_equal_heights_of_the_3d_points():
+    from stereo_obstacles.calibration import StereoCalibration
+    from stereo_obstacles.ground_plane import height_above_ground_m, pixel_height_above_ground_m
+
+    calibration = StereoCalibration(focal_px=500.0, cx_px=320.0, cy_px=240.0, baseline_m=0.12, doffs_px=1.5,
+                                    width_px=640, height_px=480)
+    ground = GroundPlane(a=0.002, b=0.09, c=-20.0)
+    rng = np.random.default_rng(5)
+    xs, ys = rng.integers(0, 640, 300), rng.integers(250, 480, 300)
+    d = ground.disparity_at(xs, ys) + rng.uniform(-1.0, 6.0, 300)
+    z = calibration.focal_baseline_px_m / (d + calibration.doffs_px)
+    points = np.stack([(xs - 320.0) * z / 500.0, (ys - 240.0) * z / 500.0, z], axis=-1)
+    expected = height_above_ground_m(ground, points, calibration)
+    assert np.allclose(pixel_height_above_ground_m(ground, xs, ys, d, calibration), expected, rtol=1e-9, atol=1e-12)
+    assert expected.min() < 0 < expected.max()

@@ -280,6 +280,21 @@ def height_above_ground_m(ground: GroundPlane, points_m: np.ndarray, calibration
     return (calibration.focal_baseline_px_m - along_normal) / np.linalg.norm(normal)
 
 
+def pixel_height_above_ground_m(ground: GroundPlane, xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
+                                calibration: StereoCalibration) -> np.ndarray:
+    """Signed height above the ground of pixels ``(xs, ys)`` with ``disparities`` (pixels), metres.
+
+    The same as :func:`height_above_ground_m` of the pixels' 3-D points, without forming them:
+    with ``Z = f B / (d + doffs)`` the point's ``n . P`` is ``Z (plane(x, y) + doffs)``, so the
+    height is ``f B (d - plane(x, y)) / ((d + doffs) |n|)``. ``float64`` of the inputs' shape;
+    not finite where ``d + doffs <= 0``.
+    """
+    d = np.asarray(disparities, dtype=np.float64)
+    scale = calibration.focal_baseline_px_m / float(np.linalg.norm(_normal_camera(ground, calibration)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return scale * (d - ground.disparity_at(xs, ys)) / (d + calibration.doffs_px)
+
+
 def tilt_from_camera_vertical_deg(ground: GroundPlane, calibration: StereoCalibration) -> float:
     """Angle between the plane's normal and the camera's vertical (Y) axis, degrees.
 
@@ -291,4 +306,4 @@ def tilt_from_camera_vertical_deg(ground: GroundPlane, calibration: StereoCalibr
 
 
 __all__ = ["GroundPlane", "PlaneFitParameters", "fit_plane_points", "fit_ground_plane", "height_above_ground_m",
-           "tilt_from_camera_vertical_deg"]
+           "pixel_height_above_ground_m", "tilt_from_camera_vertical_deg"]

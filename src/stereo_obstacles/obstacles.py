@@ -23,7 +23,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m
+from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, pixel_height_above_ground_m
 
 DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
@@ -152,10 +152,7 @@ def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: Groun
     if calibration is None:
         stands = disparities - ground.disparity_at(xs, ys) >= params.flat_tolerance_px
     else:
-        z = calibration.focal_baseline_px_m / np.maximum(disparities + calibration.doffs_px, 1e-9)
-        points = np.stack([(xs - calibration.cx_px) * z / calibration.focal_px,
-                           (ys - calibration.cy_px) * z / calibration.focal_px, z], axis=-1)
-        stands = (height_above_ground_m(ground, points, calibration) >= params.flat_tolerance_m) & (
+        stands = (pixel_height_above_ground_m(ground, xs, ys, disparities, calibration) >= params.flat_tolerance_m) & (
             disparities + calibration.doffs_px > 0)
     result = np.zeros(d.shape, dtype=bool)
     result[ys[stands], xs[stands]] = True

@@ -41,7 +41,7 @@ from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
-from stereo_obstacles.ground_plane import (GroundPlane, fit_ground_plane, height_above_ground_m,
+from stereo_obstacles.ground_plane import (GroundPlane, fit_ground_plane, pixel_height_above_ground_m,
                                           tilt_from_camera_vertical_deg)
 from stereo_obstacles.obstacles import ObstacleList, ObstacleParameters, measure_obstacles, standing_pixels
 from stereo_obstacles.rectification_check import check_rectification
@@ -219,13 +219,9 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
     if ground is None or calibration is None or min_height_m <= 0:
         return candidates
     ys, xs = np.nonzero(segmentation.ground_mask & np.isfinite(disparity))
-    d = disparity[ys, xs].astype(np.float64) + calibration.doffs_px
-    positive = d > 0
-    ys, xs, d = ys[positive], xs[positive], d[positive]
-    z = calibration.focal_baseline_px_m / d
-    points = np.stack([(xs - calibration.cx_px) * z / calibration.focal_px,
-                       (ys - calibration.cy_px) * z / calibration.focal_px, z], axis=-1)
-    raised = height_above_ground_m(ground, points, calibration) > min_height_m
+    d = disparity[ys, xs]
+    raised = (pixel_height_above_ground_m(ground, xs, ys, d, calibration) > min_height_m) & (
+        d + calibration.doffs_px > 0)
     candidates = candidates.copy()
     candidates[ys[raised], xs[raised]] = True
     return candidates
