@@ -142,3 +142,19 @@ def test_process_pair_never_raises(tmp_path):
     outcome = process_pair(job)
     assert outcome.status == "failed" and "nowhere" in outcome.reason
     shutil.rmtree(tmp_path / "out", ignore_errors=True)
+
+
+def test_warnings_name_their_pair(tmp_path, caplog):
+    folder = tmp_path / "pairs"
+    folder.mkdir()
+    _write_pair(folder, "good_left.png", "good_right.png", 0)
+    same = cv2.cvtColor(frames()[1].left, cv2.COLOR_RGB2BGR)      # identical images: a warning, no failure
+    cv2.imwrite(str(folder / "same_left.png"), same)
+    cv2.imwrite(str(folder / "same_right.png"), same)
+    out = tmp_path / "out"
+    assert main(["batch", str(folder), "--out", str(out), "--workers", "1", "--task", "disparity",
+                 "--max-disparity", "40"]) == 0
+    named = [r.getMessage() for r in caplog.records if r.name == "stereo_obstacles.batch" and r.levelname == "WARNING"]
+    assert named and all(message.startswith("same: ") for message in named)
+    assert json.loads((out / "same" / DONE_FILE).read_text())["warnings"]
+    assert json.loads((out / "good" / DONE_FILE).read_text())["warnings"] == []

@@ -23,7 +23,8 @@ import logging
 import os
 import re
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -101,6 +102,7 @@ class PairOutcome:
     seconds: float = 0.0
     reason: str | None = None
     details: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
 
 
 def _side_key(stem: str) -> tuple[str, str] | None:
@@ -233,25 +235,59 @@ def _run_task(job: BatchJob) -> dict:
             "inputs": inputs}
 
 
+class _WarningCollector(logging.Handler):
+    """Keeps the messages of the package's warnings instead of printing them."""
+
+    def __init__(self) -> None:
+        super().__init__(level=logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
+
+
+@contextmanager
+def _collected_warnings() -> Iterator[list[str]]:
+    """Collect the package's warnings during one pair, so that they reach the user with the
+    pair's name (:func:`run_batch` logs them) instead of unnamed, from whichever worker ran it."""
+    package_logger = logging.getLogger("stereo_obstacles")
+    collector = _WarningCollector()
+    propagate = package_logger.propagate
+    package_logger.addHandler(collector)
+    package_logger.propagate = False
+    try:
+        yield collector.messages
+    finally:
+        package_logger.removeHandler(collector)
+        package_logger.propagate = propagate
+
+
 def process_pair(job: BatchJob) -> PairOutcome:
     """Run one job; any failure is returned as a ``"failed"`` outcome with its reason, never raised.
 
-    On success the pair's ``done.json`` (task, seconds, details) is written last, atomically.
+    On success the pair's ``done.json`` (task, seconds, details, warnings) is written last,
+    atomically. The package's warnings during the job are returned in the outcome.
     """
     from stereo_obstacles.atomic import write_text_atomic
     from stereo_obstacles.obstacle_json import jsonable
 
     start = time.perf_counter()
-    try:
-        details = jsonable(_run_task(job))
-        seconds = time.perf_counter() - start
-        write_text_atomic(Path(job.out_dir) / DONE_FILE, json.dumps(
-            {"name": job.pair.name, "task": job.task, "seconds": round(seconds, 4), **details}, indent=1) + "\n")
-    except Exception as exc:  # noqa: BLE001 - a batch reports every failure and goes on
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        logger.debug("pair %s failed: %s", job.pair.name, reason)
-        return PairOutcome(job.pair.name, "failed", time.perf_counter() - start, f"{type(exc).__name__}: {reason}")
-    return PairOutcome(job.pair.name, "done", seconds, None, details)
+    with _collected_warnings() as warnings:
+        try:
+            details = jsonable(_run_task(job))
+            seconds = time.perf_counter() - start
+            write_text_atomic(Path(job.out_dir) / DONE_FILE, json.dumps(
+                {"name": job.pair.name, "task": job.task, "seconds": round(seconds, 4), **details,
+                 "warnings": warnings}, indent=1) + "\n")
+        except Exception as exc:  # noqa: BLE001 - a batch reports every failure and goes on
+            reason = f"{type(exc).__name__}: {' '.join(str(exc).split()) or type(exc).__name__}"
+            outcome = PairOutcome(job.pair.name, "failed", time.perf_counter() - start, reason,
+                                  warnings=tuple(warnings))
+        else:
+            outcome = PairOutcome(job.pair.name, "done", seconds, None, details, tuple(warnings))
+    if outcome.status == "failed":
+        logger.debug("pair %s failed: %s", job.pair.name, outcome.reason)
+    return outcome
 
 
 def _ignore_sigint() -> None:
@@ -327,6 +363,8 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
     outcomes: list[PairOutcome] = []
 
     def record(outcome: PairOutcome) -> None:
+        for message in outcome.warnings:
+            logger.warning("%s: %s", outcome.name, message)
         outcomes.append(outcome)
         if on_outcome is not None:
             on_outcome(outcome)
