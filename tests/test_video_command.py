@@ -135,3 +135,53 @@ def test_progress_draws_only_when_enabled():
     live = Progress(None, label="frame", stream=StringIO(), enabled=True)
     live.update()
     assert live.line().startswith("frame 1 ")
+
+
+class _FakeCamera:
+    """Stands in for ``cv2.VideoCapture(index)``: devices 0 and 1 deliver the synthetic frames
+    (left and right) and then stop, as a camera that is unplugged."""
+
+    def __init__(self, index):
+        from _stream_frames import _bgr, frames
+
+        self.images = [_bgr(pair.left if index == 0 else pair.right) for pair in frames()] if index in (0, 1) else None
+        self.position = -1
+
+    def isOpened(self):
+        return self.images is not None
+
+    def set(self, prop, value):
+        return True
+
+    def get(self, prop):
+        return 30.0 if prop == cv2.CAP_PROP_FPS else 0.0
+
+    def grab(self):
+        self.position += 1
+        return self.position < len(self.images)
+
+    def retrieve(self):
+        return True, self.images[self.position].copy()
+
+    def release(self):
+        self.images = []
+
+
+def test_two_live_cameras_simulated(tmp_path, monkeypatch, capsys):
+    """The camera path end to end with a simulated capture device (no camera on this machine)."""
+    import stereo_obstacles.streams as streams
+
+    monkeypatch.setattr(streams.cv2, "VideoCapture", _FakeCamera)
+    calib = write_calibration(tmp_path / "calib.json")
+    jsonl = tmp_path / "live.jsonl"
+    assert main(["video", "0", "1", "--calib", str(calib), "--jsonl", str(jsonl)]) == 0
+    records = read_json_lines(jsonl)
+    assert "cameras 0 and 1" in records[0]["source"]
+    frames = [r for r in records if r.get("type") == "frame"]
+    assert [r["frame"] for r in frames] == list(range(N_FRAMES))
+    assert all(r["obstacles"] for r in frames)
+    assert records[-1]["frames"] == N_FRAMES and records[-1]["frames_per_second"] > 0
+    err = capsys.readouterr().err
+    assert "a camera stopped delivering frames" in err or f"processed {N_FRAMES} frames" in err
+    with pytest.raises(InputFileError, match="camera 7 cannot be opened"):
+        streams.CameraPairSource(0, 7)
