@@ -51,7 +51,7 @@ def _slow_table(rgb, box, params, shadow_ratio):
     for cell in cells:
         if sum(c.get(cell, 0) >= params.min_count for c in per_strip) < params.quorum:
             continue
-        for dr, dg, db, bit in shadow_shifts(params, shadow_ratio):
+        for dr, dg, db, bit in model.shifts:
             target = (cell[0] + dr, cell[1] + dg, cell[2] + db)
             if all(0 <= t < n for t in target):
                 expected[target] |= bit
@@ -63,11 +63,13 @@ def _slow_table(rgb, box, params, shadow_ratio):
     return model.table, expected
 
 
+@pytest.mark.parametrize("chroma_radius", [1, None])
 @pytest.mark.parametrize("shadow_ratio", [(0.4, 0.8), None])
-def test_table_matches_its_definition(shadow_ratio):
+def test_table_matches_its_definition(shadow_ratio, chroma_radius):
     rgb = _u8(_two_colour_tiles((40, 42)))
     rgb[30:, 5:12] = (20, 160, 30)                       # an object in one strip only
-    params = GroundColourParameters(n_strips=3, quorum=2)
+    rgb[:12] = _u8(rgb[:12] * SKYLIGHT)                  # a cast shadow beyond the area
+    params = GroundColourParameters(n_strips=3, quorum=2, shift_chroma_radius_bins=chroma_radius)
     table, expected = _slow_table(rgb, (0, 30, 42, 40), params, shadow_ratio)
     np.testing.assert_array_equal(table, expected)
     assert np.count_nonzero(table & GROUND_BIT) > 0
@@ -160,3 +162,20 @@ def test_every_cell_bit_combination_is_read_back():
         assert [int(v) for v in flags[0, x, :3]] == [cell & 1, (cell >> 1) & 1, (cell >> 2) & 1]
         assert veto[0, x] == (cell & 8 == 0)
     assert list(itertools.islice(flags[0, :, 3], 1)) == [1]
+
+
+def test_only_the_images_own_shadow_shift_is_kept():
+    full = shadow_shifts(GroundColourParameters(), (0.4, 0.8))
+    ground = _u8(np.random.default_rng(3).normal((90, 140, 60), 3, (120, 160, 3)))
+    ground[10:40] = _u8(ground[10:40] * SKYLIGHT)        # the real shadow: one shift
+    model = build_ground_colour_model(ground, (0, 100, 160, 120))
+    kept = {tuple(row) for row in model.shifts.tolist()}
+    assert kept < {tuple(row) for row in full.tolist()} and len(kept) < len(full) // 3
+    # the real shadow stays shadow ...
+    flags, _ = colour_flags(ground, model, 0.05)
+    assert flags[15:35, :, 1].mean() > 0.8
+    # ... while the ground under another light of the family (darker, much bluer) is dropped
+    other = _u8(np.random.default_rng(4).normal((90, 140, 60), 3, (20, 20, 3)) * (0.34, 0.45, 0.595))
+    wide = build_ground_colour_model(ground, (0, 100, 160, 120),
+                                     params=GroundColourParameters(shift_chroma_radius_bins=None))
+    assert colour_flags(other, wide, 0.05)[0][..., 1].mean() > colour_flags(other, model, 0.05)[0][..., 1].mean() + 0.3

@@ -11,16 +11,13 @@ shadow, of sunlit ground seen from a shadowed reference, and "near any of them" 
 
 
 @njit(cache=True)
-def build_table_kernel(samples, lut, column_strip, n_strips, quorum, min_count, n_bins, shifts,
-                       table):
-    """Fill ``table`` (``uint8 (n, n, n)``, zeroed) from reference samples.
+def ground_cells_kernel(samples, lut, column_strip, n_strips, quorum, min_count, n_bins):
+    """Flat indices (``int64``) of the cells shown by enough strips of the reference area.
 
     ``samples`` is ``(n_scales, h, w, 3)``: the reference area at each texture scale, raw
     channel values mapped to cells by ``lut``; column ``x`` belongs to strip
     ``column_strip[x]``. A cell is ground when at least ``min_count`` samples of each of at
-    least ``quorum`` strips fall in it. Every ground cell then sets ``shifts[k, 3]`` at itself
-    plus ``shifts[k, :3]`` (bins) for every row ``k``; finally ``NEAR_BIT`` marks every cell
-    within one bin (Chebyshev) of a set cell.
+    least ``quorum`` strips fall in it.
     """
     n_cells = n_bins * n_bins * n_bins
     counts = np.zeros((n_strips, n_cells), dtype=np.uint8)
@@ -39,14 +36,60 @@ def build_table_kernel(samples, lut, column_strip, n_strips, quorum, min_count, 
                     seen[flat] = True
                     cells[n_seen] = flat
                     n_seen += 1
+    n_ground = 0
     for j in range(n_seen):
         flat = cells[j]
         agree = 0
         for s in range(n_strips):
             if counts[s, flat] >= min_count:
                 agree += 1
-        if agree < quorum:
-            continue
+        if agree >= quorum:
+            cells[n_ground] = flat
+            n_ground += 1
+    return cells[:n_ground].copy()
+
+
+@njit(cache=True)
+def colour_histogram_kernel(rgb, lut, n_bins, step):
+    """Pixel count per cell (``int64 (n_bins**3,)``) of every ``step``-th row and column."""
+    hist = np.zeros(n_bins * n_bins * n_bins, dtype=np.int64)
+    for y in range(0, rgb.shape[0], step):
+        for x in range(0, rgb.shape[1], step):
+            hist[(lut[rgb[y, x, 0]] * n_bins + lut[rgb[y, x, 1]]) * n_bins + lut[rgb[y, x, 2]]] += 1
+    return hist
+
+
+@njit(cache=True)
+def shift_support_kernel(ground_cells, hist, n_bins, shifts):
+    """Per row of ``shifts``: pixels of ``hist`` in the ground cells moved by that shift,
+    counting each target cell once and leaving out the ground cells themselves."""
+    n_cells = n_bins * n_bins * n_bins
+    is_ground = np.zeros(n_cells, dtype=np.bool_)
+    for j in range(ground_cells.shape[0]):
+        is_ground[ground_cells[j]] = True
+    stamp = np.full(n_cells, -1, dtype=np.int64)
+    support = np.zeros(shifts.shape[0], dtype=np.int64)
+    for k in range(shifts.shape[0]):
+        for j in range(ground_cells.shape[0]):
+            flat = ground_cells[j]
+            rr = flat // (n_bins * n_bins) + shifts[k, 0]
+            gg = (flat // n_bins) % n_bins + shifts[k, 1]
+            bb = flat % n_bins + shifts[k, 2]
+            if 0 <= rr < n_bins and 0 <= gg < n_bins and 0 <= bb < n_bins:
+                target = (rr * n_bins + gg) * n_bins + bb
+                if not is_ground[target] and stamp[target] != k:
+                    stamp[target] = k
+                    support[k] += hist[target]
+    return support
+
+
+@njit(cache=True)
+def fill_table_kernel(ground_cells, n_bins, shifts, table):
+    """Fill ``table`` (``uint8 (n, n, n)``, zeroed): every ground cell sets ``shifts[k, 3]``
+    at itself plus ``shifts[k, :3]`` (bins) for every row ``k``; then ``NEAR_BIT`` marks every
+    cell within one bin (Chebyshev) of a set cell."""
+    for j in range(ground_cells.shape[0]):
+        flat = ground_cells[j]
         r = flat // (n_bins * n_bins)
         g = (flat // n_bins) % n_bins
         b = flat % n_bins

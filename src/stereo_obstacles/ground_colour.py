@@ -23,6 +23,11 @@ shadow:
   skylight, so its red falls more than its blue. A dark obstacle of the ground's own colour
   darkens all channels alike (``k = 0``) and is not a shadow.
 * Sunlit cells are the reverse shifts (the reference itself lies in a shadow).
+* One sun and one sky light the whole flat ground, so one image has **one** shadow shift,
+  not the whole family. The shift that the image supports best (the most pixels in the
+  ground colours shifted by it, darker or brighter) is kept with its neighbours within
+  ``shift_chroma_radius_bins`` and ``shift_brightness_radius_bins``; the rest of the family, which would only take in obstacles whose
+  colour happens to be another relit ground colour, is dropped.
 """
 
 from __future__ import annotations
@@ -35,7 +40,9 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._ground_colour_kernel import (GROUND_BIT, SHADOW_BIT, SUNLIT_BIT,
-                                                    build_table_kernel, lookup_kernel)
+                                                    colour_histogram_kernel, fill_table_kernel,
+                                                    ground_cells_kernel, lookup_kernel,
+                                                    shift_support_kernel)
 from stereo_obstacles.errors import InvalidInputError
 
 
@@ -62,6 +69,13 @@ class GroundColourParameters:
     green_tolerance_bins
         The green log-channel of a shadow may fall this many cells more or less than the
         middle of red and blue (skylight is not exactly symmetric in green).
+    shift_chroma_radius_bins, shift_brightness_radius_bins
+        Keep only the shadow (and sunlit) shifts whose chroma (red and blue relative to green)
+        is within the first and whose green is within the second number of cells of the shift
+        the image supports best (penumbra and partly hidden sky vary a shadow's darkness more
+        than its colour); ``shift_chroma_radius_bins=None`` keeps the whole family.
+    support_step_px
+        The support of each shift is counted on every this-many-th row and column.
     """
 
     bin: float = 0.05
@@ -73,6 +87,9 @@ class GroundColourParameters:
     min_blueness: float = 0.4
     max_blueness: float = 0.7
     green_tolerance_bins: int = 0
+    shift_chroma_radius_bins: int | None = 2
+    shift_brightness_radius_bins: int = 2
+    support_step_px: int = 2
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.bin) and 0.005 <= self.bin <= 0.5):
@@ -83,7 +100,12 @@ class GroundColourParameters:
                 or not 0 <= self.green_tolerance_bins <= 5):
             raise InvalidInputError(f"green_tolerance_bins must be an integer in [0, 5], got "
                                     f"{self.green_tolerance_bins!r}")
-        for name in ("n_strips", "quorum", "min_count"):
+        for name in ("shift_chroma_radius_bins", "shift_brightness_radius_bins"):
+            radius = getattr(self, name)
+            if (radius is not None or name == "shift_brightness_radius_bins") and (
+                    isinstance(radius, bool) or not isinstance(radius, int) or not 0 <= radius <= 40):
+                raise InvalidInputError(f"{name} must be an integer in [0, 40], got {radius!r}")
+        for name in ("n_strips", "quorum", "min_count", "support_step_px"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 255:
                 raise InvalidInputError(f"{name} must be an integer in [1, 255], got {value!r}")
@@ -136,6 +158,55 @@ def shadow_shifts(params: GroundColourParameters, shadow_ratio: tuple[float, flo
     return shifts
 
 
+def select_shifts(shifts: np.ndarray, support: np.ndarray, chroma_radius_bins: int,
+                  brightness_radius_bins: int) -> np.ndarray:
+    """Keep the identity and the shifts near the image's own shadow shift.
+
+    Parameters
+    ----------
+    shifts
+        ``int32 (K, 4)`` from :func:`shadow_shifts` (row 0 the identity).
+    support
+        ``(K,)``: image pixels in the ground colours moved by each row.
+    chroma_radius_bins, brightness_radius_bins
+        How far, in cells, a kept shift's chroma (red and blue relative to green) and its
+        green (brightness) may differ from those of the best shift.
+
+    Returns
+    -------
+    numpy.ndarray
+        The rows of ``shifts`` kept: the identity, the shadow shifts near ``s``, and the
+        sunlit shifts near ``-s``, where ``s`` is the shadow shift with the largest support of
+        ``s`` and ``-s`` together.
+
+    Examples
+    --------
+    >>> shifts = np.array([[0, 0, 0, 1], [-4, -3, -2, 2], [4, 3, 2, 4], [-9, -7, -5, 2], [9, 7, 5, 4]])
+    >>> select_shifts(shifts, np.array([0, 5, 90, 10, 0]), 1, 2)[:, 3].tolist()
+    [1, 2, 4]
+    """
+    offsets = shifts[:, :3]
+    bits = shifts[:, 3]
+    score = {tuple(row): 0 for row in offsets[bits == SHADOW_BIT]}
+    for row, bit, count in zip(offsets, bits, support):
+        if bit == SHADOW_BIT and tuple(row) in score:
+            score[tuple(row)] += int(count)
+        elif bit == SUNLIT_BIT and tuple(-row) in score:
+            score[tuple(-row)] += int(count)
+    if not score:
+        return shifts
+    best = np.array(max(score, key=score.get))
+    chroma = offsets - offsets[:, 1:2]
+    best_chroma = best - best[1]
+    near_shadow = ((np.abs(chroma - best_chroma).max(axis=1) <= chroma_radius_bins)
+                   & (np.abs(offsets[:, 1] - best[1]) <= brightness_radius_bins))
+    near_sunlit = ((np.abs(chroma + best_chroma).max(axis=1) <= chroma_radius_bins)
+                   & (np.abs(offsets[:, 1] + best[1]) <= brightness_radius_bins))
+    keep = ((bits == GROUND_BIT) | ((bits == SHADOW_BIT) & near_shadow)
+            | ((bits == SUNLIT_BIT) & near_sunlit))
+    return shifts[keep]
+
+
 @dataclass(frozen=True, eq=False)
 class GroundColourModel:
     """Ground, shadow and sunlit colours as bits of a 3-D table over quantised log channels.
@@ -148,6 +219,9 @@ class GroundColourModel:
         ``int32 (full_scale + 1,)``: channel value -> cell index.
     n_ground_cells
         Cells accepted as ground colours (0 means the reference showed no consistent ground).
+    shifts
+        ``int32 (K, 4)`` the shifts the table was built with (:func:`shadow_shifts`, reduced
+        to the image's own shadow shift and its neighbours, :func:`select_shifts`).
     params
         The parameters used.
     """
@@ -155,6 +229,7 @@ class GroundColourModel:
     table: np.ndarray
     lut: np.ndarray
     n_ground_cells: int
+    shifts: np.ndarray
     params: GroundColourParameters
 
     def __post_init__(self) -> None:
@@ -206,12 +281,17 @@ def build_ground_colour_model(rgb: np.ndarray, box_px: tuple[int, int, int, int]
             strip = area[:, a:b]
             samples[i, :, a:b] = strip if k == 1 else cv2.blur(strip, (k, k), borderType=cv2.BORDER_REFLECT)
     column_strip = np.repeat(np.arange(params.n_strips, dtype=np.int32), np.diff(edges))
+    ground = ground_cells_kernel(samples, lut, column_strip, params.n_strips, params.quorum,
+                                 params.min_count, n_bins)
+    shifts = shadow_shifts(params, None if shadow_ratio is None else tuple(float(v) for v in shadow_ratio))
+    if params.shift_chroma_radius_bins is not None and shifts.shape[0] > 1:
+        histogram = colour_histogram_kernel(rgb, lut, n_bins, params.support_step_px)
+        shifts = select_shifts(shifts, shift_support_kernel(ground, histogram, n_bins, shifts),
+                               params.shift_chroma_radius_bins, params.shift_brightness_radius_bins)
     table = np.zeros((n_bins, n_bins, n_bins), dtype=np.uint8)
-    build_table_kernel(samples, lut, column_strip, params.n_strips, params.quorum, params.min_count,
-                       n_bins, shadow_shifts(params, None if shadow_ratio is None else
-                                             tuple(float(v) for v in shadow_ratio)), table)
-    n_ground = int(np.count_nonzero(table & GROUND_BIT))
-    return GroundColourModel(table=table, lut=lut, n_ground_cells=n_ground, params=params)
+    fill_table_kernel(ground, n_bins, shifts, table)
+    n_ground = int(ground.shape[0])
+    return GroundColourModel(table=table, lut=lut, n_ground_cells=n_ground, shifts=shifts, params=params)
 
 
 def colour_flags(rgb: np.ndarray, model: GroundColourModel, min_intensity: float
@@ -245,4 +325,4 @@ def colour_flags(rgb: np.ndarray, model: GroundColourModel, min_intensity: float
 
 
 __all__ = ["GroundColourParameters", "GroundColourModel", "build_ground_colour_model", "colour_flags",
-           "shadow_shifts", "GROUND_BIT", "SHADOW_BIT", "SUNLIT_BIT"]
+           "shadow_shifts", "select_shifts", "GROUND_BIT", "SHADOW_BIT", "SUNLIT_BIT"]
