@@ -1,7 +1,10 @@
 """How well detected obstacles agree with the synthetic world's ground truth.
 
 A true obstacle is *found* when a detected obstacle covers at least ``min_overlap`` of the
-true obstacle's pixels that the detection could see, or most of the detection lies on it.
+true obstacle's pixels, or at least ``min_overlap`` of the detection lies on it; any detection
+that passes counts (the one overlapping the obstacle most among them gives the distance), not
+only the detection overlapping it most: a small far object may be found by its own detection
+while a larger neighbour's fringe covers more of its pixels.
 The reported distance is compared with the true ``nearest_depth_m`` (the smallest camera
 depth among the obstacle's visible pixels), because that is what the detector measures: the
 depth of the near face, not the walking distance along the ground. A detection with fewer
@@ -76,7 +79,8 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
         (``visible_pixels == 0``) are left out.
     min_overlap
         Fraction of a true obstacle's visible pixels a detection must cover, or fraction of
-        the detection that must lie on the true obstacle, for the obstacle to count as found.
+        the detection that must lie on the true obstacle, for the obstacle to count as found
+        (by any detection that passes; the one overlapping it most gives the distance).
     """
     id_map = obstacle_list.id_map
     detected = {o.id: o for o in obstacle_list.obstacles}
@@ -90,9 +94,10 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
         if truth.visible_pixels == 0:
             continue
         row = overlap[truth.obstacle_id, 1:] if truth.obstacle_id < n_truths else np.zeros(n_ids - 1, np.int64)
-        best = int(np.argmax(row)) + 1 if row.size and row.max() > 0 else None
-        found = best is not None and (row[best - 1] >= min_overlap * truth.visible_pixels
-                                      or row[best - 1] >= min_overlap * detection_sizes[best])
+        qualifies = (row > 0) & ((row >= min_overlap * truth.visible_pixels)
+                                 | (row >= min_overlap * detection_sizes[1:]))
+        found = bool(qualifies.any())
+        best = int(np.argmax(np.where(qualifies, row, -1))) + 1 if found else None
         comparisons.append(TruthComparison(
             truth_id=truth.obstacle_id, kind=truth.kind, height_m=float(truth.size_m[2]),
             true_distance_m=truth.nearest_depth_m, visible_pixels=truth.visible_pixels,

@@ -1,0 +1,104 @@
+"""Pairing detections with true obstacles, and the figures over many scenes (constructed cases)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.detection_evaluation import SceneEvaluation, compare_with_truth, summarise
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.labels import Label
+from stereo_obstacles.obstacles import Obstacle, ObstacleList
+
+SHAPE = (60, 100)
+
+
+def _truth(obstacle_id: int, instances: np.ndarray, depth_m: float, height_m: float = 1.0):
+    return SimpleNamespace(obstacle_id=obstacle_id, kind="box", size_m=(0.5, 0.5, height_m), nearest_depth_m=depth_m,
+                           visible_pixels=int(np.count_nonzero(instances == obstacle_id)))
+
+
+def _detections(id_map: np.ndarray, distances_m: dict[int, float]) -> ObstacleList:
+    obstacles = tuple(Obstacle(id=i, box_px=(0, 0, 1, 1), pixel_count=int(np.count_nonzero(id_map == i)),
+                               disparity_px=10.0, confidence=1.0, distance_m=d) for i, d in distances_m.items())
+    return ObstacleList(obstacles=obstacles, id_map=id_map)
+
+
+def _scene():
+    """Three true obstacles on ground; four detections.
+
+    * truth 1 (20x20 px at 4 m): detection 1 covers a quarter of it;
+    * truth 2 (20x15 px at 8 m, small and far): a big neighbouring detection 2 reaches 56 of its
+      pixels (19 %), its own small detection 3 covers 40 (13 %) and lies 80 % on it;
+    * truth 3 (10x10 px at 6 m): nothing covers it;
+    * detection 4 lies on a shadow.
+    """
+    instances = np.zeros(SHAPE, np.uint8)
+    labels = np.full(SHAPE, Label.GROUND, np.uint8)
+    instances[0:20, 0:20] = 1
+    instances[30:50, 40:55] = 2
+    instances[0:10, 80:90] = 3
+    labels[instances > 0] = Label.OBSTACLE
+    labels[50:60, 80:100] = Label.SHADOW
+    id_map = np.zeros(SHAPE, np.int32)
+    id_map[0:10, 0:10] = 1
+    id_map[20:60, 0:40] = 2
+    id_map[30:44, 40:44] = 2                 # 56 pixels of truth 2
+    id_map[30:40, 44:48] = 3                 # 40 pixels of truth 2 ...
+    id_map[20:30, 44] = 3                    # ... and 10 of the ground
+    id_map[52:58, 82:98] = 4
+    truths = [_truth(1, instances, 4.0), _truth(2, instances, 8.0), _truth(3, instances, 6.0)]
+    detections = _detections(id_map, {1: 4.1, 2: 5.0, 3: 7.6, 4: 9.0})
+    return detections, instances, labels, truths
+
+
+def test_each_truth_is_paired_with_a_detection_that_passes_the_overlap_rule():
+    detections, instances, labels, truths = _scene()
+    comparisons, alarms = compare_with_truth(detections, instances, labels, truths)
+    by_id = {c.truth_id: c for c in comparisons}
+    assert [c.truth_id for c in comparisons] == [1, 3, 2]  # nearest first
+    assert by_id[1].detected_id == 1 and by_id[1].relative_error == pytest.approx(0.025)
+    # the big neighbour overlaps truth 2 most but passes neither test; truth 2's own detection does
+    assert by_id[2].detected_id == 3 and by_id[2].detected_distance_m == 7.6
+    assert by_id[2].relative_error == pytest.approx(-0.05)
+    assert by_id[3].detected_id is None and by_id[3].relative_error is None
+    assert [(a.detected_id, a.lies_on) for a in alarms] == [(2, "ground"), (4, "shadow")]
+
+
+def test_among_passing_detections_the_largest_overlap_gives_the_distance():
+    detections, instances, labels, truths = _scene()
+    id_map = detections.id_map.copy()
+    id_map[40:50, 40:55] = 2                 # detection 2 now covers 56 + 150 of truth 2's 300 pixels
+    comparisons, _ = compare_with_truth(_detections(id_map, {1: 4.1, 2: 8.2, 3: 7.6, 4: 9.0}), instances, labels,
+                                        truths)
+    assert {c.truth_id: c.detected_id for c in comparisons}[2] == 2
+
+
+def test_off_screen_truths_are_left_out():
+    detections, instances, labels, truths = _scene()
+    hidden = SimpleNamespace(obstacle_id=9, kind="box", size_m=(1, 1, 1), nearest_depth_m=None, visible_pixels=0)
+    comparisons, _ = compare_with_truth(detections, instances, labels, truths + [hidden])
+    assert 9 not in {c.truth_id for c in comparisons}
+
+
+def test_summary_counts_only_relevant_truths():
+    detections, instances, labels, truths = _scene()
+    truths[0] = _truth(1, instances, 4.0, height_m=0.2)  # too low to count
+    comparisons, alarms = compare_with_truth(detections, instances, labels, truths)
+    evaluation = SceneEvaluation(seed=7, ground="asphalt", comparisons=tuple(comparisons),
+                                 false_alarms=tuple(alarms), seconds=0.5)
+    summary = summarise([evaluation], min_height_m=0.3, max_distance_m=10.0, min_visible_px=50)
+    assert (summary.n_obstacles, summary.n_found) == (2, 1)
+    assert summary.median_abs_error_pct == pytest.approx(5.0) == summary.max_abs_error_pct
+    assert (summary.false_alarms_on_shadow, summary.false_alarms_on_marking, summary.false_alarms_other) == (1, 0, 1)
+    assert summary.missed == ("seed 7: #3 box at 6.0 m (100 px)",)
+    assert summarise([evaluation], max_distance_m=5.0, min_visible_px=50).n_obstacles == 0
+
+
+@pytest.mark.parametrize("kwargs, match", [({"min_height_m": -1.0}, "min_height_m"),
+                                           ({"max_distance_m": float("nan")}, "max_distance_m")])
+def test_summary_refuses_bad_limits(kwargs, match):
+    with pytest.raises(InvalidInputError, match=match):
+        summarise([], **kwargs)
