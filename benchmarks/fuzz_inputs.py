@@ -125,7 +125,7 @@ def option_grammar(files: dict[str, str]):
                   flags(("--task", st.sampled_from(["detect", "disparity"])), ("--max-disparity", numbers),
                         ("--calib", calib))),
         st.tuples(st.just(["evaluate-segmentation", "--scenes", "0"]),
-                  flags(("--kitti", st.sampled_from([files["dataset"], files["folder"], files["missing"]])),
+                  flags(("--dataset", st.sampled_from([files["dataset"], files["folder"], files["missing"]])),
                         ("--json", out_file), ("--first-seed", numbers))),
         st.tuples(st.just(["evaluate-detection", "--scenes", "0"]),
                   flags(("--dataset", st.sampled_from([files["dataset"], files["folder"], files["missing"]])),

@@ -116,3 +116,13 @@ def test_kitti_truth_on_real_frame(shared_dataset):
     assert plane.b == pytest.approx(0.33, abs=0.05)              # B / h = 0.54 / 1.65
     assert np.count_nonzero(labels == Label.GROUND) > 10000
     assert np.count_nonzero(labels == Label.OBSTACLE) > 10000
+
+
+@pytest.mark.shared_data
+def test_evaluate_segmentation_dataset_option_and_its_old_name(shared_dataset, capsys):
+    folder = str(shared_dataset("kitti2015_000046"))
+    assert main(["evaluate-segmentation", "--scenes", "0", "--dataset", folder]) == 0
+    new = capsys.readouterr().out
+    assert "| kitti2015_000046 | 1 | on |" in new
+    assert main(["evaluate-segmentation", "--scenes", "0", "--kitti", folder]) == 0
+    assert capsys.readouterr().out == new

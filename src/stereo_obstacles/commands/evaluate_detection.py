@@ -24,8 +24,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="count true obstacles at least this high (default 0.3 m)")
     parser.add_argument("--max-distance", type=float, default=10.0, metavar="M",
                         help="count true obstacles up to this distance (default 10 m)")
-    parser.add_argument("--dataset", action="append", default=[], metavar="DIR",
-                        help="calibrated dataset folder (e.g. KITTI) for the depth comparison; repeatable")
+    parser.add_argument("--dataset", nargs="+", action="extend", default=[], metavar="DIR",
+                        help="calibrated dataset folders (e.g. KITTI) for the depth comparison (several after "
+                             "one --dataset, or --dataset repeated)")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.set_defaults(handler=run)
 

@@ -13,11 +13,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "evaluate-segmentation",
         help="score the ground/shadow/obstacle segmentation on synthetic scenes and KITTI",
         description=(
-            "Render --seeds random synthetic scenes (ground material, sun direction, obstacles and "
+            "Render --scenes random synthetic scenes (ground material, sun direction, obstacles and "
             "a tree shadow drawn per seed) and score phase 1 against their labels, with the "
             "shadow rule on and off: balanced error rate (obstacle vs ground, shadow counting "
             "as ground, sky and markings ignored), obstacle recall, shadow pixels called "
-            "obstacle. --kitti folders (KITTI pairs with ground-truth disparity) are scored "
+            "obstacle. --dataset folders (KITTI pairs with ground-truth disparity) are scored "
             "against labels derived from the road plane fitted to the ground truth. Prints "
             "Markdown tables; --json writes everything."),
     )
@@ -28,9 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="first seed (default 0)")
     parser.add_argument("--size", default="640x480", metavar="WxH",
                         help="synthetic image size (default 640x480)")
-    parser.add_argument("--kitti", nargs="+", action="extend", default=[], metavar="DIR",
-                        help="KITTI folders with a left image and ground-truth disparity "
-                             "(several after one --kitti, or --kitti repeated)")
+    parser.add_argument("--dataset", "--kitti", dest="kitti", nargs="+", action="extend", default=[], metavar="DIR",
+                        help="KITTI folders with a left image and ground-truth disparity (several after one "
+                             "--dataset, or --dataset repeated; --kitti is the older name)")
     parser.add_argument("--json", metavar="FILE", default=None, help="also write the results as JSON")
     parser.set_defaults(handler=run)
 
