@@ -168,7 +168,7 @@ def test_only_the_images_own_shadow_shift_is_kept():
     full = shadow_shifts(GroundColourParameters(), (0.4, 0.8))
     ground = _u8(np.random.default_rng(3).normal((90, 140, 60), 3, (120, 160, 3)))
     ground[10:40] = _u8(ground[10:40] * SKYLIGHT)        # the real shadow: one shift
-    model = build_ground_colour_model(ground, (0, 100, 160, 120))
+    model = build_ground_colour_model(ground, (0, 100, 160, 120), params=GroundColourParameters(shift_chroma_radius_bins=2))
     kept = {tuple(row) for row in model.shifts.tolist()}
     assert kept < {tuple(row) for row in full.tolist()} and len(kept) < len(full) // 3
     # the real shadow stays shadow ...
@@ -176,6 +176,5 @@ def test_only_the_images_own_shadow_shift_is_kept():
     assert flags[15:35, :, 1].mean() > 0.8
     # ... while the ground under another light of the family (darker, much bluer) is dropped
     other = _u8(np.random.default_rng(4).normal((90, 140, 60), 3, (20, 20, 3)) * (0.34, 0.45, 0.595))
-    wide = build_ground_colour_model(ground, (0, 100, 160, 120),
-                                     params=GroundColourParameters(shift_chroma_radius_bins=None))
+    wide = build_ground_colour_model(ground, (0, 100, 160, 120))                 # the default: every shift
     assert colour_flags(other, wide, 0.05)[0][..., 1].mean() > colour_flags(other, model, 0.05)[0][..., 1].mean() + 0.3
