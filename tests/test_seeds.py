@@ -49,6 +49,13 @@ def test_scanline_matching_finds_the_shift_and_equals_brute_force():
     for y, x, c in zip(seeds.y, seeds.x, seeds.similarity):
         brute = max(ref.similarity(left, right, y, x, x - d) for d in range(0, min(8, x) + 1))
         assert c == pytest.approx(brute, abs=1e-5)
+    for n_threads in (2, 3, 5):  # chunks searched in threads: the same seeds and counts
+        threaded = match_pixels(inputs, ys, xs, d_min=0, d_max=8, tau=0.6, margin=0.1, n_threads=n_threads)
+        for field in ("y", "x", "x_right", "similarity", "scanned_hi"):
+            np.testing.assert_array_equal(getattr(threaded, field), getattr(seeds, field))
+        assert threaded.n_evaluated == seeds.n_evaluated
+    with pytest.raises(InvalidInputError, match="n_threads"):
+        match_pixels(inputs, ys, xs, d_min=0, d_max=8, tau=0.6, margin=0.1, n_threads=0)
 
 
 def test_ambiguous_pixels_are_not_seeds():

@@ -59,3 +59,30 @@ def test_to_grey_and_errors():
     s = prepare_similarity(np.zeros((5, 5), np.float32), np.zeros((5, 5), np.float32))
     with pytest.raises(InvalidInputError, match="points"):
         similarity_at(s, np.array(0), np.array(5), np.array(0))
+
+
+@pytest.mark.parametrize("kind", ["ncc", "mncc"])
+def test_two_threads_prepare_the_same_inputs(kind):
+    rng = np.random.default_rng(3)
+    left, right = rng.uniform(0, 255, (2, 30, 40)).astype(np.float32)
+    one = prepare_similarity(left, right, kind=kind)
+    two = prepare_similarity(left, right, kind=kind, n_threads=2)
+    for a, b in zip(one.kernel_args(), two.kernel_args()):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(InvalidInputError, match="n_threads"):
+        prepare_similarity(left, right, n_threads=0)
+
+
+def test_window_norms_equal_the_numpy_expressions():
+    rng = np.random.default_rng(4)
+    grey = rng.uniform(0, 255, (20, 25)).astype(np.float32)
+    grey[5:15, 5:15] = 7.0  # flat windows
+    inputs = prepare_similarity(grey, grey)
+    centred = np.pad(grey.astype(np.float64) - float(grey.mean()), 2, mode="reflect")
+    windows = np.lib.stride_tricks.sliding_window_view(centred, (5, 5))
+    var = windows.var(axis=(2, 3))
+    np.testing.assert_allclose(inputs.mean_l, windows.mean(axis=(2, 3)), atol=1e-4)
+    flat = var < 1.0
+    assert flat.any() and not flat.all()
+    np.testing.assert_array_equal(inputs.norm_l[flat], 0.0)
+    np.testing.assert_allclose(inputs.norm_l[~flat], 1.0 / np.sqrt(var[~flat]), rtol=1e-5)

@@ -54,16 +54,40 @@ def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x,
     return c
 
 
-@njit(cache=CACHE, fastmath=FASTMATH)
+@njit(cache=CACHE, nogil=True)
+def _window_norms(mean, sqr_mean, kind, min_var):
+    """float32 window means and norms from float64 window means and mean squares (H, W).
+
+    The norm is ``1 / std`` (NCC) or the variance (MNCC), 0 where the variance is below
+    ``min_var`` (flat). No fast-math: the values are those of the same NumPy expressions.
+    """
+    h, w = mean.shape
+    mean32 = np.empty((h, w), np.float32)
+    norm = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            m = mean[y, x]
+            var = sqr_mean[y, x] - m * m
+            mean32[y, x] = m
+            if var < min_var:
+                norm[y, x] = 0.0
+            elif kind == KIND_NCC:
+                norm[y, x] = 1.0 / np.sqrt(var)
+            else:
+                norm[y, x] = var
+    return mean32, norm
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _scan_best(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, ys, xs, d_min, d_max,
                exclusion):
     """Best and runner-up similarity of each listed left pixel along its scanline.
 
     The runner-up ignores disparities within ``exclusion`` of the best one (the same peak).
     Returns ``(best_d, best_c, second_c, n_evaluated)``; ``best_d`` is -1 where the
-    scanline holds no admissible disparity. Serial: with thinned seeds the search is a few
-    milliseconds, less than waking a thread pool on a busy machine (measured: 0.5 ms serial,
-    25 ms with ``prange`` on Tsukuba).
+    scanline holds no admissible disparity. Serial, no ``prange`` (waking numba's pool cost more
+    than the search: 25 ms against 0.5 ms on Tsukuba); the wrapper may run chunks of pixels in
+    the persistent threads of :mod:`stereo_obstacles.thread_pool` instead (``nogil``).
     """
     n = ys.shape[0]
     best_d = np.full(n, -1, np.int32)

@@ -16,7 +16,6 @@ others on a persistent pool, so a call wakes ``n_bands - 1`` idle threads.
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,15 +26,12 @@ from stereo_obstacles.seeds import Seeds
 from stereo_obstacles.similarity import RADIUS, SimilarityInputs
 from stereo_obstacles.stable_matching import stable_matching
 from stereo_obstacles.subpixel import parabola_offset
+from stereo_obstacles.thread_pool import run_in_threads
 
-__all__ = ["BandedMatch", "BAND_OVERLAP", "band_rows", "match_bands", "run_in_threads"]
+__all__ = ["BandedMatch", "BAND_OVERLAP", "band_rows", "match_bands"]
 
 BAND_OVERLAP = 16
 """Rows of each neighbouring band a band also grows over (see ``docs/matching.md``)."""
-
-_pool: ThreadPoolExecutor | None = None
-_pool_size = 0
-
 
 @dataclass(frozen=True)
 class BandedMatch:
@@ -121,26 +117,6 @@ def _match_band(inputs, seeds, scanned_hi, rows, options, t_start):
     c_minus, c_plus = growth.side_similarities(y, x, x - xr)
     counts = (int(own.sum()), growth.n_computed, growth.n_rescanned, growth.n_overflow)
     return (y + lo).astype(np.int32), x, xr, c, parabola_offset(c_minus, c, c_plus), counts, t_grown, t_matched
-
-
-def _executor(n_workers: int) -> ThreadPoolExecutor:
-    global _pool, _pool_size
-    if _pool is None or _pool_size < n_workers:
-        if _pool is not None:
-            _pool.shutdown(wait=True)
-        _pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="gcs-band")
-        _pool_size = n_workers
-    return _pool
-
-
-def run_in_threads(function, arguments: list[tuple]) -> list:
-    """``[function(*a) for a in arguments]``, the first call on the calling thread and the others on
-    the persistent pool (``function`` should release the GIL to gain anything)."""
-    if not arguments:
-        return []
-    pool = _executor(len(arguments) - 1) if len(arguments) > 1 else None
-    futures = [pool.submit(function, *a) for a in arguments[1:]]
-    return [function(*arguments[0])] + [f.result() for f in futures]
 
 
 def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarray, n_bands: int,

@@ -294,14 +294,14 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     d_max = min(d_max, w - 1)
     if d_min > d_max:
         raise InvalidInputError(f"min_disparity: expected < image width {w}, got {d_min}")
-    inputs = prepare_similarity(left_grey, right_grey, kind=similarity, min_std=min_std)
+    inputs = prepare_similarity(left_grey, right_grey, kind=similarity, min_std=min_std, n_threads=int(bands))
     t1 = time.perf_counter()
 
     if seed_points is not None:
         found = user_seeds(inputs, seed_points, d_min=d_min, d_max=d_max)
     else:
         found = find_seeds(inputs, left_grey, seeds, d_min=d_min, d_max=d_max, tau=tau, margin=seed_margin,
-                           rng_seed=rng_seed, spacing=seed_spacing)
+                           rng_seed=rng_seed, spacing=seed_spacing, n_threads=int(bands))
     t2 = time.perf_counter()
 
     scanned_hi = found.scanned_hi if found.scanned_hi is not None else np.full((h, w), -1, np.int32)

@@ -18,6 +18,7 @@ import numpy as np
 from stereo_obstacles._similarity_kernel import _scan_best
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.similarity import SimilarityInputs, similarity_at
+from stereo_obstacles.thread_pool import run_in_threads
 
 __all__ = ["EDGE_PERCENTILE", "SEED_SOURCES", "Seeds", "edge_pixels", "find_seeds", "match_pixels",
            "random_pixels", "user_seeds"]
@@ -147,7 +148,7 @@ def random_pixels(shape: tuple[int, int], count: int, rng_seed: int = 0) -> tupl
 
 
 def match_pixels(inputs: SimilarityInputs, ys: np.ndarray, xs: np.ndarray, *, d_min: int, d_max: int,
-                 tau: float, margin: float) -> Seeds:
+                 tau: float, margin: float, n_threads: int = 1) -> Seeds:
     """Match left pixels along their scanlines and keep the distinctive best matches.
 
     Parameters
@@ -161,6 +162,8 @@ def match_pixels(inputs: SimilarityInputs, ys: np.ndarray, xs: np.ndarray, *, d_
         Minimum similarity of a seed.
     margin : float
         The best similarity must beat the runner-up outside ``d +- 1`` by this much.
+    n_threads : int
+        The pixels are searched in this many equal chunks, one thread each (same result).
 
     Returns
     -------
@@ -171,7 +174,13 @@ def match_pixels(inputs: SimilarityInputs, ys: np.ndarray, xs: np.ndarray, *, d_
     if ys.size == 0:
         empty = np.empty(0, np.int32)
         return Seeds(empty, empty, empty, np.empty(0, np.float32), 0, 0)
-    best_d, best_c, second_c, n_eval = _scan_best(*inputs.kernel_args(), ys, xs, d_min, d_max, 1)
+    if int(n_threads) != n_threads or n_threads < 1:
+        raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
+    edges = np.linspace(0, ys.size, int(n_threads) + 1).astype(int)
+    parts = run_in_threads(_scan_best, [(*inputs.kernel_args(), ys[lo:hi], xs[lo:hi], d_min, d_max, 1)
+                                        for lo, hi in zip(edges[:-1], edges[1:])])
+    best_d, best_c, second_c = (np.concatenate([p[k] for p in parts]) for k in range(3))
+    n_eval = sum(p[3] for p in parts)
     keep = (best_d >= 0) & (best_c >= tau) & (best_c - second_c >= margin)
     scanned_hi = np.full(inputs.shape, -1, np.int32)
     scanned_hi[ys, xs] = np.where(np.minimum(xs, d_max) >= d_min, np.minimum(xs, d_max), -1)
@@ -204,12 +213,13 @@ def user_seeds(inputs: SimilarityInputs, points: np.ndarray, *, d_min: int, d_ma
 
 def find_seeds(inputs: SimilarityInputs, left_grey: np.ndarray, source: str, *, d_min: int, d_max: int,
                tau: float, margin: float, rng_seed: int = 0, random_fraction: float = 0.1,
-               spacing: int = 1) -> Seeds:
+               spacing: int = 1, n_threads: int = 1) -> Seeds:
     """Seeds from a named source: ``"canny"``, ``"sobel"`` or ``"random"``.
 
     Edge seeds keep at most one pixel per ``spacing x spacing`` cell (see :func:`edge_pixels`);
     ``"random"`` matches ``random_fraction / spacing`` of all pixels, chosen with ``rng_seed``
     (with the defaults, about as many pixels as the thinned Canny edges of the Middlebury pairs).
+    The scanline searches run in ``n_threads`` threads (:func:`match_pixels`).
     """
     if source in ("canny", "sobel"):
         ys, xs = edge_pixels(left_grey, source, spacing)
@@ -217,6 +227,6 @@ def find_seeds(inputs: SimilarityInputs, left_grey: np.ndarray, source: str, *, 
         ys, xs = random_pixels(left_grey.shape, round(random_fraction * left_grey.size / spacing), rng_seed)
     else:
         raise InvalidInputError(f"seeds: expected one of {list(SEED_SOURCES)} or points, got {source!r}")
-    seeds = match_pixels(inputs, ys, xs, d_min=d_min, d_max=d_max, tau=tau, margin=margin)
+    seeds = match_pixels(inputs, ys, xs, d_min=d_min, d_max=d_max, tau=tau, margin=margin, n_threads=n_threads)
     logger.debug("%s seeds: %d of %d pixels kept", source, len(seeds), seeds.n_candidates)
     return seeds

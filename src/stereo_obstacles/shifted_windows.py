@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from stereo_obstacles._shifted_windows_kernel import _shifted_window_kernel
-from stereo_obstacles.banded import run_in_threads
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.similarity import SimilarityInputs
+from stereo_obstacles.thread_pool import run_in_threads
 
 __all__ = ["shifted_window_check"]
 

@@ -21,8 +21,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from stereo_obstacles._similarity_kernel import KIND_MNCC, KIND_NCC, RADIUS, UNDEFINED, _similarity
+from stereo_obstacles._similarity_kernel import KIND_MNCC, KIND_NCC, RADIUS, UNDEFINED, _similarity, _window_norms
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.thread_pool import run_in_threads
 
 __all__ = ["KINDS", "RADIUS", "UNDEFINED", "SimilarityInputs", "prepare_similarity", "similarity_at",
            "to_grey"]
@@ -119,21 +120,16 @@ def _window_stats(grey: np.ndarray, kind: int, min_std: float) -> tuple[np.ndarr
     side = 2 * RADIUS + 1
     # OpenCV's own border handling gives the same windows as filtering the padded image
     mean = cv2.boxFilter(centred, cv2.CV_64F, (side, side), normalize=True, borderType=cv2.BORDER_REFLECT_101)
-    var = cv2.sqrBoxFilter(centred, cv2.CV_64F, (side, side), normalize=True, borderType=cv2.BORDER_REFLECT_101)
-    var -= mean * mean
-    flat = var < max(min_std * min_std, 1e-12)  # a zero variance is flat even with min_std 0
-    var[flat] = 1.0  # any positive value: flat windows get norm 0 below
-    if kind == KIND_NCC:
-        norm = 1.0 / np.sqrt(var)
-    else:
-        norm = var
-    norm[flat] = 0.0
+    sqr_mean = cv2.sqrBoxFilter(centred, cv2.CV_64F, (side, side), normalize=True,
+                                borderType=cv2.BORDER_REFLECT_101)
+    # a zero variance is flat even with min_std 0
+    mean32, norm = _window_norms(mean, sqr_mean, kind, max(min_std * min_std, 1e-12))
     pad = cv2.copyMakeBorder(centred.astype(np.float32), RADIUS, RADIUS, RADIUS, RADIUS, cv2.BORDER_REFLECT_101)
-    return pad, mean.astype(np.float32), norm.astype(np.float32)
+    return pad, mean32, norm
 
 
 def prepare_similarity(left_grey: np.ndarray, right_grey: np.ndarray, *, kind: str = "ncc",
-                       min_std: float = 1.0) -> SimilarityInputs:
+                       min_std: float = 1.0, n_threads: int = 1) -> SimilarityInputs:
     """Pad both grey images and precompute their window statistics.
 
     Parameters
@@ -145,6 +141,8 @@ def prepare_similarity(left_grey: np.ndarray, right_grey: np.ndarray, *, kind: s
     min_std : float
         Windows with a standard deviation below this (grey levels) are flat: points
         touching them score :data:`UNDEFINED`.
+    n_threads : int
+        2 (or more) prepares the two images in two threads; 1 one after the other. Same result.
 
     Returns
     -------
@@ -154,9 +152,12 @@ def prepare_similarity(left_grey: np.ndarray, right_grey: np.ndarray, *, kind: s
         raise InvalidInputError(f"similarity: expected one of {sorted(KINDS)}, got {kind!r}")
     if not min_std >= 0.0:
         raise InvalidInputError(f"min_std: expected >= 0, got {min_std}")
+    if int(n_threads) != n_threads or n_threads < 1:
+        raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
     code = KINDS[kind]
-    lp, ml, nl = _window_stats(left_grey, code, min_std)
-    rp, mr, nr = _window_stats(right_grey, code, min_std)
+    images = [(left_grey, code, min_std), (right_grey, code, min_std)]
+    (lp, ml, nl), (rp, mr, nr) = (run_in_threads(_window_stats, images) if n_threads > 1
+                                  else [_window_stats(*a) for a in images])
     return SimilarityInputs(lp, rp, ml, nl, mr, nr, code)
 
 
