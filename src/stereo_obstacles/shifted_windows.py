@@ -13,11 +13,12 @@ products of a 9 x 9 tile. Measured in ``docs/matching.md``.
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from stereo_obstacles._shifted_windows_kernel import _shifted_window_kernel
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.similarity import SimilarityInputs
+from stereo_obstacles.similarity import RADIUS, SimilarityInputs
 from stereo_obstacles.thread_pool import run_in_threads
 
 __all__ = ["shifted_window_check"]
@@ -57,6 +58,8 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     ([True], 0)
     """
     h, w = inputs.shape
+    if int(n_threads) != n_threads or n_threads < 1:
+        raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
     ys, xs, ds = (np.ascontiguousarray(a, np.int64).ravel() for a in (y, x, d))
     if not ys.shape == xs.shape == ds.shape:
         raise InvalidInputError(f"y, x, d: expected one length, got {ys.shape}, {xs.shape}, {ds.shape}")
@@ -67,9 +70,13 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     d_map[ys, xs] = ds
     if np.count_nonzero(d_map >= 0) != ys.size:
         raise InvalidInputError("y, x: expected each left pixel at most once")
-    if int(n_threads) != n_threads or n_threads < 1:
-        raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
+    # smallest and largest disparity in the square around each pixel (exact: disparities < 2^24)
+    square = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
+    as_float = d_map.astype(np.float32)
+    sq_hi = cv2.dilate(as_float, square, borderType=cv2.BORDER_CONSTANT, borderValue=-1.0)
+    sq_lo = cv2.erode(np.where(d_map >= 0, as_float, np.inf).astype(np.float32), square,
+                      borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
     edges = np.linspace(0, ys.size, int(n_threads) + 1).astype(int)
-    parts = run_in_threads(_shifted_window_kernel, [(*inputs.kernel_args(), d_map, ys[lo:hi], xs[lo:hi])
-                                                    for lo, hi in zip(edges[:-1], edges[1:])])
+    parts = run_in_threads(_shifted_window_kernel, [(*inputs.kernel_args(), d_map, sq_lo, sq_hi, ys[lo:hi],
+                                                     xs[lo:hi]) for lo, hi in zip(edges[:-1], edges[1:])])
     return np.concatenate([p[0] for p in parts]), int(sum(p[1] for p in parts))
