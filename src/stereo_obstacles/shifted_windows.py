@@ -1,4 +1,4 @@
-"""Shifted-window check of the final matches near depth edges (an extension, off by default).
+"""Shifted-window check of the final matches near depth edges (an extension of GCS, on by default).
 
 A 5 x 5 window centred on a background pixel next to a textured foreground object is
 dominated by the foreground, so the background pixel takes the foreground disparity
