@@ -10,6 +10,7 @@ asked, and passes the obstacles to an :class:`~stereo_obstacles.tracking.Obstacl
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
 
@@ -86,7 +87,9 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
         result = detect(frame.left, frame.right, calibration, config=config if number == 0 else later_frames,
                         seed_points=points)
         if seeder is not None:
-            seeder.observe(result.disparity, d_min=result.match_stats.d_min, d_max=result.match_stats.d_max)
+            scale = config.matching_scale  # the match's range counts reduced pixels; the disparity full-size ones
+            seeder.observe(result.disparity, d_min=math.floor(result.match_stats.d_min / scale),
+                           d_max=math.floor(result.match_stats.d_max / scale))
         tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
         yield FrameDetection(frame, result, tuple(tracks), "edge" if points is None else "temporal",
                              0 if points is None else len(points))

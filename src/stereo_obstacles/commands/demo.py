@@ -50,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.synthetic import default_scene, random_scene, render_pair, write_scene_folder
 
     width, height = image_size(args.size)
+    config = config_from_args(args)  # every option is checked before anything is written
     if args.seed < 0:
         raise InvalidInputError(f"--seed must be >= 0, got {args.seed}")
     scene = default_scene(width, height) if args.seed == 0 else random_scene(args.seed, width_px=width,
@@ -62,7 +63,6 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     warm_up()
     compile_s = time.perf_counter() - started
-    config = config_from_args(args)
     result = run_detection(pair.left, pair.right, pair.calibration, config, out,
                            inputs={"left": str(out / "scene" / "left.png"), "right": str(out / "scene" / "right.png"),
                                    "calibration": str(out / "scene" / "calibration.json")})

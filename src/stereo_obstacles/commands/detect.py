@@ -21,6 +21,9 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
                        help="width of the walking corridor straight ahead, metres (default 1.0)")
     group.add_argument("--max-distance", type=float, default=None, metavar="M",
                        help="report obstacles up to this distance, metres (default 30)")
+    group.add_argument("--matching-scale", type=float, default=None, metavar="S",
+                       help="match a copy of the pair shrunk by S in (0, 1]: 0.5 is 3-4x faster, with "
+                            "twice the disparity error (default 1)")
 
 
 def config_from_args(args: argparse.Namespace):
@@ -31,6 +34,8 @@ def config_from_args(args: argparse.Namespace):
     from stereo_obstacles.reference_area import ReferenceArea
 
     config = DetectionConfig(matching=MatchingOptions(seeds=args.seeds, max_disparity=args.max_disparity))
+    if args.matching_scale is not None:
+        config = replace(config, matching_scale=args.matching_scale)
     if args.reference is not None:
         config = replace(config, reference=ReferenceArea.parse(args.reference))
     obstacle_changes = {name: value for name, value in (("corridor_width_m", args.corridor_width),

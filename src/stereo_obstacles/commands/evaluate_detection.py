@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from stereo_obstacles.commands._arguments import non_negative_int
+
+if TYPE_CHECKING:  # imported in run(): --help stays instant
+    from stereo_obstacles.pipeline import DetectionConfig
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -27,11 +31,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--dataset", nargs="+", action="extend", default=[], metavar="DIR",
                         help="calibrated dataset folders (e.g. KITTI) for the depth comparison (several after "
                              "one --dataset, or --dataset repeated)")
+    parser.add_argument("--matching-scale", type=float, default=1.0, metavar="S",
+                        help="match copies of the pairs shrunk by S in (0, 1] (default 1; see detect)")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.set_defaults(handler=run)
 
 
-def _dataset_figures(folder: str) -> dict:
+def _dataset_figures(folder: str, config: DetectionConfig) -> dict:
+    """Depth from ``detect`` (with ``config``) against the folder's ground-truth disparity."""
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.depth_evaluation import depth_agreement
     from stereo_obstacles.errors import InvalidInputError
@@ -40,7 +47,7 @@ def _dataset_figures(folder: str) -> dict:
     pair = load_pair(folder)
     if pair.calibration is None or pair.gt_disparity is None:
         raise InvalidInputError(f"{folder} needs a calibration and a ground-truth disparity for the depth comparison")
-    result = detect(pair.left, pair.right, pair.calibration)
+    result = detect(pair.left, pair.right, pair.calibration, config=config)
     return {"name": pair.name, "density_pct": 100 * result.match_stats.density,
             "matched": depth_agreement(result.disparity, pair.gt_disparity, pair.calibration).to_dict(),
             "obstacle_pixels": depth_agreement(result.disparity, pair.gt_disparity, pair.calibration,
@@ -56,15 +63,16 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._arguments import image_size
     from stereo_obstacles.detection_evaluation import evaluate_synthetic_scene, summarise
     from stereo_obstacles.evaluation import machine_info
-    from stereo_obstacles.pipeline import warm_up
+    from stereo_obstacles.pipeline import DetectionConfig, warm_up
 
     width, height = image_size(args.size)
+    config = DetectionConfig(matching_scale=args.matching_scale)
     warm_up()
-    evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height)
+    evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config)
                    for seed in range(args.first_seed, args.first_seed + args.scenes)]
     summary = summarise(evaluations, min_height_m=args.min_height, max_distance_m=args.max_distance)
-    report = {"machine": machine_info(), "synthetic": summary.to_dict(),
-              "datasets": [_dataset_figures(folder) for folder in args.dataset]}
+    report = {"machine": machine_info(), "config": config.to_dict(), "synthetic": summary.to_dict(),
+              "datasets": [_dataset_figures(folder, config) for folder in args.dataset]}
     s = summary
     if s.n_scenes:
         print(f"synthetic scenes {args.first_seed}..{args.first_seed + args.scenes - 1} ({width}x{height}): "

@@ -1,0 +1,74 @@
+"""Matching a reduced copy of the pair: exact at scale 1, full-size disparities at scale 0.5."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.cli import main
+from stereo_obstacles.detection_evaluation import compare_with_truth
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.matching import match
+from stereo_obstacles.pipeline import DetectionConfig, detect
+from stereo_obstacles.scaled_matching import check_scale, match_at_scale, scaled_size
+from stereo_obstacles.synthetic import default_scene, render_pair
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return render_pair(default_scene(320, 240))
+
+
+def test_scale_one_is_the_plain_match(pair):
+    disparity, result = match_at_scale(pair.left, pair.right, 1.0, max_disparity=32)
+    plain = match(pair.left, pair.right, max_disparity=32)
+    np.testing.assert_array_equal(disparity, plain.disparity)
+    assert result.disparity is disparity
+
+
+def test_half_scale_gives_full_size_disparities_near_the_truth(pair):
+    disparity, result = match_at_scale(pair.left, pair.right, 0.5, max_disparity=32)
+    assert disparity.shape == pair.left.shape[:2] and disparity.dtype == np.float32
+    assert result.disparity.shape == (120, 160) and result.stats.d_max == 16
+    usable = pair.nonocc & np.isfinite(disparity)
+    assert usable.sum() > 0.7 * pair.nonocc.sum()
+    error = np.abs(disparity[usable] - pair.disparity[usable])
+    assert np.median(error) < 0.4 and np.mean(error > 2.0) < 0.05
+    whole = match(pair.left, pair.right, max_disparity=32).disparity
+    assert np.median(error) > np.median(np.abs(whole - pair.disparity)[pair.nonocc & np.isfinite(whole)])
+
+
+def test_full_size_seeds_are_moved_and_out_of_range_ones_dropped(pair):
+    ys, xs = np.nonzero(pair.nonocc & (pair.disparity > 4))
+    true = [[xs[i], ys[i], round(float(pair.disparity[ys[i], xs[i]]))] for i in range(0, len(xs), len(xs) // 20)]
+    seeds = np.array(true + [[100, 100, 500], [-5, 3, 1], [319, 239, 400]], dtype=float)
+    disparity, result = match_at_scale(pair.left, pair.right, 0.5, seed_points=seeds, max_disparity=32)
+    assert result.stats.n_seed_pixels == len(true)
+    assert np.isfinite(disparity).mean() > 0.3
+
+
+@pytest.mark.parametrize("bad", [0, -0.5, 1.5, float("nan"), True, "half"])
+def test_bad_scales_are_refused(bad):
+    with pytest.raises(InvalidInputError, match="matching scale must be in"):
+        check_scale(bad)
+    with pytest.raises(InvalidInputError):
+        DetectionConfig(matching_scale=bad)
+
+
+def test_scaled_size_keeps_at_least_one_pixel():
+    assert scaled_size(640, 480, 0.5) == (320, 240)
+    assert scaled_size(3, 2, 0.1) == (1, 1)
+
+
+def test_detect_at_half_scale_finds_the_default_scene(pair):
+    result = detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(matching_scale=0.5))
+    comparisons, alarms = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles)
+    found = [c for c in comparisons if c.detected_id is not None]
+    assert len(found) >= len(comparisons) - 1 and alarms == []
+    assert np.median([abs(c.relative_error) for c in found]) < 0.05
+
+
+def test_matching_scale_option(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path / "d"), "--matching-scale", "0"]) == 1
+    assert "matching scale must be in (0, 1], got 0.0" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
