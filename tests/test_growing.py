@@ -134,7 +134,7 @@ def test_points_of_seed_scanlines_are_not_counted_twice():
 @pytest.mark.parametrize("values", [
     np.random.default_rng(8).uniform(0.6, 1.0, 500),
     np.round(np.random.default_rng(9).uniform(0.6, 1.0, 300), 2),   # many ties
-    np.full(7, 0.9), np.array([0.7]),
+    np.full(7, 0.9), np.array([0.7]), np.array([]),
 ])
 def test_best_first_order_is_a_stable_descending_sort(values):
     from stereo_obstacles._stable_matching_kernel import _best_first
