@@ -110,3 +110,21 @@ def test_near_face_depth_equals_the_percentile_of_patch_medians():
     medians = [np.median(z[patch == p]) for p in np.unique(patch)]
     for percentile in (0.0, 10.0, 50.0):
         assert _near_face_depth(xs, ys, z, percentile) == pytest.approx(np.percentile(medians, percentile))
+
+
+def test_far_ground_raised_by_disparity_noise_does_not_stand():
+    from stereo_obstacles.obstacles import standing_pixels
+
+    h, w = RIG.height_px, RIG.width_px
+    yy, xx = np.mgrid[0:h, 0:w]
+    disparity = np.where(yy > RIG.cy_px, GROUND.disparity_at(xx, yy), np.nan).astype(np.float32)
+    far, near = (yy == 124), (yy == 200)              # plane disparity 0.4 px (~105 m) and 8 px (~5 m)
+    disparity[far] += 0.3                             # noise: 0.3 px is ~1 m of height at 105 m
+    disparity[near] += 0.3                            # the same 0.3 px is ~5 cm there: flat
+    everything = np.isfinite(disparity)
+    loose = standing_pixels(everything, disparity, GROUND, RIG)
+    strict = standing_pixels(everything, disparity, GROUND, RIG, min_excess_px=0.5)
+    assert loose[far].all() and not strict[far].any()
+    assert not loose[near].any() and not strict[near].any()
+    disparity[near] += 2.0                            # 2.3 px above the plane at 5 m: ~35 cm, stands
+    assert standing_pixels(everything, disparity, GROUND, RIG, min_excess_px=0.5)[near].all()

@@ -95,3 +95,9 @@ def test_kitti_depth_agrees_with_the_lidar_ground_truth(shared_dataset):
     assert result.ground is not None and 0.25 < result.ground.b < 0.4  # B / camera height on KITTI
     near = [o for o in result.obstacles.obstacles if o.distance_m < 20]
     assert near, "parked cars within 20 m should be reported"
+
+
+@pytest.mark.parametrize("bad", [-0.1, float("nan")])
+def test_bad_geometric_excess_is_refused(bad):
+    with pytest.raises(InvalidInputError, match="geometric_min_excess_px"):
+        DetectionConfig(geometric_min_excess_px=bad)

@@ -131,8 +131,10 @@ class ObstacleList:
 
 def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: GroundPlane | None,
                     calibration: StereoCalibration | None,
-                    params: ObstacleParameters = ObstacleParameters()) -> np.ndarray:
-    """Candidate pixels with a disparity that stand above the ground by the flat tolerance or more.
+                    params: ObstacleParameters = ObstacleParameters(), *, min_excess_px: float = 0.0) -> np.ndarray:
+    """Candidate pixels with a disparity that stand above the ground by the flat tolerance or more
+    (and, with a calibration, whose disparity exceeds the plane's by ``min_excess_px`` or more:
+    far away, disparity noise alone is a large height).
 
     Grouping only standing pixels keeps two objects from being chained together through the
     ground between them; the remaining (flat) candidates can be grouped separately to report
@@ -153,7 +155,7 @@ def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: Groun
         stands = disparities - ground.disparity_at(xs, ys) >= params.flat_tolerance_px
     else:
         stands = (pixel_height_above_ground_m(ground, xs, ys, disparities, calibration) >= params.flat_tolerance_m) & (
-            disparities + calibration.doffs_px > 0)
+            disparities + calibration.doffs_px > 0) & (disparities - ground.disparity_at(xs, ys) >= min_excess_px)
     result = np.zeros(d.shape, dtype=bool)
     result[ys[stands], xs[stands]] = True
     return result

@@ -73,7 +73,9 @@ class DetectionConfig:
     """Every option of the pipeline, grouped by stage; saved next to every output.
 
     ``geometric_min_height_m``: ground-labelled pixels this far above the ground plane become
-    obstacle candidates (needs a calibration; ``0`` switches it off).
+    obstacle candidates (needs a calibration; ``0`` switches it off), if their disparity also
+    exceeds the plane's by ``geometric_min_excess_px`` (full-size pixels; divided by
+    ``matching_scale``, whose disparities are that much noisier).
     ``check_rectification``: match ORB features first and warn when the pair does not look
     rectified (a stream can check its first frame only).
     ``matching_scale``: match a copy of the pair shrunk by this factor in ``(0, 1]``
@@ -89,11 +91,14 @@ class DetectionConfig:
     geometric_min_height_m: float = 0.15
     check_rectification: bool = True
     matching_scale: float = 1.0
+    geometric_min_excess_px: float = 0.5
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
             raise InvalidInputError(f"geometric_min_height_m must be >= 0, got {self.geometric_min_height_m}")
         check_scale(self.matching_scale)
+        if not math.isfinite(self.geometric_min_excess_px) or self.geometric_min_excess_px < 0:
+            raise InvalidInputError(f"geometric_min_excess_px must be >= 0, got {self.geometric_min_excess_px}")
 
     def to_dict(self) -> dict:
         """JSON-ready nested mapping of every option."""
@@ -216,10 +221,15 @@ def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray,
 
 
 def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray, ground: GroundPlane | None,
-                         calibration: StereoCalibration | None, min_height_m: float,
+                         calibration: StereoCalibration | None, min_height_m: float, min_excess_px: float,
                          colour_trusted: bool) -> np.ndarray:
     """Phase-1 obstacle pixels, plus ground-coloured pixels standing clearly above the plane
-    (or every matched pixel when the colour labels are not trusted)."""
+    (or every matched pixel when the colour labels are not trusted).
+
+    "Clearly": higher than ``min_height_m`` and with a disparity at least ``min_excess_px``
+    above the plane's, so that the disparity noise of far ground (where a small disparity
+    error is a large height) does not raise it.
+    """
     if not colour_trusted:
         return np.isfinite(disparity)
     candidates = segmentation.labels == Label.OBSTACLE
@@ -228,7 +238,7 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
     ys, xs = np.nonzero(segmentation.ground_mask & np.isfinite(disparity))
     d = disparity[ys, xs]
     raised = (pixel_height_above_ground_m(ground, xs, ys, d, calibration) > min_height_m) & (
-        d + calibration.doffs_px > 0)
+        d + calibration.doffs_px > 0) & (d - ground.disparity_at(xs, ys) >= min_excess_px)
     candidates = candidates.copy()
     candidates[ys[raised], xs[raised]] = True
     return candidates
@@ -342,9 +352,12 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     t = time.perf_counter()
     ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
+    min_excess_px = config.geometric_min_excess_px / config.matching_scale
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
+                                      min_excess_px,
                                       colour_trusted)
-    standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles)
+    standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles,
+                               min_excess_px=min_excess_px)
     obstacles = measure_obstacles(group_obstacle_pixels(disparity, standing, config.grouping), disparity,
                                   calibration, ground, config.obstacles)
     if ground is not None:
