@@ -32,7 +32,10 @@ reference counting on every iteration (measured: 4x slower growth).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import config, njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from stereo_obstacles._similarity_kernel import CACHE, FASTMATH, KIND_NCC, RADIUS, UNDEFINED
 
@@ -76,6 +79,36 @@ COUNT_BLOCKS = 2
 COUNT_RESCANNED = 3
 """Counter indices: points computed, overflows, overflow blocks used, computed points that a
 seed scanline search had already evaluated (so that visited points can be counted once)."""
+
+
+def _prefetch_python(arr, index):
+    """What :func:`_prefetch` does without the JIT (``NUMBA_DISABLE_JIT=1``): nothing, a prefetch
+    only changes timing."""
+
+
+if config.DISABLE_JIT:
+    _prefetch = _prefetch_python
+else:
+    @intrinsic
+    def _prefetch(typingctx, arr, index):
+        """Ask the CPU to start loading the cache line of ``arr[index]`` (1-D array, no bounds check:
+        a prefetch never faults)."""
+        sig = types.void(arr, index)
+
+        def codegen(context, builder, signature, args):
+            array_type, index_type = signature.args
+            array = context.make_array(array_type)(context, builder, args[0])
+            position = context.cast(builder, args[1], index_type, types.intp)
+            ptr = cgutils.get_item_pointer(context, builder, array_type, array, [position], wraparound=False)
+            byte_ptr = ir.IntType(8).as_pointer()
+            i32 = ir.IntType(32)
+            fn_type = ir.FunctionType(ir.VoidType(), [byte_ptr, i32, i32, i32])
+            fn = cgutils.get_or_insert_function(builder.module, fn_type, "llvm.prefetch.p0")
+            read, keep_in_all_levels, data = (ir.Constant(i32, v) for v in (0, 3, 1))
+            builder.call(fn, [builder.bitcast(ptr, byte_ptr), read, keep_in_all_levels, data])
+            return context.get_dummy_value()
+
+        return sig, codegen
 
 
 def buffer_size(h, w, n_slots):
@@ -173,6 +206,15 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             y = t_int[p, 0]
             x = t_int[p, 1]
             xr = t_int[p, 2]
+            # the records the groups on rows y - 1 and y + 1 and the cap tests on the right
+            # pixels will read: their loads were the slowest of the loop (perf)
+            if y > 0:
+                _prefetch(buf, ((y - 1) * w + x) * REC)
+                _prefetch(buf, ((y - 1) * w + xr) * REC)
+            if y + 1 < h:
+                _prefetch(buf, ((y + 1) * w + x) * REC)
+                _prefetch(buf, ((y + 1) * w + xr) * REC)
+            _prefetch(buf, (y * w + xr) * REC)
             g_lo = 0
             g_hi = _SEED_GROUP
         for g in range(g_lo, g_hi):
