@@ -22,13 +22,13 @@ HERE = Path(__file__).resolve()
 SHARED_DATA = HERE.parents[1].parent / "shared" / "data"
 
 
-def _time_pipeline(left, right, calibration, repeat: int) -> dict:
+def _time_pipeline(left, right, calibration, config, repeat: int) -> dict:
     from stereo_obstacles.pipeline import detect
 
     started = time.perf_counter()
-    detect(left, right, calibration)
+    detect(left, right, calibration, config=config)
     first = time.perf_counter() - started
-    runs = [detect(left, right, calibration).timings_s for _ in range(repeat)]
+    runs = [detect(left, right, calibration, config=config).timings_s for _ in range(repeat)]
     medians = {stage: statistics.median(r[stage] for r in runs) for stage in runs[0]}
     return {"first_call_s": first, "median_s": medians, "pairs_per_second": 1.0 / medians["total"]}
 
@@ -52,27 +52,29 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     from stereo_obstacles.evaluation import machine_info
-    from stereo_obstacles.pipeline import warm_up
+    from stereo_obstacles.pipeline import DetectionConfig, warm_up
     from stereo_obstacles.synthetic import default_scene, render_pair
 
     compile_s = warm_up()
     cases = {}
     pair = render_pair(default_scene(640, 480))
-    cases["synthetic default scene 640x480"] = (pair.left, pair.right, pair.calibration, 64)
+    cases["synthetic default scene 640x480"] = (pair.left, pair.right, pair.calibration, 64, DetectionConfig())
+    cases["the same, matching scale 0.5"] = (pair.left, pair.right, pair.calibration, 64,
+                                             DetectionConfig(matching_scale=0.5))
     kitti = SHARED_DATA / "kitti2015_000005"
     if kitti.is_dir():
         from stereo_obstacles.datasets import load_pair
 
         k = load_pair(kitti)
-        cases["KITTI 2015 000005 1242x375"] = (k.left, k.right, k.calibration, 128)
+        cases["KITTI 2015 000005 1242x375"] = (k.left, k.right, k.calibration, 128, DetectionConfig())
     results = {"machine": machine_info(), "warm_up_s": compile_s, "cases": {}}
     print(f"Machine: {results['machine']['cpu']}, {results['machine']['logical_cpus']} logical CPUs; "
           f"median of {args.repeat} runs after a warm-up; warm_up() {compile_s:.2f} s\n")
     print("| pair | first call [s] | segmentation [ms] | rectification check [ms] | matching [ms] | obstacles [ms] "
           "| total [ms] | pairs/s | SGBM alone [ms] |")
     print("|---|---|---|---|---|---|---|---|---|")
-    for name, (left, right, calibration, max_disparity) in cases.items():
-        figures = _time_pipeline(left, right, calibration, args.repeat)
+    for name, (left, right, calibration, max_disparity, config) in cases.items():
+        figures = _time_pipeline(left, right, calibration, config, args.repeat)
         figures["sgbm_s"] = _time_sgbm(left, right, max_disparity, args.repeat)
         results["cases"][name] = figures
         m = {k: 1000 * v for k, v in figures["median_s"].items()}

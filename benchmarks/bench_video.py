@@ -1,7 +1,7 @@
 """Video speed and accuracy: temporal seeds against edge seeds on a synthetic forward walk; memory over a long run.
 
 Run: ``python benchmarks/bench_video.py [--frames N] [--size WxH] [--memory-frames M]
-[--memory-size WxH] [--json FILE]``.
+[--memory-size WxH] [--matching-scale S] [--json FILE]``.
 
 1. Renders ``--frames`` pairs of the default scene with the rig walking forward 0.05 m per
    frame (1.4 m/s at ~30 fps), with exact ground truth.
@@ -29,6 +29,7 @@ import time
 import numpy as np
 
 from stereo_obstacles.matching import warm_up
+from stereo_obstacles.pipeline import DetectionConfig
 from stereo_obstacles.stream_detection import annotate_frame, detect_stream, frame_record
 from stereo_obstacles.streams import StereoFrame
 from stereo_obstacles.synthetic import default_scene, render_sequence
@@ -63,9 +64,10 @@ def _accuracy(disparity: np.ndarray, pair) -> tuple[float, float]:
     return bad, float(matched.sum() / known.sum())
 
 
-def _run_mode(pairs, calibration, temporal) -> list[dict]:
+def _run_mode(pairs, calibration, temporal, config) -> list[dict]:
     rows = []
-    for detection, pair in zip(detect_stream(_frames(pairs, len(pairs)), calibration, temporal=temporal), pairs):
+    for detection, pair in zip(detect_stream(_frames(pairs, len(pairs)), calibration, config=config,
+                                             temporal=temporal), pairs):
         bad, density = _accuracy(detection.result.disparity, pair)
         stats = detection.result.match_stats
         rows.append({"seeds": detection.seeds, "total_s": detection.result.timings_s["total"],
@@ -81,9 +83,12 @@ def main() -> None:
     parser.add_argument("--size", default="640x480")
     parser.add_argument("--memory-frames", type=int, default=1000)
     parser.add_argument("--memory-size", default="320x240")
+    parser.add_argument("--matching-scale", type=float, default=1.0,
+                        help="DetectionConfig.matching_scale of every run (default 1)")
     parser.add_argument("--json", metavar="FILE")
     args = parser.parse_args()
     width, height = _size(args.size)
+    config = DetectionConfig(matching_scale=args.matching_scale)
     machine = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, Python "
                f"{sys.version.split()[0]}, NumPy {np.__version__}, load average {os.getloadavg()[0]:.1f}")
     print(f"machine: {machine}")
@@ -97,8 +102,10 @@ def main() -> None:
     results: dict[str, list[list[dict]]] = {name: [] for name in modes}
     for _ in range(2):
         for name, temporal in modes.items():
-            results[name].append(_run_mode(pairs, calibration, temporal))
-    summary = {"machine": machine, "size": [width, height], "frames": len(pairs), "modes": {}}
+            results[name].append(_run_mode(pairs, calibration, temporal, config))
+    summary = {"machine": machine, "size": [width, height], "matching_scale": args.matching_scale,
+               "frames": len(pairs), "modes": {}}
+    print(f"matching scale {args.matching_scale:g}")
     print(f"\n{'seeds':<16} {'frame ms':>9} {'fps':>6} {'match ms':>9} {'bad-1 %':>8} {'density %':>10}")
     for name, runs in results.items():
         timed = [row for run in runs for row in run[WARM_UP_FRAMES:]]
@@ -135,7 +142,7 @@ def main() -> None:
         walk = list(render_sequence(default_scene(mw, mh), 12, SPEED_M_PER_FRAME))
         rss = {}
         start = time.perf_counter()
-        for detection in detect_stream(_frames(walk, args.memory_frames), walk[0].calibration,
+        for detection in detect_stream(_frames(walk, args.memory_frames), walk[0].calibration, config=config,
                                        temporal=TemporalSeedParameters()):
             json.dumps(frame_record(detection))
             annotate_frame(detection)
