@@ -28,7 +28,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field, replace
 
 import cv2
@@ -129,9 +128,7 @@ class DetectionResult:
     config
         The resolved configuration.
     timings_s
-        Wall seconds of each stage and in total. ``segmentation`` and ``rectification_check``
-        run in a second thread while ``matching`` runs, so the stages add up to more than
-        ``total``.
+        Wall seconds of each stage and in total.
     rectification_check
         :class:`stereo_obstacles.rectification_check.RectificationCheck` of the input pair
         (a warning is logged when it is not rectified).
@@ -260,34 +257,6 @@ def _without_feet(flat_groups: np.ndarray, id_map: np.ndarray) -> np.ndarray:
     return np.where(np.isin(flat_groups, feet), 0, flat_groups)
 
 
-_side_pool: ThreadPoolExecutor | None = None
-
-
-def _side_thread() -> ThreadPoolExecutor:
-    """One persistent thread that runs phase 1 and the rectification check beside the matcher."""
-    global _side_pool
-    if _side_pool is None:
-        _side_pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="phase-1")
-    return _side_pool
-
-
-def _colour_and_rectification(left: np.ndarray, right: np.ndarray, config: DetectionConfig):
-    """Phase 1 and the rectification check (they need no disparity); returns both and their wall times.
-
-    :func:`detect` runs this in :func:`_side_thread` while the matcher runs: the matcher's own
-    stages leave a core idle part of the time (seeds, final checks), and its kernels, OpenCV
-    and NumPy release the GIL.
-    """
-    t = time.perf_counter()
-    segmentation = segment(left, reference=config.reference, params=config.segmentation)
-    seconds = {"segmentation": time.perf_counter() - t}
-    t = time.perf_counter()
-    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX)
-                     if config.check_rectification else None)
-    seconds["rectification_check"] = time.perf_counter() - t
-    return segmentation, rectification, seconds
-
-
 def warm_up() -> float:
     """Compile every kernel of :func:`detect` on a small rendered pair; return the seconds spent.
 
@@ -341,13 +310,19 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     timings: dict[str, float] = {}
     start = time.perf_counter()
 
-    beside_matching = _side_thread().submit(_colour_and_rectification, left, right, config)
+    t = time.perf_counter()
+    segmentation = segment(left, reference=config.reference, params=config.segmentation)
+    timings["segmentation"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX)
+                     if config.check_rectification else None)
+    timings["rectification_check"] = time.perf_counter() - t
+
     t = time.perf_counter()
     disparity, matched = match_at_scale(left, right, config.matching_scale, seed_points=seed_points,
                                         **config.matching.to_kwargs())
     timings["matching"] = time.perf_counter() - t
-    segmentation, rectification, side_timings = beside_matching.result()
-    timings.update(side_timings)
 
     t = time.perf_counter()
     ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
