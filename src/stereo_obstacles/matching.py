@@ -39,10 +39,10 @@ SEED_SPACING = 8
 """Default side in pixels of the cells that keep one edge seed pixel each (see ``docs/matching.md``)."""
 
 DEFAULT_MAX_DISPARITY_FRACTION = 1.0 / 3.0
+"""Without ``max_disparity``, disparities up to this fraction of the image width are searched."""
 
 BANDS = 2
 """Default number of row bands grown in parallel threads (``docs/matching.md``, "Both cores")."""
-"""Without ``max_disparity``, disparities up to this fraction of the image width are searched."""
 
 
 @dataclass(frozen=True)
