@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from stereo_obstacles._obstacle_grouping_kernel import cell_medians_kernel
 from stereo_obstacles.errors import InvalidInputError
 
 
@@ -74,19 +75,8 @@ def _cell_disparities(disparity: np.ndarray, mask: np.ndarray,
     gh, gw = -(-h // c), -(-w // c)
     padded = np.full((gh * c, gw * c), np.nan, dtype=np.float32)
     padded[:h, :w] = np.where(mask, disparity, np.nan)
-    blocks = padded.reshape(gh, c, gw, c).transpose(0, 2, 1, 3).reshape(gh, gw, c * c)
-    counts = np.isfinite(blocks).sum(axis=2)
-    medians = np.full((gh, gw), np.nan, dtype=np.float32)
-    pure = np.zeros((gh, gw), dtype=bool)
-    enough = counts >= params.min_cell_pixels
-    if enough.any():
-        values = blocks[enough]
-        medians[enough] = np.nanmedian(values, axis=1)
-        tol = _tolerance(medians[enough], params)[:, None]
-        with np.errstate(invalid="ignore"):
-            agree = (np.abs(values - medians[enough][:, None]) <= tol).sum(axis=1)
-        pure[enough] = agree >= params.min_pure_fraction * counts[enough]
-    return medians, pure
+    return cell_medians_kernel(padded, c, params.min_cell_pixels, params.abs_tolerance_px, params.rel_tolerance,
+                               params.min_pure_fraction)
 
 
 def _label_cells(cells: np.ndarray, pure: np.ndarray, params: GroupingParameters) -> np.ndarray:

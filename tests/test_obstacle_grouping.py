@@ -1,0 +1,39 @@
+"""The compiled cell medians and purity against their NumPy definition."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles._obstacle_grouping_kernel import cell_medians_kernel
+
+
+def _numpy_cells(padded, cell, min_pixels, abs_tol, rel_tol, min_pure):
+    gh, gw = padded.shape[0] // cell, padded.shape[1] // cell
+    blocks = padded.reshape(gh, cell, gw, cell).transpose(0, 2, 1, 3).reshape(gh, gw, cell * cell)
+    counts = np.isfinite(blocks).sum(axis=2)
+    medians = np.full((gh, gw), np.nan, dtype=np.float32)
+    pure = np.zeros((gh, gw), dtype=bool)
+    enough = counts >= min_pixels
+    values = blocks[enough]
+    medians[enough] = np.nanmedian(values, axis=1)
+    tol = np.maximum(abs_tol, rel_tol * np.abs(medians[enough]))[:, None]
+    with np.errstate(invalid="ignore"):
+        agree = (np.abs(values - medians[enough][:, None]) <= tol).sum(axis=1)
+    pure[enough] = agree >= min_pure * counts[enough]
+    return medians, pure
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_cell_medians_agree_with_numpy(seed):
+    rng = np.random.default_rng(seed)
+    surfaces = np.kron(rng.choice([5.0, 5.5, 6.0, 9.0, 20.0], size=(6, 8)), np.ones((8, 8)))
+    d = (np.roll(surfaces, 3 * seed + 3, axis=1) + rng.normal(0, 0.3, (48, 64))).astype(np.float32)  # some cells mixed
+    d[rng.random(d.shape) < 0.3 + 0.15 * seed] = np.nan               # holes
+    d[:8, :16][rng.random((8, 16)) < 0.95] = np.nan                     # cells with too few pixels
+    d[8:16, 8:12], d[8:16, 12:16] = 5.0, 20.0                            # a cell across a depth edge
+    medians, pure = cell_medians_kernel(d, 8, 6, 1.0, 0.05, 0.7)
+    expected_medians, expected_pure = _numpy_cells(d, 8, 6, 1.0, 0.05, 0.7)
+    np.testing.assert_array_equal(medians, expected_medians)
+    np.testing.assert_array_equal(pure, expected_pure)
+    assert np.isnan(medians).any() and pure.any() and (~pure & np.isfinite(medians)).any()
