@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stereo_obstacles._obstacles_kernel import patch_medians_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, pixel_height_above_ground_m
@@ -279,12 +280,8 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
 
 def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, percentile: float) -> float:
     """``percentile`` over patches of the patch-median depth (metres)."""
-    patch = (ys // DISTANCE_PATCH_PX) * (int(xs.max()) // DISTANCE_PATCH_PX + 1) + xs // DISTANCE_PATCH_PX
-    order = np.lexsort((z, patch))
-    sorted_patch, sorted_z = patch[order], z[order]
-    starts = np.flatnonzero(np.r_[True, sorted_patch[1:] != sorted_patch[:-1]])
-    counts = np.diff(np.r_[starts, sorted_patch.size])
-    medians = 0.5 * (sorted_z[starts + (counts - 1) // 2] + sorted_z[starts + counts // 2])
+    medians = patch_medians_kernel(np.asarray(xs, np.int64), np.asarray(ys, np.int64), np.asarray(z, np.float64),
+                                   DISTANCE_PATCH_PX)
     return float(np.percentile(medians, percentile))
 
 

@@ -1,0 +1,45 @@
+"""Compiled patch medians of an obstacle's depths (private).
+
+The public wrapper is :func:`stereo_obstacles.obstacles.measure_obstacles`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from stereo_obstacles._similarity_kernel import CACHE
+
+
+@njit(cache=CACHE, nogil=True)
+def patch_medians_kernel(xs, ys, z, patch_px):
+    """Median of ``z`` over the pixels ``(xs, ys)`` of each ``patch_px`` square patch holding any.
+
+    ``xs, ys`` int64 ``(N,)`` (non-negative), ``z`` float64 ``(N,)``. Returns the medians
+    (``0.5 * (lower + upper middle)``) in patch order, float64 ``(number of patches,)``.
+    """
+    n = xs.shape[0]
+    columns = xs.max() // patch_px + 1
+    n_patches = (ys.max() // patch_px + 1) * columns
+    start = np.zeros(n_patches + 1, np.int64)
+    patch = np.empty(n, np.int64)
+    for i in range(n):
+        patch[i] = (ys[i] // patch_px) * columns + xs[i] // patch_px
+        start[patch[i] + 1] += 1
+    for p in range(n_patches):
+        start[p + 1] += start[p]
+    fill = start[:-1].copy()
+    values = np.empty(n, np.float64)
+    for i in range(n):
+        values[fill[patch[i]]] = z[i]
+        fill[patch[i]] += 1
+    medians = np.empty(n_patches, np.float64)
+    m = 0
+    for p in range(n_patches):
+        count = start[p + 1] - start[p]
+        if count == 0:
+            continue
+        block = np.sort(values[start[p]:start[p + 1]])
+        medians[m] = 0.5 * (block[(count - 1) // 2] + block[count // 2])
+        m += 1
+    return medians[:m]
