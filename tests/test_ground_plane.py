@@ -87,29 +87,43 @@ def test_points_on_one_row_define_no_plane():
 
 
 def test_compiled_inlier_count_agrees_with_numpy():
-    from stereo_obstacles._ground_plane_kernel import _count_inliers
+    from stereo_obstacles._ground_plane_kernel import inlier_counts_kernel
 
     rng = np.random.default_rng(3)
     planes = rng.normal(size=(40, 3))
     x, y = rng.uniform(0, 100, 500), rng.uniform(0, 80, 500)
     d = 0.3 * x - 0.2 * y + rng.normal(0, 5, 500)
-    expected = (np.abs(planes[:, :1] * x + planes[:, 1:2] * y + planes[:, 2:] - d) <= 2.0).sum(axis=1)
-    assert np.array_equal(_count_inliers(planes, x, y, d, 2.0), expected)
-    assert expected.max() > 0
+    residuals = planes[:, :1] * x + planes[:, 1:2] * y + planes[:, 2:] - d
+    inside = np.abs(residuals) <= 2.0
+    counts, squares = inlier_counts_kernel(planes, x, y, d, 2.0)
+    assert np.array_equal(counts, inside.sum(axis=1)) and counts.max() > 0
+    np.testing.assert_allclose(squares, np.where(inside, residuals ** 2, 0.0).sum(axis=1), rtol=1e-12)
 
 
-def test_pixel_heights_equal_heights_of_the_3d_points():
+def test_raised_pixels_are_those_whose_3d_points_stand_above_the_ground():
     from stereo_obstacles.calibration import StereoCalibration
-    from stereo_obstacles.ground_plane import height_above_ground_m, pixel_height_above_ground_m
+    from stereo_obstacles.ground_plane import height_above_ground_m, raised_pixels
 
     calibration = StereoCalibration(focal_px=500.0, cx_px=320.0, cy_px=240.0, baseline_m=0.12, doffs_px=1.5,
                                     width_px=640, height_px=480)
     ground = GroundPlane(a=0.002, b=0.09, c=-20.0)
     rng = np.random.default_rng(5)
-    xs, ys = rng.integers(0, 640, 300), rng.integers(250, 480, 300)
-    d = ground.disparity_at(xs, ys) + rng.uniform(-1.0, 6.0, 300)
-    z = calibration.focal_baseline_px_m / (d + calibration.doffs_px)
+    ys, xs = np.mgrid[250:480, 0:640]
+    d = (ground.disparity_at(xs, ys) + rng.uniform(-1.0, 6.0, xs.shape)).astype(np.float32)
+    d[rng.random(d.shape) < 0.1] = np.nan
+    disparity = np.full((480, 640), np.nan, np.float32)
+    disparity[250:] = d
+    mask = rng.random((480, 640)) < 0.8
+    z = calibration.focal_baseline_px_m / (d.astype(np.float64) + 1.5)
     points = np.stack([(xs - 320.0) * z / 500.0, (ys - 240.0) * z / 500.0, z], axis=-1)
-    expected = height_above_ground_m(ground, points, calibration)
-    assert np.allclose(pixel_height_above_ground_m(ground, xs, ys, d, calibration), expected, rtol=1e-9, atol=1e-12)
-    assert expected.min() < 0 < expected.max()
+    heights = np.full((480, 640), np.nan)
+    heights[250:] = height_above_ground_m(ground, points, calibration)
+    excess = disparity - ground.disparity_map(480, 640)
+    usable = mask & np.isfinite(disparity)
+    expected = usable & (heights > 0.2) & (excess >= 0.5)
+    got = raised_pixels(ground, disparity, mask, calibration, min_height_m=0.2, min_excess_px=0.5, strict=True)
+    near_threshold = np.abs(heights - 0.2) < 1e-9                       # rounding of the two forms
+    assert np.array_equal(got & ~near_threshold, expected & ~near_threshold)
+    assert 0 < expected.sum() < usable.sum()
+    uncalibrated = raised_pixels(ground, disparity, mask, None, min_excess_px=1.0)
+    assert np.array_equal(uncalibrated, usable & (excess >= 1.0))

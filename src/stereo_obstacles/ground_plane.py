@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stereo_obstacles._ground_plane_kernel import _count_inliers
+from stereo_obstacles._ground_plane_kernel import inlier_counts_kernel, masked_points_kernel, raised_pixels_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 
@@ -196,7 +196,7 @@ def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
     if not usable.any():
         raise InvalidInputError("no usable plane sample (points collinear, or no plane slopes like a ground)")
     planes = np.ascontiguousarray(candidates[usable])
-    counts = _count_inliers(planes, xs[scored], ys[scored], ds[scored], float(params.inlier_threshold_px))
+    counts, _ = inlier_counts_kernel(planes, xs[scored], ys[scored], ds[scored], float(params.inlier_threshold_px))
     best = planes[np.argmax(counts)]
     refit_points = rng.choice(n, size=REFIT_POINTS, replace=False) if n > REFIT_POINTS else np.arange(n)
     rx, ry, rd = xs[refit_points], ys[refit_points], ds[refit_points]
@@ -212,14 +212,13 @@ def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
         if np.array_equal(new_inliers, refit_inliers):
             break
         refit_inliers = new_inliers
-    inliers = np.abs(best[0] * xs + best[1] * ys + best[2] - ds) <= params.inlier_threshold_px
-    if inliers.sum() < max(3, params.min_inliers):
-        raise InvalidInputError(f"no ground plane found: best plane has {int(inliers.sum())} "
+    count, squares = inlier_counts_kernel(best[None, :], xs, ys, ds, float(params.inlier_threshold_px))
+    n_inliers = int(count[0])
+    if n_inliers < max(3, params.min_inliers):
+        raise InvalidInputError(f"no ground plane found: best plane has {n_inliers} "
                                 f"inliers, need {params.min_inliers}")
-    residual = best[0] * xs[inliers] + best[1] * ys[inliers] + best[2] - ds[inliers]
-    plane = GroundPlane(a=float(best[0]), b=float(best[1]), c=float(best[2]),
-                        n_inliers=int(inliers.sum()), inlier_fraction=float(inliers.mean()),
-                        rms_px=float(np.sqrt(np.mean(residual ** 2))))
+    plane = GroundPlane(a=float(best[0]), b=float(best[1]), c=float(best[2]), n_inliers=n_inliers,
+                        inlier_fraction=n_inliers / n, rms_px=float(np.sqrt(squares[0] / n_inliers)))
     logger.debug("ground plane %s", plane)
     return plane
 
@@ -247,14 +246,14 @@ def fit_ground_plane(disparity: np.ndarray, *, mask: np.ndarray | None = None,
         Bad arrays or no plane found (see :func:`fit_plane_points`).
     """
     d = _check_disparity(disparity)
-    use = np.isfinite(d)
-    if mask is not None:
+    if mask is None:
+        m = np.ones(d.shape, dtype=bool)
+    else:
         m = np.asarray(mask)
         if m.dtype != bool or m.shape != d.shape:
             raise InvalidInputError(f"mask must be bool {d.shape}, got {m.dtype} {m.shape}")
-        use &= m
-    ys, xs = np.nonzero(use)
-    return fit_plane_points(xs, ys, d[use], params=params)
+    xs, ys, ds = masked_points_kernel(d, m)
+    return fit_plane_points(xs, ys, ds, params=params)
 
 
 def _normal_camera(ground: GroundPlane, calibration: StereoCalibration) -> np.ndarray:
@@ -280,19 +279,47 @@ def height_above_ground_m(ground: GroundPlane, points_m: np.ndarray, calibration
     return (calibration.focal_baseline_px_m - along_normal) / np.linalg.norm(normal)
 
 
-def pixel_height_above_ground_m(ground: GroundPlane, xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
-                                calibration: StereoCalibration) -> np.ndarray:
-    """Signed height above the ground of pixels ``(xs, ys)`` with ``disparities`` (pixels), metres.
+def raised_pixels(ground: GroundPlane, disparity: np.ndarray, mask: np.ndarray,
+                  calibration: StereoCalibration | None, *, min_height_m: float = 0.0, min_excess_px: float = 0.0,
+                  strict: bool = False) -> np.ndarray:
+    """Pixels of ``mask`` whose disparity puts them above the ground plane.
 
-    The same as :func:`height_above_ground_m` of the pixels' 3-D points, without forming them:
-    with ``Z = f B / (d + doffs)`` the point's ``n . P`` is ``Z (plane(x, y) + doffs)``, so the
-    height is ``f B (d - plane(x, y)) / ((d + doffs) |n|)``. ``float64`` of the inputs' shape;
-    not finite where ``d + doffs <= 0``.
+    Parameters
+    ----------
+    ground
+        The plane in disparity space.
+    disparity
+        ``float32 (H, W)`` disparity in pixels, NaN where unknown.
+    mask
+        ``bool (H, W)``: the pixels to test.
+    calibration
+        With it, a pixel must also stand ``min_height_m`` metres above the plane, with
+        ``d + doffs > 0``; without it only the disparity test applies. The height is
+        :func:`height_above_ground_m` of the pixel's 3-D point, computed without forming the
+        point: with ``Z = f B / (d + doffs)``, ``n . P = Z (plane(x, y) + doffs)``, so the
+        height is ``f B (d - plane(x, y)) / ((d + doffs) |n|)``.
+    min_height_m
+        Height in metres (``>``, or ``>=`` unless ``strict``).
+    min_excess_px
+        Disparity above the plane's, pixels (``>=``).
+    strict
+        Use ``>`` for the height test.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``bool (H, W)``.
     """
-    d = np.asarray(disparities, dtype=np.float64)
-    scale = calibration.focal_baseline_px_m / float(np.linalg.norm(_normal_camera(ground, calibration)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return scale * (d - ground.disparity_at(xs, ys)) / (d + calibration.doffs_px)
+    d = np.asarray(disparity, dtype=np.float32)
+    m = np.asarray(mask, dtype=bool)
+    if d.ndim != 2 or m.shape != d.shape:
+        raise InvalidInputError(f"disparity {d.shape} and mask {m.shape} must be the same 2-D shape")
+    scale, doffs = math.nan, 0.0
+    if calibration is not None:
+        scale = calibration.focal_baseline_px_m / float(np.linalg.norm(_normal_camera(ground, calibration)))
+        doffs = float(calibration.doffs_px)
+    return raised_pixels_kernel(d, m, float(ground.a), float(ground.b), float(ground.c), doffs, scale,
+                                float(min_height_m), bool(strict), float(min_excess_px))
 
 
 def tilt_from_camera_vertical_deg(ground: GroundPlane, calibration: StereoCalibration) -> float:
@@ -306,4 +333,4 @@ def tilt_from_camera_vertical_deg(ground: GroundPlane, calibration: StereoCalibr
 
 
 __all__ = ["GroundPlane", "PlaneFitParameters", "fit_plane_points", "fit_ground_plane", "height_above_ground_m",
-           "pixel_height_above_ground_m", "tilt_from_camera_vertical_deg"]
+           "raised_pixels", "tilt_from_camera_vertical_deg"]

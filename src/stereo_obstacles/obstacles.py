@@ -24,7 +24,7 @@ import numpy as np
 from stereo_obstacles._obstacles_kernel import patch_medians_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, pixel_height_above_ground_m
+from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
 
 DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
@@ -147,19 +147,12 @@ def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: Groun
         ``bool (H, W)``.
     """
     d = np.asarray(disparity, dtype=np.float32)
-    usable = np.asarray(candidates, dtype=bool) & np.isfinite(d)
     if ground is None:
-        return usable
-    ys, xs = np.nonzero(usable)
-    disparities = d[ys, xs].astype(np.float64)
+        return np.asarray(candidates, dtype=bool) & np.isfinite(d)
     if calibration is None:
-        stands = disparities - ground.disparity_at(xs, ys) >= params.flat_tolerance_px
-    else:
-        stands = (pixel_height_above_ground_m(ground, xs, ys, disparities, calibration) >= params.flat_tolerance_m) & (
-            disparities + calibration.doffs_px > 0) & (disparities - ground.disparity_at(xs, ys) >= min_excess_px)
-    result = np.zeros(d.shape, dtype=bool)
-    result[ys[stands], xs[stands]] = True
-    return result
+        return raised_pixels(ground, d, candidates, None, min_excess_px=params.flat_tolerance_px)
+    return raised_pixels(ground, d, candidates, calibration, min_height_m=params.flat_tolerance_m,
+                         min_excess_px=min_excess_px)
 
 
 def _box(xs: np.ndarray, ys: np.ndarray) -> tuple[int, int, int, int]:

@@ -40,8 +40,7 @@ from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
-from stereo_obstacles.ground_plane import (GroundPlane, fit_ground_plane, pixel_height_above_ground_m,
-                                          tilt_from_camera_vertical_deg)
+from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacles import ObstacleList, ObstacleParameters, measure_obstacles, standing_pixels
 from stereo_obstacles.rectification_check import check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
@@ -232,13 +231,8 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
     candidates = segmentation.labels == Label.OBSTACLE
     if ground is None or calibration is None or min_height_m <= 0:
         return candidates
-    ys, xs = np.nonzero(segmentation.ground_mask & np.isfinite(disparity))
-    d = disparity[ys, xs]
-    raised = (pixel_height_above_ground_m(ground, xs, ys, d, calibration) > min_height_m) & (
-        d + calibration.doffs_px > 0) & (d - ground.disparity_at(xs, ys) >= min_excess_px)
-    candidates = candidates.copy()
-    candidates[ys[raised], xs[raised]] = True
-    return candidates
+    return candidates | raised_pixels(ground, disparity, segmentation.ground_mask, calibration,
+                                      min_height_m=min_height_m, min_excess_px=min_excess_px, strict=True)
 
 
 FOOT_REACH_PX = 2
