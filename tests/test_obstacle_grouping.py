@@ -37,3 +37,22 @@ def test_cell_medians_agree_with_numpy(seed):
     np.testing.assert_array_equal(medians, expected_medians)
     np.testing.assert_array_equal(pure, expected_pure)
     assert np.isnan(medians).any() and pure.any() and (~pure & np.isfinite(medians)).any()
+
+
+def test_pixel_assignment_agrees_with_numpy():
+    from stereo_obstacles._obstacle_grouping_kernel import assign_pixels_kernel
+
+    rng = np.random.default_rng(7)
+    h, w, cell = 45, 61, 8                                                 # partial cells at the borders
+    cell_d = rng.uniform(2.0, 40.0, (6, 8)).astype(np.float32)
+    labels = rng.integers(-1, 5, (6, 8))
+    pixel_cell_d = np.repeat(np.repeat(cell_d, cell, axis=0), cell, axis=1)[:h, :w]
+    pixel_label = np.repeat(np.repeat(labels, cell, axis=0), cell, axis=1)[:h, :w]
+    d = (pixel_cell_d + rng.normal(0, 1.2, (h, w))).astype(np.float32)
+    usable = rng.random((h, w)) < 0.8
+    tol = np.maximum(1.0, 0.05 * np.abs(pixel_cell_d))
+    expected = np.where(usable & (pixel_label >= 0) & (np.abs(d - pixel_cell_d) <= tol), pixel_label, -1)
+    raw, counts = assign_pixels_kernel(d, usable, labels, cell_d, cell, 1.0, 0.05, 5)
+    np.testing.assert_array_equal(raw, expected)
+    np.testing.assert_array_equal(counts, [np.count_nonzero(expected == k) for k in range(5)])
+    assert (expected == -1).any() and (expected >= 0).any()

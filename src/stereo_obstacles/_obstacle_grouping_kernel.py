@@ -55,3 +55,30 @@ def cell_medians_kernel(disparity, cell, min_pixels, abs_tolerance, rel_toleranc
                     agree += 1
             pure[gy, gx] = agree >= min_pure_fraction * n
     return medians, pure
+
+
+@njit(cache=CACHE, nogil=True)
+def assign_pixels_kernel(disparity, usable, cell_labels, cell_disparity, cell, abs_tolerance, rel_tolerance,
+                         n_labels):
+    """Each usable pixel's cell label where its disparity agrees with the cell's, else -1.
+
+    Agreement: ``|d - cell d| <= max(abs_tolerance, rel_tolerance * |cell d|)`` in float32.
+    Returns the int64 ``(H, W)`` labels and the pixel count of each of the ``n_labels`` labels.
+    """
+    h, w = disparity.shape
+    out = np.full((h, w), -1, np.int64)
+    counts = np.zeros(n_labels, np.int64)
+    abs_tol = np.float32(abs_tolerance)
+    rel_tol = np.float32(rel_tolerance)
+    for y in range(h):
+        for x in range(w):
+            if not usable[y, x]:
+                continue
+            label = cell_labels[y // cell, x // cell]
+            if label < 0:
+                continue
+            cd = cell_disparity[y // cell, x // cell]
+            if abs(disparity[y, x] - cd) <= max(abs_tol, rel_tol * abs(cd)):
+                out[y, x] = label
+                counts[label] += 1
+    return out, counts

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from stereo_obstacles._obstacle_grouping_kernel import cell_medians_kernel
+from stereo_obstacles._obstacle_grouping_kernel import assign_pixels_kernel, cell_medians_kernel
 from stereo_obstacles.errors import InvalidInputError
 
 
@@ -103,11 +103,6 @@ def _label_cells(cells: np.ndarray, pure: np.ndarray, params: GroupingParameters
     return labels
 
 
-def _per_pixel(per_cell: np.ndarray, cell_px: int, h: int, w: int) -> np.ndarray:
-    """Expand a per-cell array to ``(h, w)`` pixels (each cell value repeated over its block)."""
-    return np.repeat(np.repeat(per_cell, cell_px, axis=0), cell_px, axis=1)[:h, :w]
-
-
 def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
                           params: GroupingParameters = GroupingParameters()) -> np.ndarray:
     """Label each obstacle pixel with the object it belongs to.
@@ -131,19 +126,13 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
     m = np.asarray(obstacle_mask, dtype=bool)
     if d.ndim != 2 or d.shape != m.shape:
         raise InvalidInputError(f"disparity {d.shape} and obstacle_mask {m.shape} must be the same 2-D shape")
-    h, w = d.shape
     usable = m & np.isfinite(d)
     cells, pure = _cell_disparities(d, usable, params)
     cell_labels = _label_cells(cells, pure, params)
-    pixel_cell = _per_pixel(cell_labels, params.cell_px, h, w)
-    pixel_cell_d = _per_pixel(np.where(np.isfinite(cells), cells, 0.0).astype(np.float32), params.cell_px, h, w)
-    with np.errstate(invalid="ignore"):
-        consistent = usable & (pixel_cell >= 0) & (
-            np.abs(d - pixel_cell_d) <= _tolerance(pixel_cell_d, params))
-    raw = np.where(consistent, pixel_cell, -1)
-    ids, counts = np.unique(raw[raw >= 0], return_counts=True)
-    keep = ids[counts >= params.min_object_pixels]
-    order = keep[np.argsort(-counts[counts >= params.min_object_pixels], kind="stable")]
-    relabel = np.zeros(int(cell_labels.max()) + 2, dtype=np.int32)
+    raw, counts = assign_pixels_kernel(d, usable, cell_labels, cells, params.cell_px, params.abs_tolerance_px,
+                                       params.rel_tolerance, int(cell_labels.max()) + 1)
+    keep = np.flatnonzero(counts >= params.min_object_pixels)
+    order = keep[np.argsort(-counts[keep], kind="stable")]
+    relabel = np.zeros(len(counts) + 1, dtype=np.int32)
     relabel[order + 1] = np.arange(1, len(order) + 1, dtype=np.int32)
     return relabel[raw + 1]
