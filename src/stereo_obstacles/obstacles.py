@@ -26,6 +26,9 @@ from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
 
+QUARTILES = (25.0, 50.0, 75.0)
+"""Percentiles of a group's disparities: its reported disparity (median) and spread."""
+
 DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
 
@@ -159,11 +162,12 @@ def _box(xs: np.ndarray, ys: np.ndarray) -> tuple[int, int, int, int]:
     return int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1
 
 
-def _confidence(pixel_count: int, disparities: np.ndarray) -> float:
-    """More pixels and a tighter disparity spread give more confidence (0..1)."""
+def _confidence(pixel_count: int, quartiles: np.ndarray) -> float:
+    """More pixels and a tighter disparity spread (``quartiles``: 25th, 50th, 75th percentile
+    of the disparities) give more confidence (0..1)."""
     size_term = 1.0 - math.exp(-pixel_count / 300.0)
-    spread = float(np.subtract(*np.percentile(disparities, [75, 25])))
-    agreement = 1.0 / (1.0 + spread / max(1.0, 0.1 * float(np.median(disparities))))
+    spread = float(quartiles[2] - quartiles[0])
+    agreement = 1.0 / (1.0 + spread / max(1.0, 0.1 * float(quartiles[1])))
     return round(size_term * agreement, 3)
 
 
@@ -240,8 +244,9 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
             if standing.mean() < params.min_standing_fraction:
                 return _flat(box, count, float(np.percentile(above_px, EXTENT_PERCENTILES[1])), "px")
             disparities = disparities[standing]
-        return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(np.median(disparities)), 3),
-                        confidence=_confidence(count, disparities))
+        quartiles = np.percentile(disparities, QUARTILES)
+        return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(quartiles[1]), 3),
+                        confidence=_confidence(count, quartiles))
     positive = disparities + calibration.doffs_px > 0
     if not positive.any():
         return RejectedGroup(box, count, "no valid depth (disparity + doffs <= 0)")
@@ -261,10 +266,10 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
                                 ys[standing] if ground is not None else ys, points[:, 2], params.distance_percentile)
     if distance > params.max_distance_m:
         return RejectedGroup(box, count, f"farther than {params.max_distance_m:g} m ({distance:.1f} m)")
-    x_lo, x_hi = np.percentile(points[:, 0], EXTENT_PERCENTILES)
-    y_lo, y_hi = np.percentile(points[:, 1], EXTENT_PERCENTILES)
-    return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(np.median(disparities)), 3),
-                    confidence=_confidence(count, disparities), distance_m=round(distance, 3),
+    (x_lo, y_lo), (x_hi, y_hi) = np.percentile(points[:, :2], EXTENT_PERCENTILES, axis=0)
+    quartiles = np.percentile(disparities, QUARTILES)
+    return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(quartiles[1]), 3),
+                    confidence=_confidence(count, quartiles), distance_m=round(distance, 3),
                     centre_m=tuple(round(float(v), 3) for v in np.median(points, axis=0)),
                     lateral_extent_m=(round(float(x_lo), 3), round(float(x_hi), 3)),
                     width_m=round(float(x_hi - x_lo), 3), height_m=round(float(y_hi - y_lo), 3),
