@@ -50,7 +50,7 @@ def test_json_with_wrong_content_is_refused(tmp_path):
     with pytest.raises(CalibrationError, match="lacks cx_px"):
         read_calibration(path)
     path.write_text('{"focal_px": 1')
-    with pytest.raises(CalibrationError, match="does not parse"):
+    with pytest.raises(CalibrationError, match="is not valid JSON"):
         read_calibration(path)
     path.write_text('{"format": "something else"}')
     with pytest.raises(CalibrationError, match="is not a stereo-obstacles/calibration"):

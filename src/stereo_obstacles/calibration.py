@@ -15,7 +15,8 @@ import os
 from dataclasses import asdict, dataclass
 
 from stereo_obstacles.atomic import write_text_atomic
-from stereo_obstacles.errors import CalibrationError, InputFileError
+from stereo_obstacles.errors import CalibrationError
+from stereo_obstacles.json_documents import check_document, load_json_file
 
 CALIBRATION_FORMAT = "stereo-obstacles/calibration"
 CALIBRATION_VERSION = 1
@@ -99,10 +100,8 @@ class StereoCalibration:
     @classmethod
     def from_dict(cls, data: dict, *, source: str = "calibration") -> StereoCalibration:
         """Build from :meth:`to_dict` output; raise :class:`CalibrationError` on bad content."""
-        if not isinstance(data, dict) or data.get("format") != CALIBRATION_FORMAT:
-            raise CalibrationError(f"{source} is not a {CALIBRATION_FORMAT} file")
-        if data.get("version") != CALIBRATION_VERSION:
-            raise CalibrationError(f"{source}: unsupported version {data.get('version')!r}")
+        check_document(data, format_name=CALIBRATION_FORMAT, version=CALIBRATION_VERSION, source=source,
+                       error=CalibrationError)
         fields = ("focal_px", "cx_px", "cy_px", "baseline_m", "width_px", "height_px", "doffs_px")
         missing = [f for f in fields[:4] if f not in data]
         if missing:
@@ -120,11 +119,5 @@ def write_calibration_json(path: str | os.PathLike[str], calibration: StereoCali
 
 def read_calibration_json(path: str | os.PathLike[str]) -> StereoCalibration:
     """Read the project's JSON calibration format."""
-    try:
-        with open(path, encoding="utf-8") as handle:
-            data = json.load(handle)
-    except FileNotFoundError as exc:
-        raise InputFileError(f"calibration file {path} does not exist") from exc
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CalibrationError(f"calibration file {path} does not parse: {exc}") from exc
+    data = load_json_file(path, what="calibration", error=CalibrationError)
     return StereoCalibration.from_dict(data, source=str(path))

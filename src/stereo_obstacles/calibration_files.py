@@ -15,7 +15,6 @@ Supported, detected from the content:
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from pathlib import Path
@@ -65,10 +64,6 @@ def read_calibration(path: str | os.PathLike[str], *, length_unit: str | None = 
         raise CalibrationError(f"calibration file {p} is not a text file: {exc}") from exc
     stripped = text.lstrip()
     if stripped.startswith("{"):
-        try:
-            json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise CalibrationError(f"calibration file {p} does not parse as JSON: {exc}") from exc
         return read_calibration_json(p)
     if stripped.startswith("%YAML") or stripped.startswith("<?xml") or "opencv-matrix" in text \
             or "<opencv_storage>" in text:

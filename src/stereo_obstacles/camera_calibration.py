@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from stereo_obstacles.atomic import atomic_path, write_text_atomic
-from stereo_obstacles.errors import CalibrationError, InputFileError, OutputError
+from stereo_obstacles.errors import CalibrationError, OutputError
+from stereo_obstacles.json_documents import check_document, load_json_file
 
 CAMERA_PAIR_FORMAT = "stereo-obstacles/camera-pair-calibration"
 CAMERA_PAIR_VERSION = 1
@@ -149,10 +150,8 @@ class CameraPairCalibration:
     @classmethod
     def from_dict(cls, data: dict, *, source: str = "calibration") -> CameraPairCalibration:
         """Build from :meth:`to_dict` output; raise :class:`CalibrationError` on bad content."""
-        if not isinstance(data, dict) or data.get("format") != CAMERA_PAIR_FORMAT:
-            raise CalibrationError(f"{source} is not a {CAMERA_PAIR_FORMAT} file")
-        if data.get("version") != CAMERA_PAIR_VERSION:
-            raise CalibrationError(f"{source}: unsupported version {data.get('version')!r}")
+        check_document(data, format_name=CAMERA_PAIR_FORMAT, version=CAMERA_PAIR_VERSION, source=source,
+                       error=CalibrationError)
         fields = ("camera_matrix_left", "distortion_left", "camera_matrix_right", "distortion_right",
                   "rotation", "translation_m", "width_px", "height_px")
         missing = [f for f in fields if f not in data]
@@ -173,12 +172,7 @@ def write_camera_pair_json(path: str | os.PathLike[str], calibration: CameraPair
 
 def read_camera_pair_json(path: str | os.PathLike[str]) -> CameraPairCalibration:
     """Read the project's JSON camera-pair calibration."""
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError as exc:
-        raise InputFileError(f"calibration file {path} does not exist") from exc
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CalibrationError(f"calibration file {path} does not parse: {exc}") from exc
+    data = load_json_file(path, what="calibration", error=CalibrationError)
     return CameraPairCalibration.from_dict(data, source=str(path))
 
 

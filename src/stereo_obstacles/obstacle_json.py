@@ -37,6 +37,7 @@ from stereo_obstacles import __version__
 from stereo_obstacles.atomic import write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import CalibrationError, InputFileError, InvalidInputError
+from stereo_obstacles.json_documents import check_document, load_json_file
 from stereo_obstacles.obstacles import CorridorSummary, Obstacle, ObstacleList, RejectedGroup
 
 OBSTACLES_FORMAT = "stereo-obstacles/obstacles"
@@ -220,19 +221,8 @@ def read_obstacles_json(path: str | os.PathLike[str]) -> ObstacleRecord:
         an unsupported version, or lacks required content.
     """
     source = str(path)
-    try:
-        with open(path, encoding="utf-8") as handle:
-            data = json.load(handle)
-    except FileNotFoundError as exc:
-        raise InputFileError(f"obstacles file {source} does not exist") from exc
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputFileError(f"obstacles file {source} is not valid JSON: {exc}") from exc
-    if not isinstance(data, dict) or data.get("format") != OBSTACLES_FORMAT:
-        found = data.get("format") if isinstance(data, dict) else type(data).__name__
-        raise InputFileError(f"{source} is not a {OBSTACLES_FORMAT} document (format: {found!r})")
-    if data.get("version") != OBSTACLES_VERSION:
-        raise InputFileError(f"{source}: unsupported {OBSTACLES_FORMAT} version {data.get('version')!r} "
-                             f"(this is stereo-obstacles {__version__}, which reads version {OBSTACLES_VERSION})")
+    data = check_document(load_json_file(path, what="obstacles"), format_name=OBSTACLES_FORMAT,
+                          version=OBSTACLES_VERSION, source=source)
     size = _require(data, "image_size_px", dict, "document", source)
     image_size = (_require(size, "width", int, "image_size_px", source),
                   _require(size, "height", int, "image_size_px", source))
