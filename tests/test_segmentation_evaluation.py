@@ -126,3 +126,16 @@ def test_evaluate_segmentation_dataset_option_and_its_old_name(shared_dataset, c
     assert "| kitti2015_000046 | 1 | on |" in new
     assert main(["evaluate-segmentation", "--scenes", "0", "--kitti", folder]) == 0
     assert capsys.readouterr().out == new
+
+
+def test_segment_command_colour_model_option(tmp_path):
+    rng = np.random.default_rng(0)
+    image = np.clip(rng.normal((90, 140, 60), 3.0, (60, 80, 3)), 0, 255).astype(np.uint8)
+    image[10:25, 30:45] = (200, 40, 40)
+    write_image(tmp_path / "in.png", image)
+    for model in ("hsi", "log_rgb"):
+        out = tmp_path / f"{model}.png"
+        assert main(["segment", str(tmp_path / "in.png"), "-o", str(out), "--colour-model", model]) == 0
+        labels = read_labels(out)
+        assert labels[15, 35] == Label.OBSTACLE and labels[50, 10] == Label.GROUND
+        assert json.loads((tmp_path / f"{model}.png.json").read_text())["colour_model"] == model

@@ -12,7 +12,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="label ground, ground in shadow and obstacles in one colour image (phase 1)",
         description=(
             "Shadow-robust colour segmentation: the ground's colours (log-RGB by default, HSI "
-            "as in the paper via the library) are measured in a reference rectangle in front of "
+            "as in the paper with --colour-model hsi) are measured in a reference rectangle in front of "
             "the camera; every pixel becomes ground (1), "
             "shadow (2, ground in shadow), obstacle (3) or unknown (0). The labels are written "
             "as an 8-bit PNG; --overlay writes a picture for people. See docs/segmentation.md."),
@@ -28,6 +28,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "0,0.85,1,1)")
     parser.add_argument("--no-shadow-rule", action="store_true",
                         help="do not recognise shadows (the ablation: shadows become obstacles)")
+    parser.add_argument("--colour-model", choices=("log_rgb", "hsi"), default="log_rgb",
+                        help="ground colours as a log-RGB colour table (default) or the paper's HSI rule")
     parser.set_defaults(handler=run)
 
 
@@ -46,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
 
     rgb = read_image(args.image, mode="color")
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
-    params = SegmentationParameters(shadow_rule=not args.no_shadow_rule)
+    params = SegmentationParameters(shadow_rule=not args.no_shadow_rule, colour_model=args.colour_model)
     result = segment(rgb, reference=reference, params=params)
     write_labels(args.output, result.labels)
     if args.overlay:
@@ -58,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
         write_image(args.overlay, blended)
     sidecar = {"version": __version__, "image": str(args.image),
                "reference": result.reference.as_dict(),
-               "shadow_rule": params.shadow_rule,
+               "shadow_rule": params.shadow_rule, "colour_model": params.colour_model,
                "fractions": {label.name.lower(): float(np.mean(result.labels == label))
                              for label in (Label.GROUND, Label.SHADOW, Label.OBSTACLE, Label.UNKNOWN)}}
     write_text_atomic(f"{args.output}.json", json.dumps(sidecar, indent=2) + "\n")
