@@ -138,6 +138,7 @@ def test_flags_need_the_model_bit_depth():
 @pytest.mark.parametrize("kwargs, match", [
     ({"bin": 0.0}, "bin"), ({"quorum": 9}, "quorum"), ({"texture_scales_px": (0,)}, "texture"),
     ({"min_blueness": 0.8, "max_blueness": 0.5}, "blueness"), ({"green_tolerance_bins": -1}, "green"),
+    ({"min_shadow_chroma_bins": -1}, "min_shadow_chroma"), ({"min_shadow_chroma_bins": True}, "min_shadow_chroma"),
 ])
 def test_parameters_are_validated(kwargs, match):
     with pytest.raises(InvalidInputError, match=match):
@@ -178,3 +179,33 @@ def test_only_the_images_own_shadow_shift_is_kept():
     other = _u8(np.random.default_rng(4).normal((90, 140, 60), 3, (20, 20, 3)) * (0.34, 0.45, 0.595))
     wide = build_ground_colour_model(ground, (0, 100, 160, 120))                 # the default: every shift
     assert colour_flags(other, wide, 0.05)[0][..., 1].mean() > colour_flags(other, model, 0.05)[0][..., 1].mean() + 0.3
+
+
+@pytest.mark.parametrize("min_chroma", [0, 2, 4])
+def test_min_shadow_chroma_drops_only_the_greyish_shifts(min_chroma):
+    full = shadow_shifts(GroundColourParameters(), (0.4, 0.8))
+    kept = shadow_shifts(GroundColourParameters(min_shadow_chroma_bins=min_chroma), (0.4, 0.8))
+    shadow = kept[kept[:, 3] == SHADOW_BIT, :3]
+    assert np.all(shadow[:, 2] - shadow[:, 0] >= min_chroma)
+    expected = {tuple(r) for r in full.tolist() if r[3] == GROUND_BIT
+                or abs(r[2] - r[0]) >= min_chroma}
+    assert {tuple(r) for r in kept.tolist()} == expected
+    assert (len(kept) < len(full)) == (min_chroma > 1)   # the weakest skylight shift moves red vs blue 1 cell
+
+
+def test_weakly_darkened_obstacle_of_ground_colour_with_min_shadow_chroma():
+    rng = np.random.default_rng(3)
+    image = rng.normal((150, 118, 105), 2.5, (120, 168, 3))
+    obstacle, shadow, weak = np.s_[15:55, 100:150], np.s_[15:55, 10:70], np.s_[62:78, 10:150]
+    image[obstacle] *= 0.8                               # grey darkening, k = 0
+    image[shadow] *= SKYLIGHT
+    u, k = np.log(0.8), 0.55                             # the weakest skylight shadow of the family
+    image[weak] *= np.exp([u * (1 + k / 2), u, u * (1 - k / 2)])
+    option = SegmentationParameters(ground_colour=GroundColourParameters(min_shadow_chroma_bins=2))
+    labels = segment(_u8(image), params=option).labels
+    assert np.mean(labels[obstacle] == Label.OBSTACLE) > 0.95
+    assert np.mean(labels[shadow] == Label.SHADOW) > 0.95
+    assert np.mean(labels[weak] == Label.SHADOW) > 0.95
+    assert np.mean(labels[90:] == Label.GROUND) > 0.95
+    default = segment(_u8(image)).labels                 # the whole family calls it a shadow
+    assert np.mean(default[obstacle] == Label.SHADOW) > 0.9
