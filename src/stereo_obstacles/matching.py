@@ -68,7 +68,8 @@ class MatchStats:
     visited_fraction_range : float
         ``n_visited / (W * H * (d_max - d_min + 1))``.
     density : float
-        Fraction of pixels with a disparity.
+        Fraction of all the image's pixels with a disparity (``evaluate`` reports density over
+        the non-occluded pixels with ground truth instead, which is higher).
     d_min, d_max : int
         Disparity range used, pixels.
     prepare_seconds, seeds_seconds, growth_seconds, final_seconds, subpixel_seconds : float
