@@ -64,17 +64,22 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
-# --- 1. comparison ---------------------------------------------------------------------------
-
-def comparison(data: Path, names: tuple[str, ...], repeat: int) -> tuple[str, list[dict]]:
-    methods = resolve_methods(None)
-    results = []
+def _present_pairs(data: Path, names: tuple[str, ...]):
+    """The pairs of ``names`` found under ``data``, loaded, in order; absent ones are said and skipped."""
     for name in names:
         folder = data / name
         if not folder.is_dir():
             print(f"skip {name}: not in {data}", file=sys.stderr)
             continue
-        pair = load_pair(folder)
+        yield load_pair(folder)
+
+
+# --- 1. comparison ---------------------------------------------------------------------------
+
+def comparison(data: Path, names: tuple[str, ...], repeat: int) -> tuple[str, list[dict]]:
+    methods = resolve_methods(None)
+    results = []
+    for pair in _present_pairs(data, names):
         print(f"comparison: {pair.name}", file=sys.stderr)
         results.extend(evaluate_pair(pair, methods, repeat=repeat))
     rows, ratio_rows, records = [], [], []
@@ -115,11 +120,7 @@ def seed_ablation(data: Path, names: tuple[str, ...], repeat: int) -> tuple[str,
     from stereo_obstacles.matching import match
 
     rows, records = [], []
-    for name in names:
-        folder = data / name
-        if not folder.is_dir():
-            continue
-        pair = load_pair(folder)
+    for pair in _present_pairs(data, names):
         max_d = math.ceil(pair.max_gt_disparity)
         for kind in SEED_KINDS:  # first calls, not in the medians
             match(pair.left, pair.right, seeds=kind, max_disparity=max_d)
@@ -166,11 +167,7 @@ def extensions(data: Path, names: tuple[str, ...], repeat: int) -> tuple[str, li
     from stereo_obstacles.peers import sgbm_disparity
 
     rows, records = [], []
-    for name in names:
-        folder = data / name
-        if not folder.is_dir():
-            continue
-        pair = load_pair(folder)
+    for pair in _present_pairs(data, names):
         max_d = math.ceil(pair.max_gt_disparity)
         for _, options in EXTENSIONS:  # first calls, not in the medians
             match(pair.left, pair.right, max_disparity=max_d, **options)
