@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from stereo_obstacles._subpixel_kernel import _parabola_offsets
+
 __all__ = ["parabola_offset"]
 
 
@@ -33,11 +35,8 @@ def parabola_offset(c_minus: np.ndarray, c0: np.ndarray, c_plus: np.ndarray) -> 
     >>> float(parabola_offset(np.array(0.0), np.array(1.0), np.array(1.0)))
     0.5
     """
-    cm = np.asarray(c_minus, np.float64)
-    c = np.asarray(c0, np.float64)
-    cp = np.asarray(c_plus, np.float64)
-    curvature = cm - 2.0 * c + cp
-    peak = np.isfinite(curvature) & (curvature < 0.0)
-    safe = np.where(peak, curvature, -1.0)
-    offset = np.where(peak, 0.5 * (cm - cp) / safe, 0.0)
-    return np.clip(np.nan_to_num(offset), -0.5, 0.5).astype(np.float32)
+    shape = np.broadcast_shapes(np.shape(c_minus), np.shape(c0), np.shape(c_plus))
+    flat = [np.ascontiguousarray(np.broadcast_to(np.asarray(a, np.float64), shape)).ravel()
+            for a in (c_minus, c0, c_plus)]
+    return _parabola_offsets(*flat).reshape(shape)
+
