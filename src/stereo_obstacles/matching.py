@@ -24,8 +24,8 @@ from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 
-__all__ = ["BANDS", "DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult", "MatchStats", "match",
-           "warm_up"]
+__all__ = ["BANDS", "DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult", "MatchStats",
+           "disparity_range", "match", "warm_up"]
 
 logger = logging.getLogger(__name__)
 
@@ -195,6 +195,24 @@ def _warn_if_doubtful(density: float, n_seed_pixels: int, n_seeds: int, zero_fra
                        100 * zero_fraction)
 
 
+def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | None = None) -> tuple[int, int]:
+    """The inclusive disparity range ``(d_min, d_max)`` in pixels :func:`match` searches in an image
+    ``width`` pixels wide: up to ``max_disparity``, or a third of the width without it, and at most
+    ``width - 1``.
+
+    Examples
+    --------
+    >>> disparity_range(640), disparity_range(640, 2, 64), disparity_range(40, 0, 100)
+    ((0, 213), (2, 64), (0, 39))
+    """
+    d_min = int(min_disparity)
+    d_max = int(max_disparity) if max_disparity is not None else max(d_min, round(width * DEFAULT_MAX_DISPARITY_FRACTION))
+    d_max = min(d_max, width - 1)
+    if d_min > d_max:
+        raise InvalidInputError(f"min_disparity: expected < image width {width}, got {d_min}")
+    return d_min, d_max
+
+
 def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disparity: int | None = None,
           min_disparity: int = 0, tau: float = 0.55, mu: float = 0.1, max_candidates: int = 10,
           final_margin: float = 0.1, similarity: str = "ncc", variant: str = "stable", rng_seed: int = 0,
@@ -290,11 +308,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     if h < MIN_SIZE or w < MIN_SIZE:
         raise InvalidInputError(f"left, right: images must be at least {MIN_SIZE}x{MIN_SIZE} pixels, got {w}x{h}")
     check_matching_size(w, h)
-    d_min = int(min_disparity)
-    d_max = int(max_disparity) if max_disparity is not None else max(d_min, round(w * DEFAULT_MAX_DISPARITY_FRACTION))
-    d_max = min(d_max, w - 1)
-    if d_min > d_max:
-        raise InvalidInputError(f"min_disparity: expected < image width {w}, got {d_min}")
+    d_min, d_max = disparity_range(w, min_disparity, max_disparity)
     inputs = prepare_similarity(left_grey, right_grey, kind=similarity, min_std=min_std, n_threads=int(bands))
     t1 = time.perf_counter()
 

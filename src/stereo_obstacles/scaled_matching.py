@@ -1,25 +1,37 @@
-"""Matching on a reduced copy of the pair, with the disparity brought back to full resolution.
+"""Coarse-to-fine matching: GCS on a reduced copy of the pair, refined on the full-size images.
 
 The cost of :func:`stereo_obstacles.matching.match` grows with the number of pixels (and the
 disparity range with the width), so matching a pair shrunk by ``scale`` costs about
 ``scale ** 2`` as much. The disparity found at the reduced size is divided by the horizontal
 scale and spread back over the full-size pixels (nearest neighbour: unmatched stays NaN, no
-value is invented between a foreground and a background). The price is resolution: a
-disparity error of ``e`` pixels at the reduced size is ``e / scale`` at full size, and thin
-objects lose their pixels first (measured in ``docs/pipeline.md``, "Matching scale").
+value is invented between a foreground and a background); each of those pixels is then
+matched again on the full-size images within a few pixels of that estimate
+(:mod:`stereo_obstacles.refinement`) and, as in ``match``, checked by the shifted windows near
+disparity jumps. The refinement brings the precision back to full-size pixels; what the reduced
+size loses for good is thin structures and the pixels next to unmatched areas (measured in
+``docs/matching.md``, "Coarse to fine", and ``docs/pipeline.md``, "Matching scale").
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 
 import cv2
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.matching import MatchResult, match
+from stereo_obstacles.matching import MatchResult, disparity_range, match
+from stereo_obstacles.refinement import refine_disparity
+from stereo_obstacles.shifted_windows import shifted_window_check
+from stereo_obstacles.similarity import prepare_similarity, to_grey
 
-__all__ = ["check_scale", "match_at_scale", "scaled_size"]
+__all__ = ["MIN_REDUCED_ROWS", "check_scale", "effective_scale", "match_at_scale", "refine_at_full_size",
+           "scaled_size"]
+
+MIN_REDUCED_ROWS = 120
+"""A pair is never shrunk below this many rows: smaller images are matched at a larger scale (at full
+size when 120 rows or fewer), where a 5 x 5 window and 8-pixel seed cells still see enough texture."""
 
 
 def check_scale(scale: float) -> float:
@@ -28,6 +40,18 @@ def check_scale(scale: float) -> float:
             or not 0.0 < scale <= 1.0:
         raise InvalidInputError(f"matching scale must be in (0, 1], got {scale!r}")
     return float(scale)
+
+
+def effective_scale(height: int, scale: float) -> float:
+    """The scale :func:`match_at_scale` uses for images ``height`` rows high: ``scale``, raised so
+    that the reduced copy keeps :data:`MIN_REDUCED_ROWS` rows, and at most 1.
+
+    Examples
+    --------
+    >>> effective_scale(480, 0.5), effective_scale(200, 0.5), effective_scale(120, 0.5)
+    (0.5, 0.6, 1.0)
+    """
+    return min(1.0, max(check_scale(scale), MIN_REDUCED_ROWS / height))
 
 
 def scaled_size(width: int, height: int, scale: float) -> tuple[int, int]:
@@ -51,22 +75,52 @@ def _scaled_seed_points(points: np.ndarray, sx: float, sy: float, width: int, he
     return np.stack([x[keep], y[keep], d[keep]], axis=1)
 
 
+def _match_option(options: dict, name: str):
+    """``options[name]``, or :func:`~stereo_obstacles.matching.match`'s default for it."""
+    return options.get(name, inspect.signature(match).parameters[name].default)
+
+
+def refine_at_full_size(left: np.ndarray, right: np.ndarray, estimate: np.ndarray, *,
+                        max_disparity: int | None = None, **options) -> np.ndarray:
+    """The fine step: ``estimate`` (full-size pixels, NaN: none) matched again on the full-size pair.
+
+    ``options`` are those of :func:`~stereo_obstacles.matching.match`; its ``tau``, ``similarity``,
+    ``min_std``, ``min_disparity``, ``bands`` (threads) and ``shifted_windows`` apply here too.
+    Returns the refined float32 disparity, NaN where unmatched.
+    """
+    h, w = left.shape[:2]
+    d_min, d_max = disparity_range(w, _match_option(options, "min_disparity"), max_disparity)
+    n_threads = int(_match_option(options, "bands"))
+    inputs = prepare_similarity(to_grey(left, "left"), to_grey(right, "right"),
+                                kind=_match_option(options, "similarity"), min_std=_match_option(options, "min_std"),
+                                n_threads=n_threads)
+    refined = refine_disparity(inputs, estimate, tau=_match_option(options, "tau"), d_min=d_min, d_max=d_max,
+                               n_threads=n_threads)
+    disparity = refined.disparity
+    if _match_option(options, "shifted_windows"):
+        ys, xs = np.nonzero(refined.integer_disparity >= 0)
+        keep, _ = shifted_window_check(inputs, ys, xs, refined.integer_disparity[ys, xs], n_threads=n_threads)
+        disparity[ys[~keep], xs[~keep]] = np.nan
+    return disparity
+
+
 def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_points: np.ndarray | None = None,
                    max_disparity: int | None = None, **options) -> tuple[np.ndarray, MatchResult]:
-    """Match ``left`` and ``right`` shrunk by ``scale``; return the full-size disparity and the match.
+    """Match ``left`` and ``right`` shrunk by ``scale``, refine at full size; return both results.
 
     Parameters
     ----------
     left, right : ndarray, shape (H, W) or (H, W, 3)
         The rectified pair at full size.
     scale : float
-        In ``(0, 1]``; 1 matches the pair as it is.
+        In ``(0, 1]``; 1 matches the pair as it is (no refinement). Raised for small images
+        (:func:`effective_scale`).
     seed_points : ndarray, shape (N, 3), optional
         Seeds ``(x, y, d)`` in full-size pixels (e.g. the previous frame's matches).
     max_disparity : int, optional
         Largest disparity in full-size pixels.
     **options
-        Other keyword arguments of :func:`stereo_obstacles.matching.match`.
+        Other keyword arguments of :func:`stereo_obstacles.matching.match` (used at both sizes).
 
     Returns
     -------
@@ -75,8 +129,8 @@ def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_po
     result : MatchResult
         The match at the reduced size (its statistics count reduced pixels).
     """
-    scale = check_scale(scale)
     h, w = left.shape[:2]
+    scale = effective_scale(h, scale)
     if scale == 1.0:
         result = match(left, right, seed_points=seed_points, max_disparity=max_disparity, **options)
         return result.disparity, result
@@ -86,6 +140,7 @@ def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_po
     small_seeds = (None if seed_points is None
                    else _scaled_seed_points(seed_points, sx, sy, small_w, small_h, small_max))
     shrink = [cv2.resize(image, (small_w, small_h), interpolation=cv2.INTER_AREA) for image in (left, right)]
-    result = match(shrink[0], shrink[1], seed_points=small_seeds, max_disparity=small_max, **options)
-    disparity = cv2.resize(result.disparity / np.float32(sx), (w, h), interpolation=cv2.INTER_NEAREST)
-    return disparity, result
+    small_options = dict(options, min_disparity=math.floor(_match_option(options, "min_disparity") * sx))
+    result = match(shrink[0], shrink[1], seed_points=small_seeds, max_disparity=small_max, **small_options)
+    estimate = cv2.resize(result.disparity / np.float32(sx), (w, h), interpolation=cv2.INTER_NEAREST)
+    return refine_at_full_size(left, right, estimate, max_disparity=max_disparity, **options), result
