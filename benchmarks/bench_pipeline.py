@@ -59,8 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     cases = {}
     pair = render_pair(default_scene(640, 480))
     cases["synthetic default scene 640x480"] = (pair.left, pair.right, pair.calibration, 64, DetectionConfig())
-    cases["the same, matching scale 0.5"] = (pair.left, pair.right, pair.calibration, 64,
-                                             DetectionConfig(matching_scale=0.5))
+    cases["the same, matching scale 1 (growth at full size)"] = (pair.left, pair.right, pair.calibration, 64,
+                                                                 DetectionConfig(matching_scale=1.0))
     kitti = SHARED_DATA / "kitti2015_000005"
     if kitti.is_dir():
         from stereo_obstacles.datasets import load_pair

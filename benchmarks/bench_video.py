@@ -83,12 +83,12 @@ def main() -> None:
     parser.add_argument("--size", default="640x480")
     parser.add_argument("--memory-frames", type=int, default=1000)
     parser.add_argument("--memory-size", default="320x240")
-    parser.add_argument("--matching-scale", type=float, default=1.0,
-                        help="DetectionConfig.matching_scale of every run (default 1)")
+    parser.add_argument("--matching-scale", type=float, default=None,
+                        help="DetectionConfig.matching_scale of every run (default: the pipeline's)")
     parser.add_argument("--json", metavar="FILE")
     args = parser.parse_args()
     width, height = _size(args.size)
-    config = DetectionConfig(matching_scale=args.matching_scale)
+    config = DetectionConfig() if args.matching_scale is None else DetectionConfig(matching_scale=args.matching_scale)
     machine = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, Python "
                f"{sys.version.split()[0]}, NumPy {np.__version__}, load average {os.getloadavg()[0]:.1f}")
     print(f"machine: {machine}")
@@ -103,9 +103,9 @@ def main() -> None:
     for _ in range(2):
         for name, temporal in modes.items():
             results[name].append(_run_mode(pairs, calibration, temporal, config))
-    summary = {"machine": machine, "size": [width, height], "matching_scale": args.matching_scale,
+    summary = {"machine": machine, "size": [width, height], "matching_scale": config.matching_scale,
                "frames": len(pairs), "modes": {}}
-    print(f"matching scale {args.matching_scale:g}")
+    print(f"matching scale {config.matching_scale:g}")
     print(f"\n{'seeds':<16} {'frame ms':>9} {'fps':>6} {'match ms':>9} {'bad-1 %':>8} {'density %':>10}")
     for name, runs in results.items():
         timed = [row for run in runs for row in run[WARM_UP_FRAMES:]]

@@ -22,6 +22,7 @@ from stereo_obstacles.obstacle_json import jsonable
 from stereo_obstacles.obstacles import ObstacleList
 from stereo_obstacles.pictures import draw_obstacles
 from stereo_obstacles.pipeline import DetectionConfig, DetectionResult, detect
+from stereo_obstacles.scaled_matching import effective_scale
 from stereo_obstacles.streams import StereoFrame
 from stereo_obstacles.temporal_seeds import TemporalSeeder, TemporalSeedParameters
 from stereo_obstacles.tracking import ObstacleTracker, Track, TrackingParameters
@@ -87,7 +88,8 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
         result = detect(frame.left, frame.right, calibration, config=config if number == 0 else later_frames,
                         seed_points=points)
         if seeder is not None:
-            scale = config.matching_scale  # the match's range counts reduced pixels; the disparity full-size ones
+            # the match's range counts reduced pixels; the disparity full-size ones
+            scale = effective_scale(frame.left.shape[0], config.matching_scale)
             seeder.observe(result.disparity, d_min=math.floor(result.match_stats.d_min / scale),
                            d_max=math.floor(result.match_stats.d_max / scale))
         tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)

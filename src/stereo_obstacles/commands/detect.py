@@ -22,8 +22,8 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--max-distance", type=float, default=None, metavar="M",
                        help="report obstacles up to this distance, metres (default 30)")
     group.add_argument("--matching-scale", type=float, default=None, metavar="S",
-                       help="match a copy of the pair shrunk by S in (0, 1]: 0.5 is 3-4x faster, with "
-                            "twice the disparity error (default 1)")
+                       help="grow the matches on a copy of the pair shrunk by S in (0, 1], then refine "
+                            "them at full size (default 0.5; 1 grows at full size, about 1.4x slower)")
 
 
 def config_from_args(args: argparse.Namespace):

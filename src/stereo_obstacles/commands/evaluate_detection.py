@@ -31,8 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--dataset", nargs="+", action="extend", default=[], metavar="DIR",
                         help="calibrated dataset folders (e.g. KITTI) for the depth comparison (several after "
                              "one --dataset, or --dataset repeated)")
-    parser.add_argument("--matching-scale", type=float, default=1.0, metavar="S",
-                        help="match copies of the pairs shrunk by S in (0, 1] (default 1; see detect)")
+    parser.add_argument("--matching-scale", type=float, default=None, metavar="S",
+                        help="grow the matches on copies of the pairs shrunk by S in (0, 1] (default: the "
+                             "pipeline's, 0.5; see detect)")
     parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     parser.set_defaults(handler=run)
 
@@ -66,7 +67,9 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.pipeline import DetectionConfig, warm_up
 
     width, height = image_size(args.size)
-    config = DetectionConfig(matching_scale=args.matching_scale)
+    config = DetectionConfig()
+    if args.matching_scale is not None:
+        config = DetectionConfig(matching_scale=args.matching_scale)
     warm_up()
     evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config)
                    for seed in range(args.first_seed, args.first_seed + args.scenes)]
