@@ -1,16 +1,18 @@
 """Video speed and accuracy: temporal seeds against edge seeds on a synthetic forward walk; memory over a long run.
 
 Run: ``python benchmarks/bench_video.py [--frames N] [--size WxH] [--memory-frames M]
-[--memory-size WxH] [--matching-scale S] [--json FILE]``.
+[--memory-size WxH] [--matching-scale S] [--in-flight N] [--json FILE]``.
 
 1. Renders ``--frames`` pairs of the default scene with the rig walking forward 0.05 m per
    frame (1.4 m/s at ~30 fps), with exact ground truth.
 2. Runs the whole per-frame pipeline (:func:`stereo_obstacles.stream_detection.detect_stream`:
-   detection, tracking) over the frames with edge seeds, with temporal seeds, and with
-   temporal seeds moved by the known forward motion, twice each in alternation. Reports per
-   mode the median over frames (after two warm-up frames) of the whole frame time and of the
-   matching stage, frames per second, and per frame the bad-1 rate (|d - gt| > 1 px over
-   matched non-occluded pixels with ground truth) and density (matched share of those pixels).
+   detection, tracking; ``--in-flight`` frames at once) over the frames with edge seeds, with
+   temporal seeds, and with temporal seeds moved by the known forward motion, twice each in
+   alternation. Reports per mode the frames delivered per second of wall time after two
+   warm-up frames (median of the two runs), the median over those frames of one frame's
+   detection time (latency) and of its matching stage, and per frame the bad-1 rate
+   (|d - gt| > 1 px over matched non-occluded pixels with ground truth) and density (matched
+   share of those pixels).
 3. Memory: ``--memory-frames`` frames (the rendered walk cycled, timestamps increasing) of
    the ``video`` command's loop — detection, tracking, JSON record, annotated frame — with
    temporal seeds; RSS (``/proc/self/statm``) at frame 10 and at the end.
@@ -30,7 +32,7 @@ import numpy as np
 
 from stereo_obstacles.matching import warm_up
 from stereo_obstacles.pipeline import DetectionConfig
-from stereo_obstacles.stream_detection import annotate_frame, detect_stream, frame_record
+from stereo_obstacles.stream_detection import IN_FLIGHT, annotate_frame, detect_stream, frame_record
 from stereo_obstacles.streams import StereoFrame
 from stereo_obstacles.synthetic import default_scene, render_sequence
 from stereo_obstacles.temporal_seeds import TemporalSeedParameters
@@ -64,17 +66,25 @@ def _accuracy(disparity: np.ndarray, pair) -> tuple[float, float]:
     return bad, float(matched.sum() / known.sum())
 
 
-def _run_mode(pairs, calibration, temporal, config) -> list[dict]:
+def _run_mode(pairs, calibration, temporal, config, in_flight) -> list[dict]:
     rows = []
-    for detection, pair in zip(detect_stream(_frames(pairs, len(pairs)), calibration, config=config,
-                                             temporal=temporal), pairs):
-        bad, density = _accuracy(detection.result.disparity, pair)
+    disparities = []
+    for detection in detect_stream(_frames(pairs, len(pairs)), calibration, config=config, temporal=temporal,
+                                   in_flight=in_flight):
         stats = detection.result.match_stats
-        rows.append({"seeds": detection.seeds, "total_s": detection.result.timings_s["total"],
+        rows.append({"seeds": detection.seeds, "done_s": time.perf_counter(),
+                     "total_s": detection.result.timings_s["total"],
                      "matching_s": detection.result.timings_s["matching"], "stages_s": dict(detection.result.timings_s),
-                     "seed_stage_s": stats.seeds_seconds, "growth_s": stats.growth_seconds, "bad1": bad,
-                     "density": density})
+                     "seed_stage_s": stats.seeds_seconds, "growth_s": stats.growth_seconds})
+        disparities.append(detection.result.disparity)
+    for row, disparity, pair in zip(rows, disparities, pairs, strict=True):  # after the timed run
+        row["bad1"], row["density"] = _accuracy(disparity, pair)
     return rows
+
+
+def _frames_per_second(run: list[dict]) -> float:
+    """Frames delivered per second of wall time after the warm-up frames."""
+    return (len(run) - WARM_UP_FRAMES) / (run[-1]["done_s"] - run[WARM_UP_FRAMES - 1]["done_s"])
 
 
 def main() -> None:
@@ -85,6 +95,8 @@ def main() -> None:
     parser.add_argument("--memory-size", default="320x240")
     parser.add_argument("--matching-scale", type=float, default=None,
                         help="DetectionConfig.matching_scale of every run (default: the pipeline's)")
+    parser.add_argument("--in-flight", type=int, default=IN_FLIGHT,
+                        help=f"frames detected at once (default {IN_FLIGHT}, as the video command)")
     parser.add_argument("--json", metavar="FILE")
     args = parser.parse_args()
     width, height = _size(args.size)
@@ -98,25 +110,28 @@ def main() -> None:
     print(f"rendered {len(pairs)} {width}x{height} frames in {time.perf_counter() - start:.0f} s")
     calibration = pairs[0].calibration
     modes = {"edge": None, "temporal": TemporalSeedParameters(),
-             "temporal+motion": TemporalSeedParameters(forward_m_per_frame=SPEED_M_PER_FRAME)}
+             "temporal+motion": TemporalSeedParameters(forward_m_per_frame=SPEED_M_PER_FRAME),
+             **{f"refine {n}": TemporalSeedParameters(forward_m_per_frame=SPEED_M_PER_FRAME, refine_frames=n)
+                for n in (1, 2, 3)}}
     results: dict[str, list[list[dict]]] = {name: [] for name in modes}
     for _ in range(2):
         for name, temporal in modes.items():
-            results[name].append(_run_mode(pairs, calibration, temporal, config))
+            results[name].append(_run_mode(pairs, calibration, temporal, config, args.in_flight))
     summary = {"machine": machine, "size": [width, height], "matching_scale": config.matching_scale,
-               "frames": len(pairs), "modes": {}}
-    print(f"matching scale {config.matching_scale:g}")
-    print(f"\n{'seeds':<16} {'frame ms':>9} {'fps':>6} {'match ms':>9} {'bad-1 %':>8} {'density %':>10}")
+               "in_flight": args.in_flight, "frames": len(pairs), "modes": {}}
+    print(f"matching scale {config.matching_scale:g}, {args.in_flight} frame(s) in flight")
+    print(f"\n{'seeds':<16} {'fps':>6} {'latency ms':>11} {'match ms':>9} {'bad-1 %':>8} {'density %':>10}")
     for name, runs in results.items():
         timed = [row for run in runs for row in run[WARM_UP_FRAMES:]]
         total = statistics.median(r["total_s"] for r in timed)
         matching = statistics.median(r["matching_s"] for r in timed)
+        fps = statistics.median(_frames_per_second(run) for run in runs)
         bad = statistics.median(r["bad1"] for r in runs[0])
         density = statistics.median(r["density"] for r in runs[0])
-        summary["modes"][name] = {"frame_s": total, "fps": 1 / total, "matching_s": matching,
+        summary["modes"][name] = {"fps": fps, "frame_s": total, "matching_s": matching,
                                   "bad1_median": bad, "density_median": density,
                                   "per_frame": runs[0]}
-        print(f"{name:<16} {1e3 * total:9.0f} {1 / total:6.2f} {1e3 * matching:9.0f} {100 * bad:8.2f} "
+        print(f"{name:<16} {fps:6.2f} {1e3 * total:11.0f} {1e3 * matching:9.0f} {100 * bad:8.2f} "
               f"{100 * density:10.1f}")
     print("\nmedian seconds per stage (frames after warm-up):")
     for name, runs in results.items():
@@ -127,11 +142,11 @@ def main() -> None:
         summary["modes"][name]["stages_s"] = stages
         print(f"  {name:<16} " + ", ".join(f"{key.strip()} {1e3 * v:.0f} ms" for key, v in stages.items()))
     edge = summary["modes"]["edge"]
-    for name in ("temporal", "temporal+motion"):
+    for name in list(modes)[1:]:
         mode = summary["modes"][name]
-        print(f"speed-up of {name} over edge seeds: frame x{edge['frame_s'] / mode['frame_s']:.2f}, "
+        print(f"speed-up of {name} over edge seeds: frames per second x{mode['fps'] / edge['fps']:.2f}, "
               f"matching x{edge['matching_s'] / mode['matching_s']:.2f}")
-    print("\nper frame (first run): seeds, bad-1 %, density % for edge | temporal | temporal+motion")
+    print("\nper frame (first run): seeds, bad-1 %, density % for " + " | ".join(modes))
     for k in range(len(pairs)):
         cells = [f"{results[n][0][k]['seeds'][:4]} {100 * results[n][0][k]['bad1']:.2f} "
                  f"{100 * results[n][0][k]['density']:.1f}" for n in modes]
@@ -143,7 +158,7 @@ def main() -> None:
         rss = {}
         start = time.perf_counter()
         for detection in detect_stream(_frames(walk, args.memory_frames), walk[0].calibration, config=config,
-                                       temporal=TemporalSeedParameters()):
+                                       temporal=TemporalSeedParameters(), in_flight=args.in_flight):
             json.dumps(frame_record(detection))
             annotate_frame(detection)
             k = detection.frame.index + 1

@@ -5,8 +5,10 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from _stream_frames import FPS, N_FRAMES, SIZE, frames
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.stream_detection import annotate_frame, detect_stream, frame_record, tracked_list
 from stereo_obstacles.streams import StereoFrame
 from stereo_obstacles.temporal_seeds import TemporalSeedParameters
@@ -17,8 +19,8 @@ def _stream():
 
 
 def test_stream_detection_record_and_pictures():
-    temporal = TemporalSeedParameters(refresh_every=3, forward_m_per_frame=0.1)
-    detections = list(detect_stream(_stream(), frames()[0].calibration, temporal=temporal))
+    temporal = TemporalSeedParameters(refresh_every=3, forward_m_per_frame=0.1, refine_frames=0)
+    detections = list(detect_stream(_stream(), frames()[0].calibration, temporal=temporal, in_flight=1))
     assert [d.seeds for d in detections] == ["edge", "temporal", "temporal", "edge"][:N_FRAMES]
     assert detections[0].n_seed_points == 0 and detections[1].n_seed_points > 50
     for detection in detections:
@@ -38,3 +40,44 @@ def test_stream_detection_record_and_pictures():
         picture = annotate_frame(detection)
         assert picture.shape == (SIZE[1], SIZE[0], 3) and picture.dtype == np.uint8
         assert not np.array_equal(picture, detection.frame.left)
+
+
+def test_frames_in_flight_keep_their_order_and_seed_from_the_latest_finished_frame():
+    temporal = TemporalSeedParameters(refresh_every=3, refine_frames=0)
+    two = list(detect_stream(_stream(), frames()[0].calibration, temporal=temporal, in_flight=2))
+    assert [d.frame.index for d in two] == list(range(N_FRAMES))
+    # frame 1 starts before frame 0 is done, so both use edge seeds; frame 2 is seeded by frame 0
+    assert [d.seeds for d in two] == ["edge", "edge", "temporal", "temporal"][:N_FRAMES]
+
+
+def test_frames_in_flight_give_the_same_detections_with_edge_seeds():
+    one, three = (list(detect_stream(_stream(), frames()[0].calibration, temporal=None, in_flight=n))
+                  for n in (1, 3))
+    for a, b in zip(one, three, strict=True):
+        np.testing.assert_array_equal(a.result.disparity, b.result.disparity)
+        assert a.result.obstacles.obstacles == b.result.obstacles.obstacles
+        assert [t.track_id for t in a.tracks] == [t.track_id for t in b.tracks]
+
+
+def test_closing_the_stream_early_leaves_no_frame_thread():
+    import threading
+
+    stream = detect_stream(_stream(), frames()[0].calibration, in_flight=3)
+    next(stream)
+    stream.close()
+    assert not [t for t in threading.enumerate() if t.name.startswith("stream-frame")]
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True])
+def test_bad_in_flight_is_refused(bad):
+    with pytest.raises(InvalidInputError, match="in_flight must be an integer >= 1"):
+        next(detect_stream(_stream(), None, in_flight=bad))
+
+
+def test_refined_frames_alternate_with_grown_ones_by_default():
+    detections = list(detect_stream(_stream(), frames()[0].calibration, in_flight=1))
+    assert [d.seeds for d in detections] == ["edge", "refined", "temporal", "refined"][:N_FRAMES]
+    for detection in detections:
+        stats = detection.result.match_stats
+        assert (stats.growth_seconds == 0.0) == (detection.seeds == "refined")
+        assert json.loads(json.dumps(frame_record(detection)))["seeds"] == detection.seeds

@@ -7,10 +7,11 @@ import pytest
 
 from _stream_frames import SPEED_M_PER_FRAME, frames
 from stereo_obstacles.calibration import StereoCalibration
-from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.matching import match
 from stereo_obstacles.pipeline import detect
-from stereo_obstacles.temporal_seeds import TemporalSeeder, TemporalSeedParameters, temporal_seed_points
+from stereo_obstacles.temporal_seeds import (TemporalSeeder, TemporalSeedParameters, temporal_estimate,
+                                             temporal_seed_points)
 
 CALIB = StereoCalibration(focal_px=100.0, cx_px=10.0, cy_px=7.0, baseline_m=0.2, width_px=24, height_px=16,
                           doffs_px=1.5)
@@ -72,7 +73,7 @@ def test_point_errors():
 
 
 def test_seeder_refreshes_with_edge_seeds():
-    seeder = TemporalSeeder(TemporalSeedParameters(step_px=1, refresh_every=3, min_seeds=5))
+    seeder = TemporalSeeder(TemporalSeedParameters(step_px=1, refresh_every=3, min_seeds=5, refine_frames=0))
     matched = np.full((8, 8), 2.0, np.float32)
     kinds = []
     for _ in range(7):
@@ -111,3 +112,52 @@ def test_detect_passes_seed_points_to_the_matcher():
     result = detect(pair.left, pair.right, pair.calibration, seed_points=points)
     assert result.match_stats.n_seed_pixels == 2
     assert detect(pair.left, pair.right, pair.calibration).match_stats.n_seed_pixels > 2
+
+
+def test_seeder_refines_after_each_grown_frame_and_only_grown_frames_give_estimates():
+    seeder = TemporalSeeder(TemporalSeedParameters(step_px=1, refresh_every=0, min_seeds=5, refine_frames=2))
+    kinds, estimates = [], []
+    for k in range(8):
+        estimate = seeder.estimate()
+        kind = "refined" if estimate is not None else "edge" if seeder.seeds() is None else "temporal"
+        kinds.append(kind)
+        estimates.append(None if estimate is None else float(estimate[0, 0]))
+        seeder.observe(np.full((8, 8), float(k), np.float32), d_min=0, d_max=9, refined=kind == "refined")
+    assert kinds == ["edge", "refined", "refined", "temporal", "refined", "refined", "temporal", "refined"]
+    assert estimates == [None, 0.0, 0.0, None, 3.0, 3.0, None, 6.0]   # always the latest grown frame
+
+
+def test_estimate_spreads_matches_by_one_pixel_like_a_reference():
+    rng = np.random.default_rng(4)
+    disparity = rng.uniform(1, 9, (12, 15)).astype(np.float32)
+    disparity[rng.random(disparity.shape) < 0.7] = np.nan
+    got = temporal_estimate(disparity)
+    h, w = disparity.shape
+    for y in range(h):
+        for x in range(w):
+            around = disparity[max(0, y - 1):y + 2, max(0, x - 1):x + 2]
+            want = disparity[y, x] if np.isfinite(disparity[y, x]) else (
+                np.nanmax(around) if np.isfinite(around).any() else np.nan)
+            np.testing.assert_equal(got[y, x], np.float32(want))
+
+
+def test_refining_the_previous_frame_matches_almost_as_well_as_growing():
+    walk = frames()
+    previous = detect(walk[0].left, walk[0].right, walk[0].calibration)
+    pair = walk[1]
+    refined = detect(pair.left, pair.right, pair.calibration, disparity_estimate=temporal_estimate(previous.disparity))
+    grown = detect(pair.left, pair.right, pair.calibration)
+    bad_r, density_r = bad_and_density(refined.disparity, pair.disparity)
+    bad_g, density_g = bad_and_density(grown.disparity, pair.disparity)
+    assert refined.match_stats.n_seeds == 0 and refined.match_stats.growth_seconds == 0.0
+    assert refined.match_stats.n_visited > 0
+    assert bad_r <= bad_g + 0.01 and density_r >= density_g - 0.02
+
+
+def test_detect_refuses_an_estimate_of_another_shape_or_with_seeds():
+    pair = frames()[0]
+    with pytest.raises(ImageMismatchError, match="disparity_estimate must have the images' shape"):
+        detect(pair.left, pair.right, disparity_estimate=np.zeros((3, 3), np.float32))
+    with pytest.raises(InvalidInputError, match="give one or the other"):
+        detect(pair.left, pair.right, seed_points=np.array([[80, 100, 20]]),
+               disparity_estimate=np.zeros(pair.left.shape[:2], np.float32))

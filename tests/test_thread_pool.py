@@ -26,3 +26,14 @@ def test_errors_of_pool_tasks_reach_the_caller():
 
     with pytest.raises(ValueError, match="task 1"):
         run_in_threads(fail, [(0,), (1,)])
+
+
+def test_callers_in_several_threads_at_once_each_get_their_results():
+    from concurrent.futures import ThreadPoolExecutor
+
+    def call(k):  # some callers need a larger pool than others
+        return run_in_threads(lambda a, b: a * b, [(k, j) for j in range(1 + k % 3)])
+
+    with ThreadPoolExecutor(4) as callers:
+        results = list(callers.map(call, range(40)))
+    assert results == [[k * j for j in range(1 + k % 3)] for k in range(40)]

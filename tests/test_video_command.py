@@ -31,7 +31,8 @@ def test_video_pair_gives_tracked_obstacles_as_json_lines_and_a_video(tmp_path):
     header, frames, end = records[0], records[1:-1], records[-1]
     assert header["type"] == "header" and header["units"] == "metres" and header["calibration"] is not None
     assert [r["frame"] for r in frames] == list(range(N_FRAMES))
-    assert [r["seeds"] for r in frames] == ["edge"] + ["temporal"] * (N_FRAMES - 1)
+    # two frames in flight: the second starts before the first is done; the third refines the first
+    assert [r["seeds"] for r in frames] == ["edge", "edge", "refined", "temporal"][:N_FRAMES]
     assert end == {**end, "type": "end", "frames": N_FRAMES, "interrupted": False}
     # The detector is unsteady on 160x120 MJPG frames (objects merge and split), so only the
     # wiring is checked here; tracking itself is tested in test_tracking.py.
@@ -75,6 +76,15 @@ def test_empty_source_is_an_error(tmp_path, capsys):
     (tmp_path / "r").mkdir()
     assert main(["video", str(tmp_path / "l"), str(tmp_path / "r")]) == 1
     assert "no image files" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("option, message", [(["--in-flight", "0"], "--in-flight must be >= 1, got 0"),
+                                             (["--max-frames", "0"], "--max-frames must be >= 1, got 0")])
+def test_bad_counts_are_one_line_errors(tmp_path, capsys, option, message):
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    assert main(["video", str(left_dir), str(right_dir), *option]) == 1
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
 
 
 def _run_and_stop(tmp_path, how: int) -> tuple[int, list[str], str]:

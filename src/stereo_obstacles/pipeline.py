@@ -35,7 +35,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import disparity_to_depth
-from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
@@ -44,7 +44,7 @@ from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_
 from stereo_obstacles.obstacles import ObstacleList, ObstacleParameters, measure_obstacles, standing_pixels
 from stereo_obstacles.rectification_check import check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
-from stereo_obstacles.scaled_matching import check_scale, match_at_scale
+from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 
 logger = logging.getLogger(__name__)
@@ -116,8 +116,9 @@ class DetectionResult:
     disparity
         ``float32 (H, W)`` left disparity in pixels, NaN where unmatched.
     match_stats
-        Statistics of the matcher (:class:`stereo_obstacles.matching.MatchStats`), of the
-        reduced pair when ``config.matching_scale < 1``.
+        Statistics of the matcher (:class:`stereo_obstacles.matching.MatchStats`): of the
+        reduced pair when ``config.matching_scale < 1``, of the refinement alone when a
+        ``disparity_estimate`` was refined.
     depth_m
         ``float32 (H, W)`` depth in metres, NaN where unknown; ``None`` without calibration.
     ground
@@ -267,7 +268,8 @@ def warm_up() -> float:
 
 
 def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration | None = None, *,
-           config: DetectionConfig = DetectionConfig(), seed_points: np.ndarray | None = None) -> DetectionResult:
+           config: DetectionConfig = DetectionConfig(), seed_points: np.ndarray | None = None,
+           disparity_estimate: np.ndarray | None = None) -> DetectionResult:
     """Find the obstacles in a rectified colour stereo pair.
 
     Parameters
@@ -282,6 +284,11 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     seed_points
         ``(N, 3)`` rows of ``(x, y, d)`` seeding the matcher instead of its edge seeds (for
         example the previous frame's matches, :mod:`stereo_obstacles.temporal_seeds`).
+    disparity_estimate
+        ``float (H, W)`` full-size disparity (NaN: none) to refine instead of growing seeds: every
+        pixel with an estimate is matched again near it on the full-size pair and nothing else is
+        matched (:func:`stereo_obstacles.scaled_matching.refine_at_full_size`; for example the
+        previous frame's disparity). Not together with ``seed_points``.
 
     Returns
     -------
@@ -300,6 +307,12 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]     # doctest: +SKIP
     """
     _check_pair(left, right)
+    if disparity_estimate is not None:
+        if seed_points is not None:
+            raise InvalidInputError("seed_points and disparity_estimate: give one or the other")
+        if np.shape(disparity_estimate) != left.shape[:2]:
+            raise ImageMismatchError(f"disparity_estimate must have the images' shape {left.shape[:2]}, got "
+                                     f"{np.shape(disparity_estimate)}")
     left, right = to_uint8(left, right)
     if calibration is not None:
         calibration.check_image_size(left.shape[1], left.shape[0])
@@ -316,8 +329,12 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     timings["rectification_check"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    disparity, matched = match_at_scale(left, right, config.matching_scale, seed_points=seed_points,
-                                        **config.matching.to_kwargs())
+    if disparity_estimate is None:
+        disparity, matched = match_at_scale(left, right, config.matching_scale, seed_points=seed_points,
+                                            **config.matching.to_kwargs())
+    else:
+        matched = refine_at_full_size(left, right, disparity_estimate, **config.matching.to_kwargs())
+        disparity = matched.disparity
     timings["matching"] = time.perf_counter() - t
 
     t = time.perf_counter()

@@ -68,7 +68,8 @@ def refine_disparity(inputs: SimilarityInputs, estimate: np.ndarray, *, tau: flo
     radius : int
         Integer disparities within this many pixels of the rounded estimate are searched (>= 0).
     n_threads : int
-        Row blocks matched in parallel threads (the result does not depend on it).
+        Row blocks matched in parallel threads, each with about as many estimated pixels (the
+        result does not depend on it).
 
     Returns
     -------
@@ -99,7 +100,9 @@ def refine_disparity(inputs: SimilarityInputs, estimate: np.ndarray, *, tau: flo
     estimate = np.ascontiguousarray(estimate, np.float32)
     d_int = np.full((h, w), -1, np.int32)
     c, c_minus, c_plus = (np.full((h, w), np.nan, np.float32) for _ in range(3))
-    edges = np.linspace(0, h, int(n_threads) + 1).astype(int)
+    # blocks of equal work: estimates crowd in the lower rows of a street scene (ground), not the sky
+    work = np.cumsum(np.count_nonzero(estimate == estimate, axis=1))
+    edges = [0] + [int(np.searchsorted(work, work[-1] * i / n_threads)) for i in range(1, int(n_threads))] + [h]
     counts = run_in_threads(_refine_rows, [(*inputs.kernel_args(), estimate, int(radius), float(tau), int(d_min),
                                             int(d_max), lo, hi, d_int, c, c_minus, c_plus)
                                            for lo, hi in zip(edges[:-1], edges[1:])])

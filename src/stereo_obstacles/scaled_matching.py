@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import inspect
 import math
+import time
 
 import cv2
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.matching import MatchResult, disparity_range, match
+from stereo_obstacles.matching import MatchResult, MatchStats, disparity_range, match
 from stereo_obstacles.refinement import refine_disparity
 from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.similarity import prepare_similarity, to_grey
@@ -81,27 +82,45 @@ def _match_option(options: dict, name: str):
 
 
 def refine_at_full_size(left: np.ndarray, right: np.ndarray, estimate: np.ndarray, *,
-                        max_disparity: int | None = None, **options) -> np.ndarray:
+                        max_disparity: int | None = None, **options) -> MatchResult:
     """The fine step: ``estimate`` (full-size pixels, NaN: none) matched again on the full-size pair.
 
     ``options`` are those of :func:`~stereo_obstacles.matching.match`; its ``tau``, ``similarity``,
     ``min_std``, ``min_disparity``, ``bands`` (threads) and ``shifted_windows`` apply here too.
-    Returns the refined float32 disparity, NaN where unmatched.
+    Returns a full-size :class:`~stereo_obstacles.matching.MatchResult` whose statistics are the
+    refinement's: no seeds, growth or candidates; ``n_visited`` the similarities the refinement
+    computed; ``match_seconds`` the refinement and the check.
     """
+    t0 = time.perf_counter()
     h, w = left.shape[:2]
     d_min, d_max = disparity_range(w, _match_option(options, "min_disparity"), max_disparity)
     n_threads = int(_match_option(options, "bands"))
     inputs = prepare_similarity(to_grey(left, "left"), to_grey(right, "right"),
                                 kind=_match_option(options, "similarity"), min_std=_match_option(options, "min_std"),
                                 n_threads=n_threads)
+    t1 = time.perf_counter()
     refined = refine_disparity(inputs, estimate, tau=_match_option(options, "tau"), d_min=d_min, d_max=d_max,
                                n_threads=n_threads)
-    disparity = refined.disparity
+    t2 = time.perf_counter()
+    disparity, similarity = refined.disparity, refined.similarity
+    n_checked = n_rejected = 0
     if _match_option(options, "shifted_windows"):
         ys, xs = np.nonzero(refined.integer_disparity >= 0)
-        keep, _ = shifted_window_check(inputs, ys, xs, refined.integer_disparity[ys, xs], n_threads=n_threads)
+        keep, n_checked = shifted_window_check(inputs, ys, xs, refined.integer_disparity[ys, xs], n_threads=n_threads)
         disparity[ys[~keep], xs[~keep]] = np.nan
-    return disparity
+        similarity[ys[~keep], xs[~keep]] = np.nan
+        n_rejected = int(keep.size - np.count_nonzero(keep))
+    t3 = time.perf_counter()
+    n_range = d_max - d_min + 1
+    stats = MatchStats(
+        n_seeds=0, n_seed_pixels=0, n_candidates=0, n_visited=refined.n_computed, n_memo_overflow=0,
+        visited_fraction_full=refined.n_computed / (w * w * h),
+        visited_fraction_range=refined.n_computed / (w * h * n_range),
+        density=float(np.count_nonzero(np.isfinite(disparity))) / (w * h), d_min=d_min, d_max=d_max,
+        prepare_seconds=t1 - t0, seeds_seconds=0.0, growth_seconds=0.0, final_seconds=0.0, subpixel_seconds=0.0,
+        match_seconds=t3 - t1, total_seconds=t3 - t0, n_edge_checked=n_checked, n_edge_rejected=n_rejected,
+        edge_check_seconds=t3 - t2)
+    return MatchResult(disparity, similarity, stats)
 
 
 def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_points: np.ndarray | None = None,
@@ -143,4 +162,4 @@ def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_po
     small_options = dict(options, min_disparity=math.floor(_match_option(options, "min_disparity") * sx))
     result = match(shrink[0], shrink[1], seed_points=small_seeds, max_disparity=small_max, **small_options)
     estimate = cv2.resize(result.disparity / np.float32(sx), (w, h), interpolation=cv2.INTER_NEAREST)
-    return refine_at_full_size(left, right, estimate, max_disparity=max_disparity, **options), result
+    return refine_at_full_size(left, right, estimate, max_disparity=max_disparity, **options).disparity, result

@@ -10,24 +10,26 @@ asked, and passes the obstacles to an :class:`~stereo_obstacles.tracking.Obstacl
 from __future__ import annotations
 
 import dataclasses
-import math
+from collections import deque
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.matching import disparity_range
 from stereo_obstacles.obstacle_json import jsonable
 from stereo_obstacles.obstacles import ObstacleList
 from stereo_obstacles.pictures import draw_obstacles
 from stereo_obstacles.pipeline import DetectionConfig, DetectionResult, detect
-from stereo_obstacles.scaled_matching import effective_scale
 from stereo_obstacles.streams import StereoFrame
 from stereo_obstacles.temporal_seeds import TemporalSeeder, TemporalSeedParameters
 from stereo_obstacles.tracking import ObstacleTracker, Track, TrackingParameters
 
-__all__ = ["STREAM_FORMAT", "FrameDetection", "annotate_frame", "detect_stream", "frame_record", "header_record",
+__all__ = ["IN_FLIGHT", "STREAM_FORMAT", "FrameDetection", "annotate_frame", "detect_stream", "frame_record", "header_record",
            "tracked_list"]
 
 STREAM_FORMAT = "stereo-obstacles/stream"
@@ -46,7 +48,9 @@ class FrameDetection:
         Tracks seen in this frame first (in the order of ``result.obstacles.obstacles``,
         nearest first), then tracks missed in this frame.
     seeds : str
-        ``"temporal"`` or ``"edge"``: what seeded the matcher.
+        What seeded the matcher: ``"edge"``, ``"temporal"`` (the previous frame's matches), or
+        ``"refined"`` (the previous frame's disparity refined, no growth; see
+        :class:`~stereo_obstacles.temporal_seeds.TemporalSeedParameters`).
     n_seed_points : int
         Temporal seed points passed to the matcher (0 for edge seeds).
     """
@@ -58,10 +62,16 @@ class FrameDetection:
     n_seed_points: int
 
 
+IN_FLIGHT = 2
+"""Default number of frames :func:`detect_stream` detects at once (``docs/streams.md``, "Speed": on two
+cores, a frame's single-threaded stages overlap the next frame's matching)."""
+
+
 def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration | None, *,
                   config: DetectionConfig = DetectionConfig(),
                   temporal: TemporalSeedParameters | None = TemporalSeedParameters(),
-                  tracking: TrackingParameters = TrackingParameters()) -> Iterator[FrameDetection]:
+                  tracking: TrackingParameters = TrackingParameters(),
+                  in_flight: int = IN_FLIGHT) -> Iterator[FrameDetection]:
     """Detect obstacles in every frame of a stream and track them.
 
     Parameters
@@ -75,26 +85,57 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
     temporal : TemporalSeedParameters or None
         Seed each frame from the previous one; ``None`` always uses the edge seeds.
     tracking : TrackingParameters
+    in_flight : int
+        Frames detected at once in worker threads (>= 1), yielded in order. With ``n``, the
+        temporal seeds of a frame come from the frame ``n`` before it (the latest one
+        finished), moved by ``n`` times the forward motion per frame.
 
     Yields
     ------
     FrameDetection
     """
+    if not isinstance(in_flight, int) or isinstance(in_flight, bool) or in_flight < 1:
+        raise InvalidInputError(f"in_flight must be an integer >= 1, got {in_flight!r}")
     seeder = TemporalSeeder(temporal, calibration) if temporal is not None else None
     tracker = ObstacleTracker(tracking)
     later_frames = replace(config, check_rectification=False)  # the rig does not change between frames
-    for number, frame in enumerate(frames):
-        points = seeder.seeds() if seeder is not None else None
-        result = detect(frame.left, frame.right, calibration, config=config if number == 0 else later_frames,
-                        seed_points=points)
-        if seeder is not None:
-            # the match's range counts reduced pixels; the disparity full-size ones
-            scale = effective_scale(frame.left.shape[0], config.matching_scale)
-            seeder.observe(result.disparity, d_min=math.floor(result.match_stats.d_min / scale),
-                           d_max=math.floor(result.match_stats.d_max / scale))
-        tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
-        yield FrameDetection(frame, result, tuple(tracks), "edge" if points is None else "temporal",
-                             0 if points is None else len(points))
+    frames = iter(frames)
+    pending: deque = deque()  # (frame, future, what seeded it, seed points) in frame order
+
+    def start_next(pool: ThreadPoolExecutor, first: bool) -> None:
+        frame = next(frames, None)
+        if frame is None:
+            return
+        estimate = seeder.estimate() if seeder is not None else None
+        points = seeder.seeds() if seeder is not None and estimate is None else None
+        seeds = "refined" if estimate is not None else "edge" if points is None else "temporal"
+        pending.append((frame, pool.submit(detect, frame.left, frame.right, calibration,
+                                           config=config if first else later_frames, seed_points=points,
+                                           disparity_estimate=estimate),
+                        seeds, 0 if points is None else len(points)))
+
+    with ThreadPoolExecutor(max_workers=in_flight, thread_name_prefix="stream-frame") as pool:
+        try:
+            for k in range(in_flight):
+                start_next(pool, first=k == 0)
+            while pending:
+                done = _finish(*pending.popleft(), seeder, tracker, config, in_flight)
+                start_next(pool, first=False)  # before yielding: the caller's work overlaps the frames in flight
+                yield done
+        finally:  # stopped early: frames still queued are dropped, a running one ends in its thread
+            for _, future, _, _ in pending:
+                future.cancel()
+
+
+def _finish(frame: StereoFrame, future, seeds: str, n_seed_points: int, seeder: TemporalSeeder | None,
+            tracker: ObstacleTracker, config: DetectionConfig, in_flight: int) -> FrameDetection:
+    """Wait for one frame's detection, feed the seeder and the tracker."""
+    result = future.result()
+    if seeder is not None:
+        d_min, d_max = disparity_range(frame.left.shape[1], 0, config.matching.max_disparity)
+        seeder.observe(result.disparity, d_min=d_min, d_max=d_max, frames_ahead=in_flight, refined=seeds == "refined")
+    tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
+    return FrameDetection(frame, result, tuple(tracks), seeds, n_seed_points)
 
 
 def header_record(*, source: str, calibration: StereoCalibration | None, config: DetectionConfig,

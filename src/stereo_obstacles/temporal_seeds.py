@@ -14,6 +14,13 @@ static point is expected in the next frame: ``Z' = Z - forward_m``, ``x' = cx + 
 Regions that come into view are only reached by growth from their neighbours, so
 :class:`TemporalSeeder` goes back to edge seeds every ``refresh_every`` frames and whenever
 the previous frame left too few seeds.
+
+Going further (``refine_frames``): between grown frames, a frame may skip seeds and growth
+altogether, every pixel matched in the previous frame being matched again near its previous
+disparity on the full-size pair (:func:`temporal_estimate`,
+:func:`stereo_obstacles.scaled_matching.refine_at_full_size`). That is the cheapest frame, but
+it finds nothing the previous frame had not matched (beyond one pixel around it), so the
+grown frames in between bring in what comes into view (measured in ``docs/streams.md``).
 """
 
 from __future__ import annotations
@@ -21,12 +28,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 
-__all__ = ["TemporalSeedParameters", "TemporalSeeder", "temporal_seed_points"]
+__all__ = ["TemporalSeedParameters", "TemporalSeeder", "temporal_estimate", "temporal_seed_points"]
 
 
 @dataclass(frozen=True)
@@ -45,15 +53,23 @@ class TemporalSeedParameters:
     forward_m_per_frame : float
         Expected forward motion of the rig between frames in metres (needs a calibration to
         be used; 0 keeps the seeds where they were).
+    refine_frames : int
+        After each frame matched by growth, this many frames are matched by refining the
+        latest grown frame's disparity instead (no seeds, no growth; see the module docstring);
+        0: every frame grows. ``refresh_every`` counts the grown frames only. The default 1
+        (every other frame refined) gave 1.15-1.2x the frames per second of temporal seeds
+        alone at a median bad-1 of 0.84 % instead of 0.82 % on the synthetic walk; 2 and 3
+        were faster but their bad-1 rose to 1.7 % and 3.4 % on some frames (``docs/streams.md``).
     """
 
     step_px: int = 8
     refresh_every: int = 30
     min_seeds: int = 100
     forward_m_per_frame: float = 0.0
+    refine_frames: int = 1
 
     def __post_init__(self) -> None:
-        for name, lowest in (("step_px", 1), ("refresh_every", 0), ("min_seeds", 0)):
+        for name, lowest in (("step_px", 1), ("refresh_every", 0), ("min_seeds", 0), ("refine_frames", 0)):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < lowest:
                 raise InvalidInputError(f"{name} must be an integer >= {lowest}, got {value!r}")
@@ -118,6 +134,40 @@ def temporal_seed_points(disparity: np.ndarray, *, d_min: int, d_max: int, step_
     return np.stack([x[keep], y[keep], d[keep]], axis=1)
 
 
+def temporal_estimate(disparity: np.ndarray) -> np.ndarray:
+    """The disparity estimate a frame gives the next one to refine: its own disparity, and at each
+    unmatched pixel next to a match (8-neighbourhood) the largest neighbouring disparity.
+
+    Not moved by the rig's motion: the refinement searches 2 px around every estimate, more than
+    the disparity of a point changes between frames at walking speed (``docs/streams.md``).
+
+    Parameters
+    ----------
+    disparity : ndarray of float, shape (H, W)
+        Disparity in pixels, NaN where unmatched.
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> d = np.full((3, 4), np.nan, np.float32); d[1, 1] = 5.0; d[1, 2] = 6.0
+    >>> temporal_estimate(d)
+    array([[5., 6., 6., 6.],
+           [5., 5., 6., 6.],
+           [5., 6., 6., 6.]], dtype=float32)
+    """
+    disparity = np.asarray(disparity, np.float32)
+    if disparity.ndim != 2:
+        raise InvalidInputError(f"disparity must be 2-D (H, W), got shape {disparity.shape}")
+    matched = np.isfinite(disparity)
+    known = np.where(matched, disparity, -np.inf).astype(np.float32)
+    spread = cv2.dilate(known, np.ones((3, 3), np.uint8), borderType=cv2.BORDER_CONSTANT, borderValue=-np.inf)
+    return np.where(matched, disparity, np.where(np.isfinite(spread), spread, np.nan)).astype(np.float32)
+
+
 def _move_forward(x: np.ndarray, y: np.ndarray, d: np.ndarray, calibration: StereoCalibration,
                   forward_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where static points seen at ``(x, y, d)`` appear after the rig moved ``forward_m``."""
@@ -136,8 +186,9 @@ def _move_forward(x: np.ndarray, y: np.ndarray, d: np.ndarray, calibration: Ster
 class TemporalSeeder:
     """Decides per frame between edge seeds and the previous frame's matches.
 
-    Call :meth:`seeds` before matching a frame (``None`` means: use the edge seeds) and
-    :meth:`observe` with the frame's disparity afterwards.
+    Call :meth:`estimate` before matching a frame: if it returns a disparity estimate, refine
+    it (``detect(disparity_estimate=...)``); otherwise call :meth:`seeds` (``None`` means: use
+    the edge seeds). Call :meth:`observe` with the frame's disparity afterwards.
 
     Parameters
     ----------
@@ -151,7 +202,17 @@ class TemporalSeeder:
         self.params = params
         self.calibration = calibration
         self._points: np.ndarray | None = None
+        self._estimate: np.ndarray | None = None
         self._since_refresh = 0
+        self._refined_in_a_row = 0
+
+    def estimate(self) -> np.ndarray | None:
+        """The disparity estimate the coming frame refines, or ``None``: that frame grows."""
+        if self._estimate is None or self._refined_in_a_row >= self.params.refine_frames:
+            self._refined_in_a_row = 0
+            return None
+        self._refined_in_a_row += 1
+        return self._estimate
 
     def seeds(self) -> np.ndarray | None:
         """Seed points ``(N, 3)`` for the coming frame, or ``None`` for edge seeds."""
@@ -163,8 +224,14 @@ class TemporalSeeder:
         self._since_refresh += 1
         return self._points
 
-    def observe(self, disparity: np.ndarray, *, d_min: int, d_max: int) -> None:
-        """Remember the seeds this frame's disparity gives the next one."""
-        forward = self.params.forward_m_per_frame if self.calibration is not None else 0.0
+    def observe(self, disparity: np.ndarray, *, d_min: int, d_max: int, frames_ahead: int = 1,
+                refined: bool = False) -> None:
+        """Remember the seeds this frame's disparity gives the frame ``frames_ahead`` after it.
+
+        A ``refined`` frame's disparity (matched from an estimate) does not become the next
+        estimate: refined frames always refine a grown frame, so their errors do not add up."""
+        forward = self.params.forward_m_per_frame * frames_ahead if self.calibration is not None else 0.0
         self._points = temporal_seed_points(disparity, d_min=d_min, d_max=d_max, step_px=self.params.step_px,
                                             calibration=self.calibration, forward_m=forward)
+        if self.params.refine_frames and not refined:
+            self._estimate = temporal_estimate(disparity)

@@ -7,22 +7,30 @@ alive between calls (waking them is cheap; measured in ``docs/matching.md``).
 
 from __future__ import annotations
 
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 __all__ = ["run_in_threads"]
 
 _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
+_pool_lock = threading.Lock()
 
 
-def _executor(n_workers: int) -> ThreadPoolExecutor:
+def _submit(function, arguments: list[tuple]) -> list:
+    """Futures of ``function(*a)`` on the pool, grown to at least ``len(arguments)`` threads first.
+
+    Under a lock: a stream detects frames in several threads at once, each calling
+    :func:`run_in_threads`. The pool is only ever replaced by a larger one, and the old one still
+    runs the tasks it was given."""
     global _pool, _pool_size
-    if _pool is None or _pool_size < n_workers:
-        if _pool is not None:
-            _pool.shutdown(wait=True)
-        _pool = ThreadPoolExecutor(max_workers=n_workers, thread_name_prefix="gcs-band")
-        _pool_size = n_workers
-    return _pool
+    with _pool_lock:
+        if _pool is None or _pool_size < len(arguments):
+            if _pool is not None:
+                _pool.shutdown(wait=False)
+            _pool = ThreadPoolExecutor(max_workers=len(arguments), thread_name_prefix="gcs-band")
+            _pool_size = len(arguments)
+        return [_pool.submit(function, *a) for a in arguments]
 
 
 def run_in_threads(function, arguments: list[tuple]) -> list:
@@ -36,6 +44,5 @@ def run_in_threads(function, arguments: list[tuple]) -> list:
     """
     if not arguments:
         return []
-    pool = _executor(len(arguments) - 1) if len(arguments) > 1 else None
-    futures = [pool.submit(function, *a) for a in arguments[1:]]
+    futures = _submit(function, arguments[1:]) if len(arguments) > 1 else []
     return [function(*arguments[0])] + [f.result() for f in futures]

@@ -33,6 +33,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--frames-out", metavar="DIR",
                         help="write every frame's full detection outputs (as 'detect --out') to DIR/<frame>/")
     parser.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
+    parser.add_argument("--in-flight", type=int, default=2, metavar="N",
+                        help="frames detected at once (default 2: more frames per second on two cores; "
+                             "1: each frame waits for the one before, the lowest latency)")
     seeds = parser.add_argument_group("temporal seeds")
     seeds.add_argument("--temporal-seeds", action=argparse.BooleanOptionalAction, default=True,
                        help="seed each frame's matching from the previous frame's matches (default on)")
@@ -40,6 +43,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        help="grid step of the temporal seeds, pixels (default 8)")
     seeds.add_argument("--refresh-every", type=int, default=30, metavar="N",
                        help="use edge seeds every N frames (default 30; 0: only when too few seeds)")
+    seeds.add_argument("--refine-frames", type=int, default=1, metavar="N",
+                       help="after each grown frame, match N frames by refining its disparity only (default 1; "
+                            "0: every frame grows)")
     seeds.add_argument("--forward-speed", type=float, default=0.0, metavar="M",
                        help="expected forward motion per frame in metres, to move the seeds (needs a calibration)")
     add_calibration_options(parser)
@@ -120,6 +126,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.max_frames is not None and args.max_frames < 1:
         raise InvalidInputError(f"--max-frames must be >= 1, got {args.max_frames}")
+    if args.in_flight < 1:
+        raise InvalidInputError(f"--in-flight must be >= 1, got {args.in_flight}")
     config = config_from_args(args)
     tracking = TrackingParameters()
     interrupted = False
@@ -134,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
         height, width = first.left.shape[:2]
         calibration = calibration_from_args(args, width, height)
         temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
-                                           forward_m_per_frame=args.forward_speed if calibration else 0.0)
+                                           forward_m_per_frame=args.forward_speed if calibration else 0.0,
+                                           refine_frames=args.refine_frames)
                     if args.temporal_seeds else None)
         jsonl = None
         if args.jsonl:
@@ -152,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
         progress = Progress(total, label="frame")
         stack.callback(progress.close)
         stream = detect_stream(itertools.chain([first], frames), calibration, config=config, temporal=temporal,
-                               tracking=tracking)
+                               tracking=tracking, in_flight=args.in_flight)
         stop = stack.enter_context(StopRequest("the current frame"))
         try:
             for detection in stream:
