@@ -7,8 +7,9 @@ Run: ``python benchmarks/bench_video.py [--frames N] [--size WxH] [--memory-fram
    frame (1.4 m/s at ~30 fps), with exact ground truth.
 2. Runs the whole per-frame pipeline (:func:`stereo_obstacles.stream_detection.detect_stream`:
    detection, tracking; ``--in-flight`` frames at once) over the frames with edge seeds, with
-   temporal seeds, and with temporal seeds moved by the known forward motion, twice each in
-   alternation. Reports per mode the frames delivered per second of wall time after two
+   temporal seeds, with temporal seeds moved by the known forward motion, and with temporal
+   seeds and 1, 2 or 3 refined frames after each grown one (``refine_frames``; 1 is what the
+   ``video`` command does by default), twice each in alternation. Reports per mode the frames delivered per second of wall time after two
    warm-up frames (median of the two runs), the median over those frames of one frame's
    detection time (latency) and of its matching stage, and per frame the bad-1 rate
    (|d - gt| > 1 px over matched non-occluded pixels with ground truth) and density (matched
@@ -109,10 +110,10 @@ def main() -> None:
     pairs = list(render_sequence(default_scene(width, height), args.frames, SPEED_M_PER_FRAME))
     print(f"rendered {len(pairs)} {width}x{height} frames in {time.perf_counter() - start:.0f} s")
     calibration = pairs[0].calibration
-    modes = {"edge": None, "temporal": TemporalSeedParameters(),
-             "temporal+motion": TemporalSeedParameters(forward_m_per_frame=SPEED_M_PER_FRAME),
-             **{f"refine {n}": TemporalSeedParameters(forward_m_per_frame=SPEED_M_PER_FRAME, refine_frames=n)
-                for n in (1, 2, 3)}}
+    modes = {"edge": None, "temporal": TemporalSeedParameters(refine_frames=0),
+             "temporal+motion": TemporalSeedParameters(forward_m_per_frame=SPEED_M_PER_FRAME, refine_frames=0),
+             **{f"refine {n}" + (" (default)" if n == TemporalSeedParameters().refine_frames else ""):
+                TemporalSeedParameters(refine_frames=n) for n in (1, 2, 3)}}
     results: dict[str, list[list[dict]]] = {name: [] for name in modes}
     for _ in range(2):
         for name, temporal in modes.items():
@@ -120,7 +121,7 @@ def main() -> None:
     summary = {"machine": machine, "size": [width, height], "matching_scale": config.matching_scale,
                "in_flight": args.in_flight, "frames": len(pairs), "modes": {}}
     print(f"matching scale {config.matching_scale:g}, {args.in_flight} frame(s) in flight")
-    print(f"\n{'seeds':<16} {'fps':>6} {'latency ms':>11} {'match ms':>9} {'bad-1 %':>8} {'density %':>10}")
+    print(f"\n{'seeds':<20} {'fps':>6} {'latency ms':>11} {'match ms':>9} {'bad-1 %':>8} {'density %':>10}")
     for name, runs in results.items():
         timed = [row for run in runs for row in run[WARM_UP_FRAMES:]]
         total = statistics.median(r["total_s"] for r in timed)
@@ -131,7 +132,7 @@ def main() -> None:
         summary["modes"][name] = {"fps": fps, "frame_s": total, "matching_s": matching,
                                   "bad1_median": bad, "density_median": density,
                                   "per_frame": runs[0]}
-        print(f"{name:<16} {fps:6.2f} {1e3 * total:11.0f} {1e3 * matching:9.0f} {100 * bad:8.2f} "
+        print(f"{name:<20} {fps:6.2f} {1e3 * total:11.0f} {1e3 * matching:9.0f} {100 * bad:8.2f} "
               f"{100 * density:10.1f}")
     print("\nmedian seconds per stage (frames after warm-up):")
     for name, runs in results.items():
@@ -140,7 +141,7 @@ def main() -> None:
         stages["  of matching: seeds"] = statistics.median(r["seed_stage_s"] for r in timed)
         stages["  of matching: growth"] = statistics.median(r["growth_s"] for r in timed)
         summary["modes"][name]["stages_s"] = stages
-        print(f"  {name:<16} " + ", ".join(f"{key.strip()} {1e3 * v:.0f} ms" for key, v in stages.items()))
+        print(f"  {name:<20} " + ", ".join(f"{key.strip()} {1e3 * v:.0f} ms" for key, v in stages.items()))
     edge = summary["modes"]["edge"]
     for name in list(modes)[1:]:
         mode = summary["modes"][name]
