@@ -24,14 +24,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _comparison_table(comparisons) -> str:
-    lines = [f"{'true obstacle':<22} {'true dist.':>10} {'detected':>9} {'distance':>9} {'error':>8}"]
-    for c in comparisons:
-        name = f"#{c.truth_id} {c.kind} {c.height_m:.2f} m high"
+    names = [f"#{c.truth_id} {c.kind} {c.height_m:.2f} m high" for c in comparisons]
+    width = max([len("true obstacle"), *map(len, names)])
+    lines = [f"{'true obstacle':<{width}} {'true dist.':>10} {'detected':>9} {'distance':>9} {'error':>8}"]
+    for name, c in zip(names, comparisons):
         true = f"{c.true_distance_m:.2f} m" if c.true_distance_m is not None else "-"
         if c.detected_id is None:
-            lines.append(f"{name:<22} {true:>10} {'MISSED':>9} {'-':>9} {'-':>8}")
+            lines.append(f"{name:<{width}} {true:>10} {'MISSED':>9} {'-':>9} {'-':>8}")
         else:
-            lines.append(f"{name:<22} {true:>10} {'#' + str(c.detected_id):>9} "
+            lines.append(f"{name:<{width}} {true:>10} {'#' + str(c.detected_id):>9} "
                          f"{c.detected_distance_m:>7.2f} m {100 * c.relative_error:>+7.1f}%")
     return "\n".join(lines)
 
