@@ -7,7 +7,7 @@ import pytest
 
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.obstacles import Obstacle
-from stereo_obstacles.tracking import ObstacleTracker, TrackingParameters, box_iou
+from stereo_obstacles.tracking import ObstacleTracker, TrackingParameters, box_iou_matrix
 
 DT = 0.1
 
@@ -91,6 +91,15 @@ def test_missed_track_keeps_its_id_for_a_few_frames_then_ends():
     assert tracker.update([seen(0.0, 4.0)], 10 * DT)[0].track_id != first
 
 
+def test_a_missed_track_predicted_past_the_camera_has_time_to_contact_zero():
+    tracker = ObstacleTracker(TrackingParameters(max_missed_frames=5))
+    for k in range(6):
+        tracker.update([seen(0.0, 1.0 - 0.15 * k)], k * DT)        # 0.25 m away, closing at 1.5 m/s
+    missed = tracker.update([], 8 * DT)[0]                           # predicted 0.35 m past it
+    assert missed.obstacle is None and missed.approaching
+    assert missed.distance_m < 0 and missed.time_to_contact_s == 0.0
+
+
 def test_far_jump_elsewhere_in_the_image_starts_a_new_track():
     tracker = ObstacleTracker()
     a = tracker.update([seen(0.0, 5.0)], 0.0)[0].track_id
@@ -114,10 +123,11 @@ def test_without_calibration_boxes_carry_the_ids():
     assert all(t.distance_m is None and t.closing_speed_mps is None and not t.approaching for t in tracks)
 
 
-def test_box_iou():
-    assert box_iou((0, 0, 10, 10), (0, 0, 10, 10)) == 1.0
-    assert box_iou((0, 0, 10, 10), (10, 0, 20, 10)) == 0.0
-    assert box_iou((0, 0, 10, 10), (5, 5, 15, 15)) == pytest.approx(25 / 175)
+def test_box_iou_matrix():
+    a = np.array([[0, 0, 10, 10], [0, 0, 10, 10]])
+    b = np.array([[0, 0, 10, 10], [10, 0, 20, 10], [5, 5, 15, 15]])
+    np.testing.assert_allclose(box_iou_matrix(a, b), [[1.0, 0.0, 25 / 175]] * 2)
+    assert box_iou_matrix(a, b[:0]).shape == (2, 0)
 
 
 def test_errors():

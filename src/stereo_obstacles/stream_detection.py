@@ -102,8 +102,7 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
     frames = iter(frames)
     pending: deque = deque()  # (frame, future, what seeded it, seed points) in frame order
 
-    def start_next(pool: ThreadPoolExecutor, first: bool) -> None:
-        frame = next(frames, None)
+    def start(pool: ThreadPoolExecutor, frame: StereoFrame | None, first: bool) -> None:
         if frame is None:
             return
         estimate = seeder.estimate() if seeder is not None else None
@@ -117,25 +116,21 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
     with ThreadPoolExecutor(max_workers=in_flight, thread_name_prefix="stream-frame") as pool:
         try:
             for k in range(in_flight):
-                start_next(pool, first=k == 0)
+                start(pool, next(frames, None), first=k == 0)
             while pending:
-                done = _finish(*pending.popleft(), seeder, tracker, config, in_flight)
-                start_next(pool, first=False)  # before yielding: the caller's work overlaps the frames in flight
-                yield done
+                upcoming = next(frames, None)  # read (decode) it while the frames in flight are detected
+                frame, future, seeds, n_seed_points = pending.popleft()
+                result = future.result()
+                if seeder is not None:
+                    d_min, d_max = disparity_range(frame.left.shape[1], 0, config.matching.max_disparity)
+                    seeder.observe(result.disparity, d_min=d_min, d_max=d_max, frames_ahead=in_flight,
+                                   refined=seeds == "refined")
+                start(pool, upcoming, first=False)  # at once: tracking and the caller's work overlap it
+                tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
+                yield FrameDetection(frame, result, tuple(tracks), seeds, n_seed_points)
         finally:  # stopped early: frames still queued are dropped, a running one ends in its thread
             for _, future, _, _ in pending:
                 future.cancel()
-
-
-def _finish(frame: StereoFrame, future, seeds: str, n_seed_points: int, seeder: TemporalSeeder | None,
-            tracker: ObstacleTracker, config: DetectionConfig, in_flight: int) -> FrameDetection:
-    """Wait for one frame's detection, feed the seeder and the tracker."""
-    result = future.result()
-    if seeder is not None:
-        d_min, d_max = disparity_range(frame.left.shape[1], 0, config.matching.max_disparity)
-        seeder.observe(result.disparity, d_min=d_min, d_max=d_max, frames_ahead=in_flight, refined=seeds == "refined")
-    tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
-    return FrameDetection(frame, result, tuple(tracks), seeds, n_seed_points)
 
 
 def header_record(*, source: str, calibration: StereoCalibration | None, config: DetectionConfig,

@@ -16,6 +16,11 @@ _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
 _pool_lock = threading.Lock()
 
+MIN_POOL_THREADS = 4
+"""The pool has at least this many threads (started only when tasks wait for one): two callers
+at once (a stream's frames in flight), each handing over a task or two, never wait for each
+other's tasks (a pool of one thread held the second frame's band behind the first's)."""
+
 
 def _submit(function, arguments: list[tuple]) -> list:
     """Futures of ``function(*a)`` on the pool, grown to at least ``len(arguments)`` threads first.
@@ -28,8 +33,8 @@ def _submit(function, arguments: list[tuple]) -> list:
         if _pool is None or _pool_size < len(arguments):
             if _pool is not None:
                 _pool.shutdown(wait=False)
-            _pool = ThreadPoolExecutor(max_workers=len(arguments), thread_name_prefix="gcs-band")
-            _pool_size = len(arguments)
+            _pool_size = max(len(arguments), MIN_POOL_THREADS)
+            _pool = ThreadPoolExecutor(max_workers=_pool_size, thread_name_prefix="gcs-band")
         return [_pool.submit(function, *a) for a in arguments]
 
 

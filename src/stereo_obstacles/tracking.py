@@ -34,7 +34,7 @@ import numpy as np
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.obstacles import Obstacle
 
-__all__ = ["ObstacleTracker", "Track", "TrackingParameters", "box_iou"]
+__all__ = ["ObstacleTracker", "Track", "TrackingParameters", "box_iou_matrix"]
 
 
 @dataclass(frozen=True)
@@ -97,7 +97,8 @@ class Track:
     closing_speed_mps : float or None
         Speed at which the distance shrinks, m/s (negative: receding).
     time_to_contact_s : float or None
-        ``distance_m / closing_speed_mps`` while approaching, else ``None``.
+        ``distance_m / closing_speed_mps`` while approaching (0 once a missed track's predicted
+        distance has reached zero), else ``None``.
     approaching : bool
         Old enough and closing faster than the threshold.
     age_frames : int
@@ -116,19 +117,19 @@ class Track:
     missed_frames: int
 
 
-def box_iou(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> float:
-    """Intersection over union of two ``(x0, y0, x1, y1)`` boxes (x1, y1 exclusive).
+def box_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection over union of every ``(x0, y0, x1, y1)`` box of ``a`` (shape (N, 4)) with every
+    box of ``b`` (shape (M, 4)), x1 and y1 exclusive: an (N, M) array.
 
-    >>> box_iou((0, 0, 10, 10), (5, 0, 15, 10))
-    0.3333333333333333
+    >>> box_iou_matrix(np.array([[0, 0, 10, 10]]), np.array([[5, 0, 15, 10], [20, 20, 30, 30]]))
+    array([[0.33333333, 0.        ]])
     """
-    iw = min(a[2], b[2]) - max(a[0], b[0])
-    ih = min(a[3], b[3]) - max(a[1], b[1])
-    if iw <= 0 or ih <= 0:
-        return 0.0
-    inter = iw * ih
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
-    return inter / union
+    iw = np.minimum(a[:, None, 2], b[None, :, 2]) - np.maximum(a[:, None, 0], b[None, :, 0])
+    ih = np.minimum(a[:, None, 3], b[None, :, 3]) - np.maximum(a[:, None, 1], b[None, :, 1])
+    inter = np.where((iw > 0) & (ih > 0), iw * ih, 0.0)
+    area_a = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1])
+    area_b = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    return inter / (area_a[:, None] + area_b[None, :] - inter)
 
 
 class _State:
@@ -235,28 +236,33 @@ class ObstacleTracker:
         return seen + missed
 
     def _associate(self, obstacles: list[Obstacle], time_s: float) -> dict[int, tuple[_State, float]]:
-        """Greedy best-first pairs ``{obstacle index: (track, cost)}`` within the gates."""
-        costs: list[tuple[float, int, int]] = []
-        for t, state in enumerate(self._tracks):
-            centre = state.predicted_centre(time_s)
-            for i, obstacle in enumerate(obstacles):
-                options = []
-                if centre is not None and obstacle.centre_m is not None:
-                    jump = float(np.linalg.norm(np.asarray(obstacle.centre_m) - centre))
-                    if jump <= self.params.max_centre_jump_m:
-                        options.append(jump / self.params.max_centre_jump_m)
-                overlap = box_iou(state.box, obstacle.box_px)
-                if overlap >= self.params.min_iou:
-                    options.append(1.0 - overlap)
-                if options:
-                    costs.append((min(options), t, i))
+        """Greedy best-first pairs ``{obstacle index: (track, cost)}`` within the gates.
+
+        The cost of a track and an obstacle is the smaller of ``jump / max_centre_jump_m`` (3-D
+        centre distance, when both have a centre and it is within the gate) and ``1 - IoU`` of
+        their boxes (when the IoU reaches ``min_iou``); pairs with neither are not candidates.
+        All pairs at once with NumPy (a stream has tens of tracks and obstacles per frame).
+        """
+        if not self._tracks or not obstacles:
+            return {}
+        nan3 = (np.nan, np.nan, np.nan)
+        track_centres = np.array([c if (c := s.predicted_centre(time_s)) is not None else nan3
+                                  for s in self._tracks], dtype=np.float64)
+        centres = np.array([o.centre_m if o.centre_m is not None else nan3 for o in obstacles], dtype=np.float64)
+        jump = np.sqrt(((track_centres[:, None, :] - centres[None, :, :]) ** 2).sum(axis=2))
+        jump_cost = np.where(jump <= self.params.max_centre_jump_m, jump / self.params.max_centre_jump_m, np.inf)
+        iou = box_iou_matrix(np.array([s.box for s in self._tracks], dtype=np.float64),
+                             np.array([o.box_px for o in obstacles], dtype=np.float64))
+        cost = np.minimum(jump_cost, np.where(iou >= self.params.min_iou, 1.0 - iou, np.inf))
+        ts, js = np.nonzero(np.isfinite(cost))
+        costs = sorted(zip(cost[ts, js].tolist(), ts.tolist(), js.tolist()))
         pairs: dict[int, tuple[_State, float]] = {}
         used_tracks: set[int] = set()
-        for cost, t, i in sorted(costs):
+        for c, t, i in costs:
             if t in used_tracks or i in pairs:
                 continue
             used_tracks.add(t)
-            pairs[i] = (self._tracks[t], cost)
+            pairs[i] = (self._tracks[t], c)
         return pairs
 
     def _correct(self, state: _State, obstacle: Obstacle, time_s: float) -> None:
@@ -284,7 +290,8 @@ class ObstacleTracker:
         closing = -state.velocity if distance is not None else None
         approaching = bool(closing is not None and state.age >= self.params.min_age_frames
                            and closing > self.params.min_closing_speed_mps)
-        contact = distance / closing if approaching and distance is not None and distance > 0 else None
+        # a missed track's predicted distance may already have passed zero: contact is then now
+        contact = max(distance, 0.0) / closing if approaching and distance is not None else None
         return Track(track_id=state.track_id, obstacle=obstacle, distance_m=distance, closing_speed_mps=closing,
                      time_to_contact_s=contact, approaching=approaching, age_frames=state.age,
                      missed_frames=state.missed)
