@@ -1,6 +1,9 @@
-"""The compiled cell medians and purity against their NumPy definition."""
+"""Grouping obstacle pixels: the compiled cell medians and purity against their NumPy definition, and
+the split of groups into depth layers."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -56,3 +59,54 @@ def test_pixel_assignment_agrees_with_numpy():
     np.testing.assert_array_equal(raw, expected)
     np.testing.assert_array_equal(counts, [np.count_nonzero(expected == k) for k in range(5)])
     assert (expected == -1).any() and (expected >= 0).any()
+
+
+def _two_layers(gap_px: float, seed: int = 0):
+    """A box at disparity 7.4 px and, touching it on its right, a pole ``gap_px`` nearer; a little
+    noise; everything else unmatched."""
+    rng = np.random.default_rng(seed)
+    d = np.full((96, 160), np.nan, np.float32)
+    d[16:80, 16:88] = 7.4                                     # the box, 9 cells wide
+    d[16:80, 88:120] = 7.4 + gap_px                           # the pole, 4 cells wide
+    d[16:80, 16:120] += rng.normal(0, 0.05, (64, 104)).astype(np.float32)
+    return d
+
+
+def test_objects_little_apart_in_depth_are_split_into_their_layers():
+    from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+
+    d = _two_layers(0.9)
+    d[40, 40], d[40, 42] = 8.2, 7.7        # in the box: one pixel nearer the pole's depth, one nearer its own
+    mask = np.isfinite(d)
+    merged = group_obstacle_pixels(d, mask, GroupingParameters(split_tolerance_px=0.0))
+    assert merged.max() == 1                                  # linked at the loose tolerance (1 px)
+    split = group_obstacle_pixels(d, mask)
+    assert split.max() == 2
+    box, pole = split[30, 30], split[30, 110]
+    assert {box, pole} == {1, 2}
+    inside_box = split[16:80, 16:88].copy()
+    assert inside_box[24, 24] == pole and inside_box[24, 26] == box    # the two odd pixels: nearest layer
+    inside_box[24, 24] = box
+    assert np.all(inside_box == box) and np.all(split[16:80, 88:120] == pole)
+
+
+def test_a_slanted_surface_and_layers_closer_than_the_gap_stay_one_object():
+    from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+
+    ramp = np.full((96, 160), np.nan, np.float32)
+    ramp[16:80, 8:152] = np.linspace(6.0, 9.0, 144, dtype=np.float32)[None, :]   # a wall receding
+    assert group_obstacle_pixels(ramp, np.isfinite(ramp)).max() == 1
+    close = _two_layers(0.4)                                  # two tight layers, medians 0.4 px apart
+    params = GroupingParameters(split_tolerance_px=0.3)
+    assert group_obstacle_pixels(close, np.isfinite(close), replace(params, split_min_gap_px=0.5)).max() == 1
+    assert group_obstacle_pixels(close, np.isfinite(close), replace(params, split_min_gap_px=0.3)).max() == 2
+
+
+def test_split_parameters_are_checked():
+    from stereo_obstacles.errors import InvalidInputError
+    from stereo_obstacles.obstacle_grouping import GroupingParameters
+
+    with pytest.raises(InvalidInputError, match="split_tolerance_px must be >= 0"):
+        GroupingParameters(split_tolerance_px=-0.1)
+    with pytest.raises(InvalidInputError, match="split_min_gap_px must be >= 0"):
+        GroupingParameters(split_min_gap_px=-1.0)

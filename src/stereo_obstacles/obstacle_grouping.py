@@ -9,11 +9,19 @@ depths and would otherwise chain a near object to the far one behind it. A near 
 splits from the wall even where they touch in the image. Each pixel then joins its cell's
 group only when its own disparity agrees with the cell's, which keeps stray background pixels
 out of an object.
+
+Two objects a little apart in depth (a pole 0.6 m in front of a box at 9 m: 0.56 px of
+disparity) still link through cells of noisy pixels at the tolerance above. So the grouping
+is done twice, the second time with the tighter ``split_tolerance_px``: a group that holds two
+or more tight groups of an object's size whose median disparities are more than
+``split_min_gap_px`` apart is split into them, its other pixels joining the one of nearest
+median disparity. A tighter tolerance alone would break weakly matched objects into pieces
+too small to report (measured in ``docs/pipeline.md``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -40,6 +48,11 @@ class GroupingParameters:
         with its median disparity.
     min_object_pixels : int
         Objects with fewer pixels are dropped as noise.
+    split_tolerance_px : float
+        The tighter ``abs_tolerance_px`` of the second grouping that may split a group (see the
+        module docstring); 0, or not below ``abs_tolerance_px``, switches the split off.
+    split_min_gap_px : float
+        The tight groups' median disparities must span more than this to split a group.
     """
 
     cell_px: int = 8
@@ -48,6 +61,8 @@ class GroupingParameters:
     rel_tolerance: float = 0.05
     min_pure_fraction: float = 0.7
     min_object_pixels: int = 120
+    split_tolerance_px: float = 0.75
+    split_min_gap_px: float = 0.5
 
     def __post_init__(self) -> None:
         if self.cell_px < 2:
@@ -60,6 +75,10 @@ class GroupingParameters:
             raise InvalidInputError(f"min_pure_fraction must be in [0, 1], got {self.min_pure_fraction}")
         if self.min_object_pixels < 1:
             raise InvalidInputError(f"min_object_pixels must be >= 1, got {self.min_object_pixels}")
+        if self.split_tolerance_px < 0:
+            raise InvalidInputError(f"split_tolerance_px must be >= 0, got {self.split_tolerance_px}")
+        if self.split_min_gap_px < 0:
+            raise InvalidInputError(f"split_min_gap_px must be >= 0, got {self.split_min_gap_px}")
 
 
 def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:
@@ -103,6 +122,43 @@ def _label_cells(cells: np.ndarray, pure: np.ndarray, params: GroupingParameters
     return labels
 
 
+def _raw_groups(d: np.ndarray, usable: np.ndarray, params: GroupingParameters) -> tuple[np.ndarray, np.ndarray]:
+    """int64 ``(H, W)`` group of each usable pixel (-1: none) and the pixel count of each group."""
+    cells, pure = _cell_disparities(d, usable, params)
+    cell_labels = _label_cells(cells, pure, params)
+    return assign_pixels_kernel(d, usable, cell_labels, cells, params.cell_px, params.abs_tolerance_px,
+                                params.rel_tolerance, int(cell_labels.max()) + 1)
+
+
+def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
+                        params: GroupingParameters) -> np.ndarray:
+    """``groups`` (int64, -1: none) with each group split into the tight groups of an object's size
+    it holds, when their median disparities span more than ``split_min_gap_px``."""
+    n_groups, n_tight = int(groups.max()) + 1, int(tight.max()) + 1
+    both = (groups >= 0) & (tight >= 0)
+    # pixels of each (group, tight group) pair: most frames have no group with two layers
+    pair_counts = np.bincount(groups[both] * n_tight + tight[both], minlength=n_groups * n_tight)
+    layered = (pair_counts.reshape(n_groups, n_tight) >= params.min_object_pixels).sum(axis=1) >= 2
+    out = groups
+    next_label = n_groups
+    for group in np.flatnonzero(layered):
+        ys, xs = np.nonzero(groups == group)
+        inner, values = tight[ys, xs], d[ys, xs]
+        layers = np.flatnonzero(pair_counts[group * n_tight:(group + 1) * n_tight] >= params.min_object_pixels)
+        medians = np.array([np.median(values[inner == layer]) for layer in layers])
+        if medians.max() - medians.min() <= params.split_min_gap_px:
+            continue
+        layer_of = np.searchsorted(layers, inner)  # exact for pixels in one of the layers
+        in_layer = (inner >= 0) & (layers[np.minimum(layer_of, len(layers) - 1)] == inner)
+        nearest = np.argmin(np.abs(values[:, None] - medians[None, :]), axis=1)
+        new_labels = np.concatenate([[group], np.arange(next_label, next_label + len(layers) - 1)])
+        if out is groups:
+            out = groups.copy()
+        out[ys, xs] = new_labels[np.where(in_layer, layer_of, nearest)]
+        next_label += len(layers) - 1
+    return out
+
+
 def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
                           params: GroupingParameters = GroupingParameters()) -> np.ndarray:
     """Label each obstacle pixel with the object it belongs to.
@@ -127,10 +183,12 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
     if d.ndim != 2 or d.shape != m.shape:
         raise InvalidInputError(f"disparity {d.shape} and obstacle_mask {m.shape} must be the same 2-D shape")
     usable = m & np.isfinite(d)
-    cells, pure = _cell_disparities(d, usable, params)
-    cell_labels = _label_cells(cells, pure, params)
-    raw, counts = assign_pixels_kernel(d, usable, cell_labels, cells, params.cell_px, params.abs_tolerance_px,
-                                       params.rel_tolerance, int(cell_labels.max()) + 1)
+    raw, counts = _raw_groups(d, usable, params)
+    if 0 < params.split_tolerance_px < params.abs_tolerance_px and raw.max() >= 0:
+        tight, _ = _raw_groups(d, usable, replace(params, abs_tolerance_px=params.split_tolerance_px,
+                                                  split_tolerance_px=0.0))
+        raw = _split_depth_layers(raw, tight, d, params)
+        counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     keep = np.flatnonzero(counts >= params.min_object_pixels)
     order = keep[np.argsort(-counts[keep], kind="stable")]
     relabel = np.zeros(len(counts) + 1, dtype=np.int32)

@@ -349,7 +349,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     obstacles = measure_obstacles(group_obstacle_pixels(disparity, standing, config.grouping), disparity,
                                   calibration, ground, config.obstacles)
     if ground is not None:
-        flat_groups = _without_feet(group_obstacle_pixels(disparity, candidates & ~standing, config.grouping),
+        # flat groups are only reported as rejected: no need to split them into depth layers
+        flat_groups = _without_feet(group_obstacle_pixels(disparity, candidates & ~standing,
+                                                          replace(config.grouping, split_tolerance_px=0.0)),
                                     obstacles.id_map)
         flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles)
         obstacles = replace(obstacles, rejected=obstacles.rejected + flat.rejected)
