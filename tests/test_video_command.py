@@ -31,8 +31,8 @@ def test_video_pair_gives_tracked_obstacles_as_json_lines_and_a_video(tmp_path):
     header, frames, end = records[0], records[1:-1], records[-1]
     assert header["type"] == "header" and header["units"] == "metres" and header["calibration"] is not None
     assert [r["frame"] for r in frames] == list(range(N_FRAMES))
-    # two frames in flight: the second starts before the first is done; the third refines the first
-    assert [r["seeds"] for r in frames] == ["edge", "edge", "refined", "temporal"][:N_FRAMES]
+    # three frames in flight: the first three start before any is done; the fourth refines the first
+    assert [r["seeds"] for r in frames] == ["edge", "edge", "edge", "refined"][:N_FRAMES]
     assert end == {**end, "type": "end", "frames": N_FRAMES, "interrupted": False}
     # The detector is unsteady on 160x120 MJPG frames (objects merge and split), so only the
     # wiring is checked here; tracking itself is tested in test_tracking.py.

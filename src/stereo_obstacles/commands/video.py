@@ -33,8 +33,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--frames-out", metavar="DIR",
                         help="write every frame's full detection outputs (as 'detect --out') to DIR/<frame>/")
     parser.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
-    parser.add_argument("--in-flight", type=int, default=2, metavar="N",
-                        help="frames detected at once (default 2: more frames per second on two cores; "
+    parser.add_argument("--in-flight", type=int, default=3, metavar="N",
+                        help="frames detected at once (default 3: more frames per second on two cores; "
                              "1: each frame waits for the one before, the lowest latency)")
     seeds = parser.add_argument_group("temporal seeds")
     seeds.add_argument("--temporal-seeds", action=argparse.BooleanOptionalAction, default=True,
