@@ -101,3 +101,20 @@ def test_kitti_depth_agrees_with_the_lidar_ground_truth(shared_dataset):
 def test_bad_geometric_excess_is_refused(bad):
     with pytest.raises(InvalidInputError, match="geometric_min_excess_px"):
         DetectionConfig(geometric_min_excess_px=bad)
+
+
+def test_density_is_that_of_the_delivered_full_size_disparity():
+    pair = render_pair(default_scene(320, 240))
+    result = detect(pair.left, pair.right, pair.calibration)              # matched at half size, refined
+    assert result.match_stats.density != result.density
+    assert result.density == np.isfinite(result.disparity).mean()
+
+
+def test_warm_up_compiles_the_refinement_too():
+    import subprocess
+    import sys
+
+    code = ("from stereo_obstacles.pipeline import warm_up; warm_up(); "
+            "from stereo_obstacles._refinement_kernel import _refine_rows; print(len(_refine_rows.signatures))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert int(out.strip().splitlines()[-1]) >= 1        # in a fresh process: nothing else compiled it

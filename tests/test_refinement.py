@@ -13,32 +13,35 @@ from stereo_obstacles.subpixel import parabola_offset
 
 
 def _reference(inputs, estimate, tau, d_min, d_max, radius):
-    """Pixel by pixel with ``similarity_at``: climb from the rounded estimate to the better
-    neighbour while it is better and within ``radius`` of the start."""
+    """Pixel by pixel with ``similarity_at``, from the definition: start at the rounded estimate
+    (moved into the admissible range), go to the better admissible neighbour (the lower disparity
+    on a tie) while it beats the current one; a match is where this stops at a peak within
+    ``radius`` of the start with a similarity of at least ``tau``."""
     h, w = estimate.shape
     out = np.full((h, w), np.nan, np.float32)
 
     def sim(y, x, d):
-        if d < d_min or d > d_max or d > x or x - d >= w:
+        if d < d_min or d > min(d_max, x):
             return np.nan
         return float(similarity_at(inputs, np.array([y]), np.array([x]), np.array([x - d]))[0])
 
     for y in range(h):
         for x in range(w):
-            if np.isnan(estimate[y, x]):
+            if not np.isfinite(estimate[y, x]) or min(d_max, x) < d_min:
                 continue
-            start = int(np.floor(estimate[y, x] + 0.5))
+            start = int(np.clip(np.floor(estimate[y, x] + 0.5), d_min, min(d_max, x)))
             d = start
             while True:
-                c, cm, cp = sim(y, x, d), sim(y, x, d - 1), sim(y, x, d + 1)
-                if cm > c and cm >= cp and d - 1 >= start - radius:
-                    d -= 1
-                elif cp > c and d + 1 <= start + radius:
-                    d += 1
-                else:
+                better = [(sim(y, x, n), -n) for n in (d - 1, d + 1) if sim(y, x, n) > sim(y, x, d)]
+                if not better:
                     break
-            if c >= tau:
-                out[y, x] = d + parabola_offset(np.float32(cm), np.float32(c), np.float32(cp))
+                d = -max(better)[1]
+                if abs(d - start) > radius:
+                    d = None
+                    break
+            if d is not None and sim(y, x, d) >= tau:
+                out[y, x] = d + parabola_offset(np.float32(sim(y, x, d - 1)), np.float32(sim(y, x, d)),
+                                                np.float32(sim(y, x, d + 1)))
     return out
 
 
@@ -52,18 +55,43 @@ def textured_pair():
     return prepare_similarity(left, right)
 
 
-@pytest.mark.parametrize("radius", [0, 1, 2])
-def test_agrees_with_the_slow_reference(textured_pair, radius):
-    rng = np.random.default_rng(radius)
-    estimate = rng.uniform(-1, 12, textured_pair.shape).astype(np.float32)
+@pytest.mark.parametrize("radius, d_max", [(0, 10), (1, 10), (2, 10), (2, 6)])
+def test_agrees_with_the_slow_reference(textured_pair, radius, d_max):
+    rng = np.random.default_rng(radius + d_max)
+    estimate = rng.uniform(-2, 13, textured_pair.shape).astype(np.float32)
     estimate[rng.random(estimate.shape) < 0.2] = np.nan
-    refined = refine_disparity(textured_pair, estimate, tau=0.3, d_min=0, d_max=10, radius=radius)
-    expected = _reference(textured_pair, estimate, 0.3, 0, 10, radius)
+    estimate[0, :3] = np.inf, -np.inf, 1e30                  # not estimates
+    refined = refine_disparity(textured_pair, estimate, tau=0.3, d_min=0, d_max=d_max, radius=radius)
+    expected = _reference(textured_pair, estimate, 0.3, 0, d_max, radius)
     np.testing.assert_array_equal(np.isnan(refined.disparity), np.isnan(expected))
     np.testing.assert_allclose(refined.disparity, expected, atol=1e-4)
     matched = refined.integer_disparity >= 0
     np.testing.assert_array_equal(matched, np.isfinite(refined.disparity))
     assert np.all(np.abs(refined.disparity[matched] - refined.integer_disparity[matched]) <= 0.5)
+    assert matched.any() and (~matched & np.isfinite(estimate)).any()
+
+
+def _smooth_pair(true_d: int):
+    right = cv2.GaussianBlur(np.random.default_rng(5).uniform(0, 255, (18, 60)), (0, 0), 1.5).astype(np.float32)
+    return prepare_similarity(np.roll(right, true_d, axis=1), right)
+
+
+def test_a_start_at_the_top_of_the_range_climbs_down():
+    inputs = _smooth_pair(4)
+    refined = refine_disparity(inputs, np.full(inputs.shape, 5.0, np.float32), tau=0.5, d_min=0, d_max=5)
+    assert np.all(refined.integer_disparity[:, 10:56] == 4)      # d + 1 = 6 is out of range: still climbs to 4
+    over = refine_disparity(inputs, np.full(inputs.shape, 7.0, np.float32), tau=0.5, d_min=0, d_max=5)
+    assert np.all(over.integer_disparity[:, 10:56] == 4)         # an estimate above the range starts at 5
+
+
+def test_a_climb_stopped_by_the_radius_while_rising_is_no_match():
+    inputs = _smooth_pair(7)
+    for estimate, boundary in ((4.0, 6), (10.0, 8)):             # 3 px off, radius 2: the climb ends next to 7
+        refined = refine_disparity(inputs, np.full(inputs.shape, estimate, np.float32), tau=0.3, d_min=0,
+                                   d_max=15, radius=2)
+        assert not np.any(refined.integer_disparity[:, 12:56] == boundary)
+    near = refine_disparity(inputs, np.full(inputs.shape, 5.0, np.float32), tau=0.3, d_min=0, d_max=15, radius=2)
+    assert np.all(near.integer_disparity[:, 12:56] == 7)
 
 
 def test_estimates_two_pixels_off_find_the_true_disparity():

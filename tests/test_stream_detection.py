@@ -81,3 +81,15 @@ def test_refined_frames_alternate_with_grown_ones_by_default():
         stats = detection.result.match_stats
         assert (stats.growth_seconds == 0.0) == (detection.seeds == "refined")
         assert json.loads(json.dumps(frame_record(detection)))["seeds"] == detection.seeds
+
+
+def test_a_failing_source_still_delivers_the_frames_already_in_flight():
+    def failing():
+        yield from _stream()[:3]
+        raise OSError("frame 3 cannot be decoded")
+
+    delivered = []
+    with pytest.raises(OSError, match="frame 3 cannot be decoded"):
+        for detection in detect_stream(failing(), frames()[0].calibration, in_flight=3):
+            delivered.append(detection.frame.index)
+    assert delivered == [0, 1, 2]

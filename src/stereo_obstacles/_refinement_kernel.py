@@ -18,14 +18,15 @@ _NOT_COMPUTED = -9.0
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
 def _refine_rows(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, estimate, radius, tau, d_min, d_max,
                  y_lo, y_hi, d_out, c_out, c_minus_out, c_plus_out):
-    """Climb to the similarity peak nearest the rounded estimate, rows ``[y_lo, y_hi)``.
+    """Climb to the similarity peak nearest the estimate, rows ``[y_lo, y_hi)``.
 
-    For each pixel with a finite ``estimate[y, x]`` (float32 pixels), start at
-    ``d = round(estimate)`` and step to the better of ``d - 1`` and ``d + 1`` while it beats
-    ``d`` and stays within ``radius`` of the start. If the final ``d`` reaches ``tau`` it goes
-    to ``d_out[y, x]`` (int32; otherwise left as it is) with its similarity and those at
-    ``d - 1`` and ``d + 1`` (NaN outside the range or the image). Returns the number of
-    similarities computed.
+    For each pixel with a finite ``estimate[y, x]`` (float32 pixels), start at the rounded
+    estimate moved into the admissible range ``[d_min, min(d_max, x)]``, and step to the better
+    of ``d - 1`` and ``d + 1`` (a neighbour outside the range does not count) while it beats
+    ``d`` and stays within ``radius`` of the start. The end is a match if it is a peak (a
+    climb stopped by the radius while still rising is not) and reaches ``tau``: ``d_out[y, x]``
+    (int32; otherwise left as it is) gets it, with its similarity and those at ``d - 1`` and
+    ``d + 1`` (NaN outside the range). Returns the number of similarities computed.
     """
     w = estimate.shape[1]
     n = 2 * radius + 3
@@ -34,9 +35,11 @@ def _refine_rows(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, esti
     for y in range(y_lo, y_hi):
         for x in range(w):
             e = estimate[y, x]
-            if not e == e:  # NaN: no estimate
+            hi = min(d_max, x)
+            if not (e == e) or abs(e) > 1e9 or hi < d_min:  # no estimate, or no admissible disparity
                 continue
-            first = int(np.floor(e + 0.5)) - radius - 1
+            start = min(max(int(np.floor(e + 0.5)), d_min), hi)
+            first = start - radius - 1
             for k in range(n):
                 sims[k] = _NOT_COMPUTED
             k = radius + 1
@@ -44,20 +47,22 @@ def _refine_rows(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, esti
                 for j in range(k - 1, k + 2):
                     if sims[j] == _NOT_COMPUTED:
                         d = first + j
-                        if d < d_min or d > d_max or d > x or x - d >= w:
+                        if d < d_min or d > hi:
                             sims[j] = np.nan
                         else:
                             sims[j] = _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x,
                                                   x - d)
                             n_computed += 1
-                if sims[k - 1] > sims[k] and sims[k - 1] >= sims[k + 1] and k - 1 >= 1:  # false for NaN
+                left = sims[k - 1] > sims[k]  # false for NaN
+                right = sims[k + 1] > sims[k]
+                if left and not (right and sims[k + 1] > sims[k - 1]) and k - 1 >= 1:
                     k -= 1
-                elif sims[k + 1] > sims[k] and k + 1 <= n - 2:
+                elif right and k + 1 <= n - 2:
                     k += 1
                 else:
                     break
-            if not sims[k] >= tau:  # also NaN
-                continue
+            if sims[k - 1] > sims[k] or sims[k + 1] > sims[k] or not sims[k] >= tau:
+                continue  # stopped by the radius while still rising, or below tau (or NaN)
             d_out[y, x] = first + k
             c_out[y, x] = sims[k]
             c_minus_out[y, x] = sims[k - 1]

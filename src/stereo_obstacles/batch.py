@@ -224,7 +224,7 @@ def _run_task(job: BatchJob) -> dict:
 
         result = run_detection(left, right, calibration, job.config, job.out_dir, inputs=inputs)
         nearest = result.obstacles.obstacles[0] if result.obstacles.obstacles else None
-        return {"obstacles": len(result.obstacles.obstacles), "density": result.match_stats.density,
+        return {"obstacles": len(result.obstacles.obstacles), "density": result.density,
                 "nearest_distance_m": nearest.distance_m if nearest is not None else None, "inputs": inputs}
     result = match(left, right, **job.config.matching.to_kwargs())
     with staged_directory(job.out_dir) as stage:

@@ -117,8 +117,9 @@ class DetectionResult:
         ``float32 (H, W)`` left disparity in pixels, NaN where unmatched.
     match_stats
         Statistics of the matcher (:class:`stereo_obstacles.matching.MatchStats`): of the
-        reduced pair when ``config.matching_scale < 1``, of the refinement alone when a
-        ``disparity_estimate`` was refined.
+        reduced pair when the pair was matched at a scale below 1
+        (:func:`stereo_obstacles.scaled_matching.effective_scale`), of the refinement alone when
+        a ``disparity_estimate`` was refined. :attr:`density` is that of ``disparity``.
     depth_m
         ``float32 (H, W)`` depth in metres, NaN where unknown; ``None`` without calibration.
     ground
@@ -146,6 +147,12 @@ class DetectionResult:
     config: DetectionConfig
     timings_s: dict
     rectification_check: object = None
+
+    @property
+    def density(self) -> float:
+        """Share of the image's pixels with a disparity in :attr:`disparity` (the delivered,
+        full-size map; ``match_stats.density`` counts the matcher's own, possibly reduced, pair)."""
+        return float(np.count_nonzero(np.isfinite(self.disparity))) / self.disparity.size
 
 
 def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
@@ -263,7 +270,8 @@ def warm_up() -> float:
 
     started = time.perf_counter()
     pair = render_pair(default_scene(160, 120))
-    detect(pair.left, pair.right, pair.calibration)
+    result = detect(pair.left, pair.right, pair.calibration)  # 120 rows: matched at full size
+    detect(pair.left, pair.right, pair.calibration, disparity_estimate=result.disparity)  # the refinement kernel
     return time.perf_counter() - started
 
 

@@ -2,12 +2,15 @@
 
 A disparity map found on a reduced copy of the pair and spread back over the full-size pixels
 is right to within a pixel or two but carries the coarse resolution's errors (doubled at half
-size). Each pixel with an estimate is matched again on the full-size images, over the integer
-disparities within ``radius`` of the rounded estimate (NCC or MNCC on the 5 x 5 window, as in
-the growth): the best one is kept if it reaches ``tau``, with the parabola subpixel offset of
-:mod:`stereo_obstacles.subpixel`; pixels where no nearby disparity reaches ``tau`` become
-unmatched. Cost: ``2 * radius + 3`` similarities per estimated pixel, in regular memory order,
-on ``n_threads`` row blocks (measured in ``docs/matching.md``, "Coarse to fine").
+size). Each pixel with an estimate is matched again on the full-size images (NCC or MNCC on the
+5 x 5 window, as in the growth): starting at the rounded estimate, moved into the admissible
+range, it climbs to the better neighbouring disparity while that one is better and within
+``radius`` of the start. It keeps the peak it reaches if the similarity there is at least
+``tau``, with the parabola subpixel offset of :mod:`stereo_obstacles.subpixel`; a pixel whose
+climb is stopped by the radius while still rising, or whose peak is below ``tau``, becomes
+unmatched. Cost: 3 similarities per estimated pixel and one per step (about 3.2 on the
+640x480 scene), in regular memory order, on ``n_threads`` row blocks (``docs/matching.md``,
+"Coarse to fine").
 """
 
 from __future__ import annotations
@@ -60,13 +63,13 @@ def refine_disparity(inputs: SimilarityInputs, estimate: np.ndarray, *, tau: flo
     inputs : SimilarityInputs
         Prepared full-size images, shape (H, W).
     estimate : ndarray of float, shape (H, W)
-        Disparity estimate in full-size pixels, NaN where there is none.
+        Disparity estimate in full-size pixels, NaN (or infinite) where there is none.
     tau : float
         A pixel keeps its best nearby disparity only if the similarity reaches this, in (0, 1).
     d_min, d_max : int
         Admissible disparities in pixels, inclusive.
     radius : int
-        Integer disparities within this many pixels of the rounded estimate are searched (>= 0).
+        The climb stays within this many pixels of its start (>= 0).
     n_threads : int
         Row blocks matched in parallel threads, each with about as many estimated pixels (the
         result does not depend on it).

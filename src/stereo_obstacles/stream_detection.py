@@ -115,12 +115,26 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
                                            disparity_estimate=estimate),
                         seeds, 0 if points is None else len(points)))
 
+    source_error: Exception | None = None
+
+    def read() -> StereoFrame | None:
+        """The next frame; after the source failed, none (its error is raised once the frames
+        already in flight are delivered)."""
+        nonlocal source_error
+        if source_error is not None:
+            return None
+        try:
+            return next(frames, None)
+        except Exception as exc:  # noqa: BLE001 - re-raised below, after the frames in flight
+            source_error = exc
+            return None
+
     with ThreadPoolExecutor(max_workers=in_flight, thread_name_prefix="stream-frame") as pool:
         try:
             for k in range(in_flight):
-                start(pool, next(frames, None), first=k == 0)
+                start(pool, read(), first=k == 0)
             while pending:
-                upcoming = next(frames, None)  # read (decode) it while the frames in flight are detected
+                upcoming = read()  # read (decode) it while the frames in flight are detected
                 frame, future, seeds, n_seed_points = pending.popleft()
                 result = future.result()
                 if seeder is not None:
@@ -130,6 +144,8 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
                 start(pool, upcoming, first=False)  # at once: tracking and the caller's work overlap it
                 tracks = tracker.update(result.obstacles.obstacles, frame.timestamp_s)
                 yield FrameDetection(frame, result, tuple(tracks), seeds, n_seed_points)
+            if source_error is not None:
+                raise source_error
         finally:  # stopped early: frames still queued are dropped, a running one ends in its thread
             for _, future, _, _ in pending:
                 future.cancel()
@@ -169,10 +185,9 @@ def frame_record(detection: FrameDetection) -> dict:
         detected["measured_distance_m"] = detected.pop("distance_m")
         detected["detection_id"] = detected.pop("id")
         obstacles.append({**entry, **detected})
-    stats = detection.result.match_stats
     return jsonable({"type": "frame", "frame": detection.frame.index, "timestamp_s": detection.frame.timestamp_s,
                       "name": detection.frame.name, "seeds": detection.seeds,
-                      "n_seed_points": detection.n_seed_points, "density": stats.density,
+                      "n_seed_points": detection.n_seed_points, "density": detection.result.density,
                       "timings_s": detection.result.timings_s, "obstacles": obstacles, "missed": missed})
 
 

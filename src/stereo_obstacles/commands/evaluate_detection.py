@@ -49,7 +49,7 @@ def _dataset_figures(folder: str, config: DetectionConfig) -> dict:
     if pair.calibration is None or pair.gt_disparity is None:
         raise InvalidInputError(f"{folder} needs a calibration and a ground-truth disparity for the depth comparison")
     result = detect(pair.left, pair.right, pair.calibration, config=config)
-    return {"name": pair.name, "density_pct": 100 * result.match_stats.density,
+    return {"name": pair.name, "density_pct": 100 * result.density,
             "matched": depth_agreement(result.disparity, pair.gt_disparity, pair.calibration).to_dict(),
             "obstacle_pixels": depth_agreement(result.disparity, pair.gt_disparity, pair.calibration,
                                                mask=result.obstacles.id_map > 0).to_dict(),
