@@ -195,3 +195,16 @@ def test_two_live_cameras_simulated(tmp_path, monkeypatch, capsys):
     assert "a camera stopped delivering frames" in err or f"processed {N_FRAMES} frames" in err
     with pytest.raises(InputFileError, match="camera 7 cannot be opened"):
         streams.CameraPairSource(0, 7)
+
+
+def test_help_defaults_are_the_library_defaults():
+    import argparse
+
+    from stereo_obstacles.commands.video import register
+    from stereo_obstacles.stream_detection import IN_FLIGHT
+    from stereo_obstacles.temporal_seeds import TemporalSeedParameters
+
+    subparsers = argparse.ArgumentParser().add_subparsers()
+    register(subparsers)
+    text = " ".join(subparsers.choices["video"].format_help().split())
+    assert f"(default {IN_FLIGHT}:" in text and f"(default {TemporalSeedParameters().refine_frames};" in text

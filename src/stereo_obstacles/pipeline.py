@@ -348,12 +348,10 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     t = time.perf_counter()
     ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
-    min_excess_px = config.geometric_min_excess_px
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
-                                      min_excess_px,
-                                      colour_trusted)
+                                      config.geometric_min_excess_px, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles,
-                               min_excess_px=min_excess_px)
+                               min_excess_px=config.geometric_min_excess_px)
     obstacles = measure_obstacles(group_obstacle_pixels(disparity, standing, config.grouping), disparity,
                                   calibration, ground, config.obstacles)
     if ground is not None:

@@ -52,7 +52,7 @@ class FrameDetection:
         ``"refined"`` (the previous frame's disparity refined, no growth; see
         :class:`~stereo_obstacles.temporal_seeds.TemporalSeedParameters`).
     n_seed_points : int
-        Temporal seed points passed to the matcher (0 for edge seeds).
+        Temporal seed points passed to the matcher (0 for edge seeds and refined frames).
     """
 
     frame: StereoFrame

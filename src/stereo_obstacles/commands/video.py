@@ -33,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--frames-out", metavar="DIR",
                         help="write every frame's full detection outputs (as 'detect --out') to DIR/<frame>/")
     parser.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
-    parser.add_argument("--in-flight", type=int, default=3, metavar="N",
+    parser.add_argument("--in-flight", type=int, default=None, metavar="N",
                         help="frames detected at once (default 3: more frames per second on two cores; "
                              "1: each frame waits for the one before, the lowest latency)")
     seeds = parser.add_argument_group("temporal seeds")
@@ -43,7 +43,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                        help="grid step of the temporal seeds, pixels (default 8)")
     seeds.add_argument("--refresh-every", type=int, default=30, metavar="N",
                        help="use edge seeds every N frames (default 30; 0: only when too few seeds)")
-    seeds.add_argument("--refine-frames", type=int, default=1, metavar="N",
+    seeds.add_argument("--refine-frames", type=int, default=None, metavar="N",
                        help="after each grown frame, match N frames by refining its disparity only (default 1; "
                             "0: every frame grows)")
     seeds.add_argument("--forward-speed", type=float, default=0.0, metavar="M",
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.jsonl import JsonLinesWriter
     from stereo_obstacles.progress import Progress
     from stereo_obstacles.report import write_detection_outputs
-    from stereo_obstacles.stream_detection import (annotate_frame, detect_stream, frame_record,
+    from stereo_obstacles.stream_detection import (IN_FLIGHT, annotate_frame, detect_stream, frame_record,
                                                    header_record)
     from stereo_obstacles.streams import open_source
     from stereo_obstacles.temporal_seeds import TemporalSeedParameters
@@ -126,8 +126,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.max_frames is not None and args.max_frames < 1:
         raise InvalidInputError(f"--max-frames must be >= 1, got {args.max_frames}")
-    if args.in_flight < 1:
-        raise InvalidInputError(f"--in-flight must be >= 1, got {args.in_flight}")
+    in_flight = IN_FLIGHT if args.in_flight is None else args.in_flight
+    if in_flight < 1:
+        raise InvalidInputError(f"--in-flight must be >= 1, got {in_flight}")
+    refine_frames = TemporalSeedParameters().refine_frames if args.refine_frames is None else args.refine_frames
     config = config_from_args(args)
     tracking = TrackingParameters()
     interrupted = False
@@ -143,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
         calibration = calibration_from_args(args, width, height)
         temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
                                            forward_m_per_frame=args.forward_speed if calibration else 0.0,
-                                           refine_frames=args.refine_frames)
+                                           refine_frames=refine_frames)
                     if args.temporal_seeds else None)
         jsonl = None
         if args.jsonl:
@@ -161,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
         progress = Progress(total, label="frame")
         stack.callback(progress.close)
         stream = detect_stream(itertools.chain([first], frames), calibration, config=config, temporal=temporal,
-                               tracking=tracking, in_flight=args.in_flight)
+                               tracking=tracking, in_flight=in_flight)
         stop = stack.enter_context(StopRequest("the current frame"))
         try:
             for detection in stream:
