@@ -142,13 +142,3 @@ def test_supersampling_keeps_the_ground_truth_and_smooths_edges(small_pair):
     np.testing.assert_array_equal(p.labels, small_pair.labels)
     np.testing.assert_array_equal(p.disparity, small_pair.disparity)
     assert np.abs(p.left.astype(int) - small_pair.left).mean() < 6
-
-
-@pytest.mark.parametrize("module", ["stereo_obstacles.synthetic", "stereo_obstacles.synthetic.layout",
-                                    "stereo_obstacles.synthetic.render", "stereo_obstacles.synthetic.sequence"])
-def test_docstring_examples_run(module):
-    import doctest
-    import importlib
-
-    result = doctest.testmod(importlib.import_module(module), optionflags=doctest.NORMALIZE_WHITESPACE)
-    assert result.attempted > 0 and result.failed == 0

@@ -309,10 +309,11 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
 
     Examples
     --------
-    >>> from stereo_obstacles.synthetic import default_scene, render_scene
-    >>> scene = render_scene(default_scene(), size=(320, 240))           # doctest: +SKIP
-    >>> result = detect(scene.left, scene.right, scene.calibration)     # doctest: +SKIP
-    >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]     # doctest: +SKIP
+    >>> from stereo_obstacles.synthetic import default_scene, render_pair
+    >>> pair = render_pair(default_scene(320, 240))
+    >>> result = detect(pair.left, pair.right, pair.calibration)
+    >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]
+    [3.1, 3.9, 4.2, 6.4, 6.5]
     """
     _check_pair(left, right)
     if disparity_estimate is not None:

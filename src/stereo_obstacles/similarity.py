@@ -181,7 +181,7 @@ def similarity_at(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray, x_righ
     >>> rng = np.random.default_rng(0)
     >>> img = rng.uniform(0, 255, (20, 30)).astype(np.float32)
     >>> s = prepare_similarity(img, img)
-    >>> float(similarity_at(s, np.array([10]), np.array([12]), np.array([12]))[0])
+    >>> round(float(similarity_at(s, np.array([10]), np.array([12]), np.array([12]))[0]), 6)
     1.0
     """
     y, x, x_right = (np.asarray(v, dtype=np.int64) for v in np.broadcast_arrays(y, x, x_right))
