@@ -13,7 +13,8 @@ Run: ``python benchmarks/bench_video.py [--frames N] [--size WxH] [--memory-fram
    warm-up frames (median of the two runs), the median over those frames of one frame's
    detection time (latency) and of its matching stage, and per frame the bad-1 rate
    (|d - gt| > 1 px over matched non-occluded pixels with ground truth) and density (matched
-   share of those pixels).
+   share of those pixels). Freed memory is kept for reuse, as the ``video`` command does
+   (:mod:`stereo_obstacles.allocator`).
 3. Memory: ``--memory-frames`` frames (the rendered walk cycled, timestamps increasing) of
    the ``video`` command's loop — detection, tracking, JSON record, annotated frame — with
    temporal seeds; RSS (``/proc/self/statm``) at frame 10 and at the end.
@@ -31,6 +32,7 @@ import time
 
 import numpy as np
 
+from stereo_obstacles.allocator import keep_freed_memory
 from stereo_obstacles.matching import warm_up
 from stereo_obstacles.pipeline import DetectionConfig
 from stereo_obstacles.stream_detection import IN_FLIGHT, annotate_frame, detect_stream, frame_record
@@ -102,6 +104,7 @@ def main() -> None:
     args = parser.parse_args()
     width, height = _size(args.size)
     config = DetectionConfig() if args.matching_scale is None else DetectionConfig(matching_scale=args.matching_scale)
+    keep_freed_memory()  # as the video command does
     machine = (f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, Python "
                f"{sys.version.split()[0]}, NumPy {np.__version__}, load average {os.getloadavg()[0]:.1f}")
     print(f"machine: {machine}")

@@ -111,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
     from contextlib import ExitStack
     from pathlib import Path
 
+    from stereo_obstacles.allocator import keep_freed_memory
     from stereo_obstacles.commands._calibration_options import calibration_from_args
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
@@ -131,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidInputError(f"--in-flight must be >= 1, got {in_flight}")
     refine_frames = TemporalSeedParameters().refine_frames if args.refine_frames is None else args.refine_frames
     config = config_from_args(args)
+    keep_freed_memory()  # a frame reuses the previous frames' arrays instead of faulting in fresh pages
     tracking = TrackingParameters()
     interrupted = False
     count = 0
