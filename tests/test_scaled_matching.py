@@ -92,3 +92,11 @@ def test_small_images_are_matched_at_full_size():
     disparity, result = match_at_scale(small.left, small.right, 0.5, max_disparity=16)
     assert result.disparity.shape == (120, 160)
     np.testing.assert_array_equal(disparity, match(small.left, small.right, max_disparity=16).disparity)
+
+
+def test_a_narrow_image_is_matched_at_its_own_width():
+    rng = np.random.default_rng(0)
+    right = rng.uniform(0, 255, (400, 8)).astype(np.float32)
+    left = np.roll(right, 2, axis=1)
+    disparity, result = match_at_scale(left, right, 0.5, max_disparity=4)    # not a 4 px wide copy
+    assert result.disparity.shape == (400, 8) and disparity.shape == (400, 8)

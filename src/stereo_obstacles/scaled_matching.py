@@ -27,12 +27,13 @@ from stereo_obstacles.refinement import refine_disparity
 from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.similarity import prepare_similarity, to_grey
 
-__all__ = ["MIN_REDUCED_ROWS", "check_scale", "effective_scale", "match_at_scale", "refine_at_full_size",
+__all__ = ["MIN_REDUCED_SIDE", "check_scale", "effective_scale", "match_at_scale", "refine_at_full_size",
            "scaled_size"]
 
-MIN_REDUCED_ROWS = 120
-"""A pair is never shrunk below this many rows: smaller images are matched at a larger scale (at full
-size when 120 rows or fewer), where a 5 x 5 window and 8-pixel seed cells still see enough texture."""
+MIN_REDUCED_SIDE = 120
+"""A pair is never shrunk below this many rows or columns: smaller images are matched at a larger
+scale (at full size when a side is 120 pixels or shorter), where a 5 x 5 window and 8-pixel seed
+cells still see enough texture."""
 
 
 def check_scale(scale: float) -> float:
@@ -43,16 +44,16 @@ def check_scale(scale: float) -> float:
     return float(scale)
 
 
-def effective_scale(height: int, scale: float) -> float:
-    """The scale :func:`match_at_scale` uses for images ``height`` rows high: ``scale``, raised so
-    that the reduced copy keeps :data:`MIN_REDUCED_ROWS` rows, and at most 1.
+def effective_scale(height: int, width: int, scale: float) -> float:
+    """The scale :func:`match_at_scale` uses for images of ``height`` x ``width`` pixels: ``scale``,
+    raised so that the reduced copy keeps :data:`MIN_REDUCED_SIDE` rows and columns, and at most 1.
 
     Examples
     --------
-    >>> effective_scale(480, 0.5), effective_scale(200, 0.5), effective_scale(120, 0.5)
+    >>> effective_scale(480, 640, 0.5), effective_scale(200, 640, 0.5), effective_scale(400, 8, 0.5)
     (0.5, 0.6, 1.0)
     """
-    return min(1.0, max(check_scale(scale), MIN_REDUCED_ROWS / height))
+    return min(1.0, max(check_scale(scale), MIN_REDUCED_SIDE / min(height, width)))
 
 
 def scaled_size(width: int, height: int, scale: float) -> tuple[int, int]:
@@ -149,7 +150,7 @@ def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_po
         The match at the reduced size (its statistics count reduced pixels).
     """
     h, w = left.shape[:2]
-    scale = effective_scale(h, scale)
+    scale = effective_scale(h, w, scale)
     if scale == 1.0:
         result = match(left, right, seed_points=seed_points, max_disparity=max_disparity, **options)
         return result.disparity, result
