@@ -33,6 +33,7 @@ from dataclasses import asdict, dataclass, field, replace
 import cv2
 import numpy as np
 
+from stereo_obstacles.blind_strip import BlindStripParameters, extend_into_blind_strip
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
@@ -81,6 +82,9 @@ class DetectionConfig:
     the same distance errors and no false alarm, at about half the matching time
     (``docs/pipeline.md``, "Matching scale"); 1 grows at full size. Segmentation and obstacles
     are always at full size.
+    ``blind_strip``: obstacles reaching the strip at the left border that only the left camera
+    sees are continued into it for their measurement (:mod:`stereo_obstacles.blind_strip`);
+    ``None`` switches that off.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -92,6 +96,7 @@ class DetectionConfig:
     check_rectification: bool = True
     matching_scale: float = 0.5
     geometric_min_excess_px: float = 0.5
+    blind_strip: BlindStripParameters | None = field(default_factory=BlindStripParameters)
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
@@ -353,8 +358,11 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
                                       config.geometric_min_excess_px, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles,
                                min_excess_px=config.geometric_min_excess_px)
-    obstacles = measure_obstacles(group_obstacle_pixels(disparity, standing, config.grouping), disparity,
-                                  calibration, ground, config.obstacles)
+    groups, measured = group_obstacle_pixels(disparity, standing, config.grouping), disparity
+    if config.blind_strip is not None:
+        groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
+                                                      config.blind_strip)
+    obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles)
     if ground is not None:
         # flat groups are only reported as rejected: no need to split them into depth layers
         flat_groups = _without_feet(group_obstacle_pixels(disparity, candidates & ~standing,
