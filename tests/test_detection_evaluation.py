@@ -94,6 +94,7 @@ def test_summary_counts_only_relevant_truths():
     assert summary.median_abs_error_pct == pytest.approx(5.0) == summary.max_abs_error_pct
     assert (summary.false_alarms_on_shadow, summary.false_alarms_on_marking, summary.false_alarms_other) == (1, 0, 1)
     assert summary.missed == ("seed 7: #3 box at 6.0 m (100 px)",)
+    assert summary.large_errors == ()                   # 5.0 % is not above 5 %
     assert summarise([evaluation], max_distance_m=5.0, min_visible_px=50).n_obstacles == 0
 
 
@@ -102,3 +103,17 @@ def test_summary_counts_only_relevant_truths():
 def test_summary_refuses_bad_limits(kwargs, match):
     with pytest.raises(InvalidInputError, match=match):
         summarise([], **kwargs)
+
+
+def test_errors_above_five_percent_are_listed_worst_first():
+    from stereo_obstacles.detection_evaluation import TruthComparison
+
+    def found(truth_id, true_m, reported_m):
+        return TruthComparison(truth_id=truth_id, kind="pole", height_m=1.0, true_distance_m=true_m, visible_pixels=500,
+                               detected_id=1, detected_distance_m=reported_m)
+
+    evaluation = SceneEvaluation(seed=3, ground="asphalt", comparisons=(found(1, 8.0, 8.8), found(2, 4.0, 4.1),
+                                                                         found(3, 9.0, 7.2)),
+                                 false_alarms=(), seconds=0.1)
+    assert summarise([evaluation]).large_errors == ("seed 3: #3 pole at 9.00 m, reported 7.20 m (-20.0 %)",
+                                                    "seed 3: #1 pole at 8.00 m, reported 8.80 m (+10.0 %)")

@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles.atomic import write_text_atomic
     from stereo_obstacles.commands._arguments import image_size
-    from stereo_obstacles.detection_evaluation import evaluate_synthetic_scene, summarise
+    from stereo_obstacles.detection_evaluation import LARGE_ERROR_PCT, evaluate_synthetic_scene, summarise
     from stereo_obstacles.evaluation import machine_info
     from stereo_obstacles.pipeline import DetectionConfig, warm_up
 
@@ -88,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
               f"{s.false_alarms_other} elsewhere; median pipeline time {s.median_seconds * 1000:.0f} ms per pair")
         for miss in s.missed:
             print(f"  missed: {miss}")
+        for large in s.large_errors:
+            print(f"  error above {LARGE_ERROR_PCT:g} %: {large}")
     for d in report["datasets"]:
         m, o = d["matched"], d["obstacle_pixels"]
         print(f"{d['name']}: density {d['density_pct']:.1f} %; depth vs ground truth over matched pixels: median "
