@@ -8,8 +8,9 @@ group whose matched pixels reach the strip's edge is continued into the strip: a
 ``d = a x + b y + c`` is fitted (least squares) to the group's pixels in the
 ``fit_width_px`` columns next to the strip, and each obstacle-labelled, unmatched pixel to
 their left, in a run reaching the group's first column in its row, gets the plane's disparity
-as long as the plane puts it in the strip (``d > x``, or within ``reach_px`` of it). Only the obstacle measurement uses those
-extrapolated disparities; the delivered disparity and depth maps stay measured values.
+as long as the plane puts it in the strip (``d > x``, or within ``reach_px`` of it). Only the
+obstacle measurement uses those extrapolated disparities; the delivered disparity and depth
+maps stay measured values.
 """
 
 from __future__ import annotations

@@ -24,8 +24,8 @@ from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 
-__all__ = ["BANDS", "DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult", "MatchStats",
-           "disparity_range", "match", "warm_up"]
+__all__ = ["BANDS", "DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult",
+           "MatchStats", "disparity_range", "match", "warm_up"]
 
 logger = logging.getLogger(__name__)
 
@@ -206,7 +206,8 @@ def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | Non
     ((0, 213), (2, 64), (0, 39))
     """
     d_min = int(min_disparity)
-    d_max = int(max_disparity) if max_disparity is not None else max(d_min, round(width * DEFAULT_MAX_DISPARITY_FRACTION))
+    d_max = (int(max_disparity) if max_disparity is not None
+             else max(d_min, round(width * DEFAULT_MAX_DISPARITY_FRACTION)))
     d_max = min(d_max, width - 1)
     if d_min > d_max:
         raise InvalidInputError(f"min_disparity: expected < image width {width}, got {d_min}")

@@ -29,8 +29,8 @@ from stereo_obstacles.streams import StereoFrame
 from stereo_obstacles.temporal_seeds import TemporalSeeder, TemporalSeedParameters
 from stereo_obstacles.tracking import ObstacleTracker, Track, TrackingParameters
 
-__all__ = ["IN_FLIGHT", "STREAM_FORMAT", "FrameDetection", "annotate_frame", "detect_stream", "frame_record", "header_record",
-           "tracked_list"]
+__all__ = ["IN_FLIGHT", "STREAM_FORMAT", "FrameDetection", "annotate_frame", "detect_stream", "frame_record",
+           "header_record", "tracked_list"]
 
 STREAM_FORMAT = "stereo-obstacles/stream"
 """``format`` of the header line of a JSON-lines stream file."""

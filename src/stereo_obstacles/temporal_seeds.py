@@ -57,9 +57,9 @@ class TemporalSeedParameters:
         After each frame matched by growth, this many frames are matched by refining the
         latest grown frame's disparity instead (no seeds, no growth; see the module docstring);
         0: every frame grows. ``refresh_every`` counts the grown frames only. The default 1
-        (every other frame refined) gave 1.15-1.2x the frames per second of temporal seeds
-        alone at a median bad-1 of 0.84 % instead of 0.82 % on the synthetic walk; 2 and 3
-        were faster but their bad-1 rose to 1.7 % and 3.4 % on some frames (``docs/streams.md``).
+        (every other frame refined) is the fastest setting whose frames stayed within 1.2 %
+        bad-1 on the synthetic walk; 2 and 3 let some frames reach 2.2-3.4 % (figures in
+        ``docs/streams.md``).
     """
 
     step_px: int = 8
@@ -138,8 +138,9 @@ def temporal_estimate(disparity: np.ndarray) -> np.ndarray:
     """The disparity estimate a frame gives the next one to refine: its own disparity, and at each
     unmatched pixel next to a match (8-neighbourhood) the largest neighbouring disparity.
 
-    Not moved by the rig's motion: the refinement searches 2 px around every estimate, more than
-    the disparity of a point changes between frames at walking speed (``docs/streams.md``).
+    Not moved by the rig's motion: the refinement climbs up to 2 px from every estimate, more
+    than the disparity of a point changes over a few frames at walking speed; where it changes
+    more, the pixel goes unmatched (``docs/streams.md``).
 
     Parameters
     ----------
