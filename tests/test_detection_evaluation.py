@@ -117,3 +117,20 @@ def test_errors_above_five_percent_are_listed_worst_first():
                                  false_alarms=(), seconds=0.1)
     assert summarise([evaluation]).large_errors == ("seed 3: #3 pole at 9.00 m, reported 7.20 m (-20.0 %)",
                                                     "seed 3: #1 pole at 8.00 m, reported 8.80 m (+10.0 %)")
+
+
+def test_evaluate_detection_command_renders_with_the_asked_rays_per_pixel(tmp_path, capsys):
+    import json
+
+    from stereo_obstacles import cli
+
+    out = tmp_path / "figures.json"
+    assert cli.main(["evaluate-detection", "--scenes", "1", "--size", "320x240", "--supersample", "2",
+                     "--json", str(out)]) == 0
+    assert "(320x240, 2x2 rays per pixel)" in capsys.readouterr().out
+    figures = json.loads(out.read_text())["synthetic"]
+    assert figures["supersample"] == 2 and figures["n_scenes"] == 1
+    assert figures["n_found"] == figures["n_obstacles"] == 6  # the built-in scene: six true obstacles
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["evaluate-detection", "--supersample", "5"])
+    assert exit_info.value.code == 2

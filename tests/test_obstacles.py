@@ -112,6 +112,22 @@ def test_near_face_depth_equals_the_percentile_of_patch_medians():
         assert _near_face_depth(xs, ys, z, percentile) == pytest.approx(np.percentile(medians, percentile))
 
 
+def test_near_face_depth_leaves_out_patches_of_a_few_fringe_pixels():
+    from stereo_obstacles.obstacles import _near_face_depth
+
+    # a face at 5 m filling one 8x8 patch, and a one-pixel column of 3 fringe pixels at 3 m beside it
+    ys, xs = np.mgrid[0:8, 0:8]
+    xs = np.concatenate([xs.ravel(), [8, 8, 8]])
+    ys = np.concatenate([ys.ravel(), [0, 1, 2]])
+    z = np.concatenate([np.full(64, 5.0), [3.0, 3.0, 3.0]])
+    assert _near_face_depth(xs, ys, z, 0.0) == 3.0
+    assert _near_face_depth(xs, ys, z, 0.0, min_patch_pixels=16) == 5.0
+    # no patch holds 16 pixels: every patch counts
+    assert _near_face_depth(xs[-3:], ys[-3:], z[-3:], 0.0, min_patch_pixels=16) == 3.0
+    with pytest.raises(InvalidInputError, match="distance_min_patch_pixels"):
+        ObstacleParameters(distance_min_patch_pixels=0)
+
+
 def test_far_ground_raised_by_disparity_noise_does_not_stand():
     from stereo_obstacles.obstacles import standing_pixels
 

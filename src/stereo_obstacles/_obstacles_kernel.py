@@ -16,7 +16,8 @@ def patch_medians_kernel(xs, ys, z, patch_px):
     """Median of ``z`` over the pixels ``(xs, ys)`` of each ``patch_px`` square patch holding any.
 
     ``xs, ys`` int64 ``(N,)`` (non-negative), ``z`` float64 ``(N,)``. Returns the medians
-    (``0.5 * (lower + upper middle)``) in patch order, float64 ``(number of patches,)``.
+    (``0.5 * (lower + upper middle)``) in patch order, float64 ``(number of patches,)``, and the
+    number of pixels each median was taken over, int64 ``(number of patches,)``.
     """
     n = xs.shape[0]
     columns = xs.max() // patch_px + 1
@@ -34,6 +35,7 @@ def patch_medians_kernel(xs, ys, z, patch_px):
         values[fill[patch[i]]] = z[i]
         fill[patch[i]] += 1
     medians = np.empty(n_patches, np.float64)
+    counts = np.empty(n_patches, np.int64)
     m = 0
     for p in range(n_patches):
         count = start[p + 1] - start[p]
@@ -41,5 +43,6 @@ def patch_medians_kernel(xs, ys, z, patch_px):
             continue
         block = np.sort(values[start[p]:start[p + 1]])
         medians[m] = 0.5 * (block[(count - 1) // 2] + block[count // 2])
+        counts[m] = count
         m += 1
-    return medians[:m]
+    return medians[:m], counts[:m]

@@ -8,7 +8,11 @@ frame (x right, y down, z forward); without one, only pixels and disparities are
 Distance of an obstacle is a low percentile (``distance_percentile``) of the median depths of
 its 8x8-pixel patches:
 the near face of the object; taking patch medians first keeps the percentile from following
-the noise of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near). Height above the ground uses the
+the noise of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near).
+Patches holding fewer than ``distance_min_patch_pixels`` of the obstacle's pixels are left out
+(all are used when none holds that many): they are mostly a fringe of a pixel or two along the
+object's outline, matched at a disparity borrowed from the window around them (a one-pixel
+column of sky beside a far pole read 0.9 px nearer than the pole). Height above the ground uses the
 ground plane fitted in (x, y, disparity) space, converted to a 3-D plane; objects whose pixels
 all lie within ``flat_tolerance_m`` of that plane are rejected as flat (markings, puddles),
 and the rejection is reported with its reason.
@@ -56,6 +60,9 @@ class ObstacleParameters:
         Width of the walking corridor straight ahead for :func:`corridor_summary`.
     distance_percentile : float
         Percentile of the obstacle's patch depths reported as its distance (0 = nearest patch).
+    distance_min_patch_pixels : int
+        Patches with fewer of the obstacle's pixels do not count for its distance (unless no
+        patch has that many); of the ``DISTANCE_PATCH_PX ** 2`` = 64 pixels of a patch.
     """
 
     flat_tolerance_m: float = 0.08
@@ -64,10 +71,14 @@ class ObstacleParameters:
     max_distance_m: float = 30.0
     corridor_width_m: float = 1.0
     distance_percentile: float = 10.0
+    distance_min_patch_pixels: int = 16
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.distance_percentile <= 100.0:
             raise InvalidInputError(f"distance_percentile must be in [0, 100], got {self.distance_percentile}")
+        if not 1 <= self.distance_min_patch_pixels <= DISTANCE_PATCH_PX ** 2:
+            raise InvalidInputError(f"distance_min_patch_pixels must be in [1, {DISTANCE_PATCH_PX ** 2}], got "
+                                    f"{self.distance_min_patch_pixels}")
         if not 0.0 <= self.min_standing_fraction <= 1.0:
             raise InvalidInputError(f"min_standing_fraction must be in [0, 1], got {self.min_standing_fraction}")
         for name in ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"):
@@ -263,7 +274,8 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
         height_above = round(float(np.percentile(heights, EXTENT_PERCENTILES[1])), 3)
         points, disparities = points[standing], disparities[standing]
     distance = _near_face_depth(xs[standing] if ground is not None else xs,
-                                ys[standing] if ground is not None else ys, points[:, 2], params.distance_percentile)
+                                ys[standing] if ground is not None else ys, points[:, 2], params.distance_percentile,
+                                params.distance_min_patch_pixels)
     if distance > params.max_distance_m:
         return RejectedGroup(box, count, f"farther than {params.max_distance_m:g} m ({distance:.1f} m)")
     (x_lo, y_lo), (x_hi, y_hi) = np.percentile(points[:, :2], EXTENT_PERCENTILES, axis=0)
@@ -276,11 +288,14 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
                     height_above_ground_m=height_above)
 
 
-def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, percentile: float) -> float:
-    """``percentile`` over patches of the patch-median depth (metres)."""
-    medians = patch_medians_kernel(np.asarray(xs, np.int64), np.asarray(ys, np.int64), np.asarray(z, np.float64),
-                                   DISTANCE_PATCH_PX)
-    return float(np.percentile(medians, percentile))
+def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, percentile: float,
+                     min_patch_pixels: int = 1) -> float:
+    """``percentile`` of the patch-median depths (metres) over the patches holding at least
+    ``min_patch_pixels`` of the pixels (over all patches when none does)."""
+    medians, counts = patch_medians_kernel(np.asarray(xs, np.int64), np.asarray(ys, np.int64),
+                                           np.asarray(z, np.float64), DISTANCE_PATCH_PX)
+    full = counts >= min_patch_pixels
+    return float(np.percentile(medians[full] if full.any() else medians, percentile))
 
 
 def corridor_summary(obstacles: tuple[Obstacle, ...], width_m: float) -> CorridorSummary:

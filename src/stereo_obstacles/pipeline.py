@@ -318,7 +318,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     >>> pair = render_pair(default_scene(320, 240))
     >>> result = detect(pair.left, pair.right, pair.calibration)
     >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]
-    [3.1, 3.9, 4.2, 6.4, 6.5]
+    [3.1, 3.9, 4.2, 6.4, 6.6]
     """
     _check_pair(left, right)
     if disparity_estimate is not None:

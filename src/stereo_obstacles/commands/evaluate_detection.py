@@ -24,6 +24,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--first-seed", type=non_negative_int, default=0, metavar="S",
                         help="first scene seed (0 = the built-in scene; default 0)")
     parser.add_argument("--size", default="640x480", metavar="WxH", help="synthetic image size (default 640x480)")
+    parser.add_argument("--supersample", type=int, default=None, metavar="S", choices=range(1, 5),
+                        help="render the scenes with S x S rays per pixel, 1..4 (default 3: a camera pixel "
+                             "integrates over its area; with 1 ray thin outlines snap to whole pixels)")
     parser.add_argument("--min-height", type=float, default=0.3, metavar="M",
                         help="count true obstacles at least this high (default 0.3 m)")
     parser.add_argument("--max-distance", type=float, default=10.0, metavar="M",
@@ -62,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles.atomic import write_text_atomic
     from stereo_obstacles.commands._arguments import image_size
-    from stereo_obstacles.detection_evaluation import LARGE_ERROR_PCT, evaluate_synthetic_scene, summarise
+    from stereo_obstacles.detection_evaluation import (EVALUATION_SUPERSAMPLE, LARGE_ERROR_PCT,
+                                                       evaluate_synthetic_scene, summarise)
     from stereo_obstacles.evaluation import machine_info
     from stereo_obstacles.pipeline import DetectionConfig, warm_up
 
@@ -71,14 +75,18 @@ def run(args: argparse.Namespace) -> int:
     if args.matching_scale is not None:
         config = DetectionConfig(matching_scale=args.matching_scale)
     warm_up()
-    evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config)
+    supersample = EVALUATION_SUPERSAMPLE if args.supersample is None else args.supersample
+    evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config,
+                                            supersample=supersample)
                    for seed in range(args.first_seed, args.first_seed + args.scenes)]
     summary = summarise(evaluations, min_height_m=args.min_height, max_distance_m=args.max_distance)
-    report = {"machine": machine_info(), "config": config.to_dict(), "synthetic": summary.to_dict(),
+    report = {"machine": machine_info(), "config": config.to_dict(),
+              "synthetic": {**summary.to_dict(), "supersample": supersample},
               "datasets": [_dataset_figures(folder, config) for folder in args.dataset]}
     s = summary
     if s.n_scenes:
-        print(f"synthetic scenes {args.first_seed}..{args.first_seed + args.scenes - 1} ({width}x{height}): "
+        print(f"synthetic scenes {args.first_seed}..{args.first_seed + args.scenes - 1} ({width}x{height}, "
+              f"{supersample}x{supersample} rays per pixel): "
               f"{s.n_found}/{s.n_obstacles} true obstacles >= {s.min_height_m:g} m high within "
               f"{s.max_distance_m:g} m found")
         if s.median_abs_error_pct is not None:
