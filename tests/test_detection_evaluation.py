@@ -134,3 +134,18 @@ def test_evaluate_detection_command_renders_with_the_asked_rays_per_pixel(tmp_pa
     with pytest.raises(SystemExit) as exit_info:
         cli.main(["evaluate-detection", "--supersample", "5"])
     assert exit_info.value.code == 2
+
+
+def test_evaluate_detection_command_degrades_the_images_as_asked(tmp_path, capsys):
+    import json
+
+    from stereo_obstacles import cli
+
+    out = tmp_path / "figures.json"
+    assert cli.main(["evaluate-detection", "--scenes", "1", "--size", "320x240", "--supersample", "1", "--noise", "1",
+                     "--jpeg-quality", "90", "--json", str(out)]) == 0
+    assert "noise 1, JPEG quality 90)" in capsys.readouterr().out
+    figures = json.loads(out.read_text())["synthetic"]
+    assert (figures["noise_sigma"], figures["jpeg_quality"]) == (1.0, 90)
+    assert cli.main(["evaluate-detection", "--jpeg-quality", "0"]) == 1
+    assert "jpeg_quality must be None or an integer in [1, 100]" in capsys.readouterr().err

@@ -50,6 +50,19 @@ def test_noise_has_the_requested_strength(small_pair):
     np.testing.assert_array_equal(noisy.disparity, small_pair.disparity)
 
 
+def test_jpeg_delivery_leaves_8x8_block_edges_and_keeps_the_truth(small_pair):
+    compressed = render_pair(small_pair.scene, RenderOptions(jpeg_quality=40))
+    grey = compressed.left.astype(float).mean(axis=2) - small_pair.left.astype(float).mean(axis=2)
+    assert 0 < np.abs(grey).mean() < 6  # changed, not destroyed
+    # the error steps across block boundaries (columns 7 | 8, 15 | 16, ...) more than inside blocks
+    steps = np.abs(np.diff(grey, axis=1)).mean(axis=0)
+    across = steps[7::8].mean()
+    assert across > 1.3 * np.delete(steps, np.s_[7::8]).mean()
+    np.testing.assert_array_equal(compressed.disparity, small_pair.disparity)
+    with pytest.raises(InvalidInputError, match="jpeg_quality"):
+        RenderOptions(jpeg_quality=101)
+
+
 @pytest.mark.parametrize("ground", ["pavement", "grass", "tiles", "asphalt"])
 def test_shadows_are_darker_and_bluer_than_lit_ground(ground):
     p = render_pair(default_scene(W, H, ground=ground))

@@ -164,9 +164,11 @@ bound that quantisation at 1/6 px."""
 
 
 def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int = 480, config=None,
-                             supersample: int = EVALUATION_SUPERSAMPLE) -> SceneEvaluation:
+                             supersample: int = EVALUATION_SUPERSAMPLE, noise_sigma: float = 0.0,
+                             jpeg_quality: int | None = None) -> SceneEvaluation:
     """Render scene ``seed`` (0 = the built-in one) with ``supersample`` x ``supersample`` rays per
-    pixel, detect, compare with the truth."""
+    pixel, sensor noise of ``noise_sigma`` grey levels and, unless ``None``, JPEG compression at
+    ``jpeg_quality`` (:class:`~stereo_obstacles.synthetic.RenderOptions`); detect; compare with the truth."""
     import time
 
     from stereo_obstacles.pipeline import DetectionConfig, detect
@@ -174,7 +176,8 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
 
     scene = default_scene(width_px, height_px) if seed == 0 else random_scene(seed, width_px=width_px,
                                                                               height_px=height_px)
-    pair = render_pair(scene, RenderOptions(supersample=supersample))
+    pair = render_pair(scene, RenderOptions(supersample=supersample, noise_sigma=noise_sigma,
+                                            jpeg_quality=jpeg_quality))
     started = time.perf_counter()
     result = detect(pair.left, pair.right, pair.calibration, config=config or DetectionConfig())
     seconds = time.perf_counter() - started

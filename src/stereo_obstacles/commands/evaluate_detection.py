@@ -27,6 +27,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--supersample", type=int, default=None, metavar="S", choices=range(1, 5),
                         help="render the scenes with S x S rays per pixel, 1..4 (default 3: a camera pixel "
                              "integrates over its area; with 1 ray thin outlines snap to whole pixels)")
+    parser.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
+                        help="add sensor noise of SIGMA grey levels to the rendered scenes (default 0)")
+    parser.add_argument("--jpeg-quality", type=int, default=None, metavar="Q",
+                        help="JPEG-compress the rendered pairs at quality Q, 1..100, as a webcam in MJPG "
+                             "mode does (default: uncompressed)")
     parser.add_argument("--min-height", type=float, default=0.3, metavar="M",
                         help="count true obstacles at least this high (default 0.3 m)")
     parser.add_argument("--max-distance", type=float, default=10.0, metavar="M",
@@ -69,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
                                                        evaluate_synthetic_scene, summarise)
     from stereo_obstacles.evaluation import machine_info
     from stereo_obstacles.pipeline import DetectionConfig, warm_up
+    from stereo_obstacles.synthetic import RenderOptions
 
     width, height = image_size(args.size)
     config = DetectionConfig()
@@ -76,17 +82,22 @@ def run(args: argparse.Namespace) -> int:
         config = DetectionConfig(matching_scale=args.matching_scale)
     warm_up()
     supersample = EVALUATION_SUPERSAMPLE if args.supersample is None else args.supersample
+    RenderOptions(supersample=supersample, noise_sigma=args.noise, jpeg_quality=args.jpeg_quality)  # checks them
     evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config,
-                                            supersample=supersample)
+                                            supersample=supersample, noise_sigma=args.noise,
+                                            jpeg_quality=args.jpeg_quality)
                    for seed in range(args.first_seed, args.first_seed + args.scenes)]
     summary = summarise(evaluations, min_height_m=args.min_height, max_distance_m=args.max_distance)
     report = {"machine": machine_info(), "config": config.to_dict(),
-              "synthetic": {**summary.to_dict(), "supersample": supersample},
+              "synthetic": {**summary.to_dict(), "supersample": supersample, "noise_sigma": args.noise,
+                            "jpeg_quality": args.jpeg_quality},
               "datasets": [_dataset_figures(folder, config) for folder in args.dataset]}
     s = summary
     if s.n_scenes:
+        imaging = "".join([f", noise {args.noise:g}" if args.noise else "",
+                           f", JPEG quality {args.jpeg_quality}" if args.jpeg_quality is not None else ""])
         print(f"synthetic scenes {args.first_seed}..{args.first_seed + args.scenes - 1} ({width}x{height}, "
-              f"{supersample}x{supersample} rays per pixel): "
+              f"{supersample}x{supersample} rays per pixel{imaging}): "
               f"{s.n_found}/{s.n_obstacles} true obstacles >= {s.min_height_m:g} m high within "
               f"{s.max_distance_m:g} m found")
         if s.median_abs_error_pct is not None:

@@ -31,6 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="rotation of the right camera about its X, Y, Z axes, degrees (unrectified pair)")
     parser.add_argument("--right-offset-px", type=float, default=0.0, metavar="PX",
                         help="vertical shift of the right image, pixels")
+    parser.add_argument("--jpeg-quality", type=int, default=None, metavar="Q",
+                        help="deliver both images JPEG-compressed at quality Q, 1..100 (as a webcam in MJPG "
+                             "mode; written as PNG after the round trip)")
     parser.add_argument("--no-shadows", action="store_true", help="render without cast shadows")
     parser.add_argument("--supersample", type=int, default=1, metavar="S",
                         help="S x S rays per pixel (1..4, default 1)")
@@ -73,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
     options = RenderOptions(
         supersample=args.supersample, shadows=not args.no_shadows, noise_sigma=args.noise,
         right_gain=1.0 + args.gain_diff, right_bias=args.brightness_diff,
-        right_error=RightCameraError(tuple(args.right_rotation_deg), args.right_offset_px))
+        right_error=RightCameraError(tuple(args.right_rotation_deg), args.right_offset_px),
+        jpeg_quality=args.jpeg_quality)
     out = Path(args.out)
     if args.frames == 1:
         write_scene_folder(out, render_pair(scene, options))

@@ -27,7 +27,7 @@ n_obstacles, camera_height_m, pitch_deg, markings) -> Scene``
 ``write_scene_folder(out_dir, pair) -> list[Path]``
     All the files of ``stereo-obstacles scene``, written atomically as one set.
 ``RenderOptions(supersample, blur_sigma_px, shadows, noise_sigma, right_gain, right_bias,
-exposure, right_error=RightCameraError(rotation_deg, vertical_offset_px))``
+exposure, right_error=RightCameraError(rotation_deg, vertical_offset_px), jpeg_quality)``
     Imaging options.
 
 Examples

@@ -25,7 +25,7 @@ from stereo_obstacles.synthetic.raycast import (GROUND, SKY, Hits, blocked_towar
                                                 blocked_towards_point, trace)
 from stereo_obstacles.synthetic.rig import CameraPose, RightCameraError, camera_poses
 from stereo_obstacles.synthetic.scene import Scene
-from stereo_obstacles.synthetic.sensor import develop
+from stereo_obstacles.synthetic.sensor import compress_jpeg, develop
 from stereo_obstacles.synthetic.shading import shade, surface_albedo
 from stereo_obstacles.synthetic.truth import ObstacleTruth, obstacle_truths
 
@@ -55,6 +55,9 @@ class RenderOptions:
         Linear exposure of both cameras (radiance 1/exposure saturates).
     right_error : RightCameraError
         Known rotation / vertical offset of the right camera (zero: rectified).
+    jpeg_quality : int or None
+        Deliver both images JPEG-compressed at this quality (1..100), as a webcam in MJPG
+        mode does; ``None``: uncompressed.
     """
 
     supersample: int = 1
@@ -65,6 +68,7 @@ class RenderOptions:
     right_bias: float = 0.0
     exposure: float = 2.0
     right_error: RightCameraError = field(default_factory=RightCameraError)
+    jpeg_quality: int | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.supersample, int) or isinstance(self.supersample, bool) \
@@ -78,6 +82,9 @@ class RenderOptions:
                 raise InvalidInputError(f"{name} must be in [{lo}, {hi}], got {value!r}")
         if not isinstance(self.right_error, RightCameraError):
             raise InvalidInputError("right_error must be a RightCameraError")
+        if self.jpeg_quality is not None and (not isinstance(self.jpeg_quality, int) or isinstance(self.jpeg_quality, bool)
+                                              or not 1 <= self.jpeg_quality <= 100):
+            raise InvalidInputError(f"jpeg_quality must be None or an integer in [1, 100], got {self.jpeg_quality!r}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -243,6 +250,8 @@ def render_pair(scene: Scene, options: RenderOptions | None = None, *, forward_m
     right = develop(_image_radiance(scene, right_view, s), blur_sigma_px=options.blur_sigma_px,
                     exposure=options.exposure, gain=options.right_gain, bias_levels=options.right_bias,
                     noise_sigma=options.noise_sigma, rng=rng)
+    if options.jpeg_quality is not None:
+        left, right = compress_jpeg(left, options.jpeg_quality), compress_jpeg(right, options.jpeg_quality)
 
     hits = truth_view.hits
     solid = hits.owner != SKY
