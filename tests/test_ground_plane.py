@@ -127,3 +127,8 @@ def test_raised_pixels_are_those_whose_3d_points_stand_above_the_ground():
     assert 0 < expected.sum() < usable.sum()
     uncalibrated = raised_pixels(ground, disparity, mask, None, min_excess_px=1.0)
     assert np.array_equal(uncalibrated, usable & (excess >= 1.0))
+    per_pixel = rng.uniform(0.0, 4.0, (480, 640)).astype(np.float32)  # a threshold of its own for every pixel
+    assert np.array_equal(raised_pixels(ground, disparity, mask, None, min_excess_px=per_pixel),
+                          usable & (excess >= per_pixel))
+    with pytest.raises(InvalidInputError, match="min_excess_px"):
+        raised_pixels(ground, disparity, mask, None, min_excess_px=per_pixel[1:])

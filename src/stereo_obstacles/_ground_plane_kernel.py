@@ -41,7 +41,7 @@ def inlier_counts_kernel(planes, x, y, d, threshold):
 def raised_pixels_kernel(disparity, mask, a, b, c, doffs, height_scale, min_height, strict, min_excess):
     """``bool`` map of the ``mask`` pixels with a finite disparity ``d`` standing above the plane.
 
-    A pixel stands when ``d - plane >= min_excess`` and, if ``height_scale`` is finite (a
+    A pixel stands when ``d - plane >= min_excess[y, x]`` (``min_excess`` float32 ``(H, W)``) and, if ``height_scale`` is finite (a
     calibration), also ``d + doffs > 0`` and its height ``height_scale * (d - plane) / (d +
     doffs)`` is ``> min_height`` (``strict``) or ``>= min_height``; ``plane = a x + b y + c``.
     """
@@ -56,7 +56,7 @@ def raised_pixels_kernel(disparity, mask, a, b, c, doffs, height_scale, min_heig
             if not np.isfinite(d):
                 continue
             excess = d - (a * x + b * y + c)
-            if excess < min_excess:
+            if excess < min_excess[y, x]:
                 continue
             if calibrated:
                 if d + doffs <= 0.0:

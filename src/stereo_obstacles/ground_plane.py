@@ -280,8 +280,8 @@ def height_above_ground_m(ground: GroundPlane, points_m: np.ndarray, calibration
 
 
 def raised_pixels(ground: GroundPlane, disparity: np.ndarray, mask: np.ndarray,
-                  calibration: StereoCalibration | None, *, min_height_m: float = 0.0, min_excess_px: float = 0.0,
-                  strict: bool = False) -> np.ndarray:
+                  calibration: StereoCalibration | None, *, min_height_m: float = 0.0,
+                  min_excess_px: float | np.ndarray = 0.0, strict: bool = False) -> np.ndarray:
     """Pixels of ``mask`` whose disparity puts them above the ground plane.
 
     Parameters
@@ -301,7 +301,7 @@ def raised_pixels(ground: GroundPlane, disparity: np.ndarray, mask: np.ndarray,
     min_height_m
         Height in metres (``>``, or ``>=`` unless ``strict``).
     min_excess_px
-        Disparity above the plane's, pixels (``>=``).
+        Disparity above the plane's, pixels (``>=``): one number, or ``float (H, W)`` per pixel.
     strict
         Use ``>`` for the height test.
 
@@ -318,8 +318,13 @@ def raised_pixels(ground: GroundPlane, disparity: np.ndarray, mask: np.ndarray,
     if calibration is not None:
         scale = calibration.focal_baseline_px_m / float(np.linalg.norm(_normal_camera(ground, calibration)))
         doffs = float(calibration.doffs_px)
+    floor = np.asarray(min_excess_px, dtype=np.float32)
+    floor = np.full(d.shape, floor, np.float32) if floor.ndim == 0 else np.ascontiguousarray(floor)
+    if floor.shape != d.shape:
+        raise InvalidInputError(f"min_excess_px: expected one number or the disparity's shape {d.shape}, "
+                                f"got {floor.shape}")
     return raised_pixels_kernel(d, m, float(ground.a), float(ground.b), float(ground.c), doffs, scale,
-                                float(min_height_m), bool(strict), float(min_excess_px))
+                                float(min_height_m), bool(strict), floor)
 
 
 def tilt_from_camera_vertical_deg(ground: GroundPlane, calibration: StereoCalibration) -> float:

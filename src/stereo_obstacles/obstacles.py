@@ -146,10 +146,11 @@ class ObstacleList:
 
 def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: GroundPlane | None,
                     calibration: StereoCalibration | None,
-                    params: ObstacleParameters = ObstacleParameters(), *, min_excess_px: float = 0.0) -> np.ndarray:
+                    params: ObstacleParameters = ObstacleParameters(), *,
+                    min_excess_px: float | np.ndarray = 0.0) -> np.ndarray:
     """Candidate pixels with a disparity that stand above the ground by the flat tolerance or more
-    (and, with a calibration, whose disparity exceeds the plane's by ``min_excess_px`` or more:
-    far away, disparity noise alone is a large height).
+    (and, with a calibration, whose disparity exceeds the plane's by ``min_excess_px`` or more,
+    one number or ``float (H, W)`` per pixel: far away, disparity noise alone is a large height).
 
     Grouping only standing pixels keeps two objects from being chained together through the
     ground between them; the remaining (flat) candidates can be grouped separately to report

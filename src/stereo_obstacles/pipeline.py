@@ -14,6 +14,10 @@ Beyond the paper:
 * pixels that phase 1 calls ground but whose disparity puts them clearly above the fitted
   ground plane (``geometric_min_height_m``) are obstacle candidates too: a dark object of the
   ground's hue would otherwise pass for a shadow;
+* a pixel stands above the ground plane only when its disparity exceeds the plane's by three
+  times its own uncertainty, estimated from the pair's noise and the texture of its window
+  (:mod:`stereo_obstacles.disparity_uncertainty`): patches of noisy far ground matched a pixel
+  too near are not obstacles;
 * candidates standing above the ground plane are grouped into obstacles, and the flat ones
   separately, only to report them as rejected (markings, puddles): grouping them together
   would chain distinct objects through the ground between them;
@@ -36,6 +40,7 @@ import numpy as np
 from stereo_obstacles.blind_strip import BlindStripParameters, extend_into_blind_strip
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import disparity_to_depth
+from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
@@ -47,6 +52,7 @@ from stereo_obstacles.rectification_check import check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
+from stereo_obstacles.similarity import to_grey
 
 logger = logging.getLogger(__name__)
 
@@ -85,6 +91,13 @@ class DetectionConfig:
     ``blind_strip``: obstacles reaching the strip at the left border that only the left camera
     sees are continued into it for their measurement (:mod:`stereo_obstacles.blind_strip`);
     ``None`` switches that off.
+    ``standing_significance``: a pixel stands above the ground plane (an obstacle candidate of
+    ground colour, or a standing obstacle pixel) only when its disparity also exceeds the plane's
+    by this many times its own disparity uncertainty, estimated from the pair's noise and its
+    window's texture (:mod:`stereo_obstacles.disparity_uncertainty`), the uncertainty taken as at
+    most ``standing_max_sigma_px`` (full-size pixels); ``None`` switches the test off. It keeps
+    noisy or compressed images from raising patches of far ground as obstacles
+    (``docs/pipeline.md``, "Noise and compression").
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -97,6 +110,8 @@ class DetectionConfig:
     matching_scale: float = 0.5
     geometric_min_excess_px: float = 0.5
     blind_strip: BlindStripParameters | None = field(default_factory=BlindStripParameters)
+    standing_significance: float | None = 3.0
+    standing_max_sigma_px: float = 0.75
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
@@ -104,6 +119,11 @@ class DetectionConfig:
         check_scale(self.matching_scale)
         if not math.isfinite(self.geometric_min_excess_px) or self.geometric_min_excess_px < 0:
             raise InvalidInputError(f"geometric_min_excess_px must be >= 0, got {self.geometric_min_excess_px}")
+        if self.standing_significance is not None and not (math.isfinite(self.standing_significance)
+                                                           and self.standing_significance >= 0):
+            raise InvalidInputError(f"standing_significance must be None or >= 0, got {self.standing_significance}")
+        if not (math.isfinite(self.standing_max_sigma_px) and self.standing_max_sigma_px > 0):
+            raise InvalidInputError(f"standing_max_sigma_px must be > 0 pixels, got {self.standing_max_sigma_px}")
 
     def to_dict(self) -> dict:
         """JSON-ready nested mapping of every option."""
@@ -232,14 +252,15 @@ def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray,
 
 
 def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray, ground: GroundPlane | None,
-                         calibration: StereoCalibration | None, min_height_m: float, min_excess_px: float,
+                         calibration: StereoCalibration | None, min_height_m: float,
+                         min_excess_px: float | np.ndarray,
                          colour_trusted: bool) -> np.ndarray:
     """Phase-1 obstacle pixels, plus ground-coloured pixels standing clearly above the plane
     (or every matched pixel when the colour labels are not trusted).
 
     "Clearly": higher than ``min_height_m`` and with a disparity at least ``min_excess_px``
-    above the plane's, so that the disparity noise of far ground (where a small disparity
-    error is a large height) does not raise it.
+    (one number, or per pixel) above the plane's, so that the disparity noise of far ground
+    (where a small disparity error is a large height) does not raise it.
     """
     if not colour_trusted:
         return np.isfinite(disparity)
@@ -248,6 +269,19 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
         return candidates
     return candidates | raised_pixels(ground, disparity, segmentation.ground_mask, calibration,
                                       min_height_m=min_height_m, min_excess_px=min_excess_px, strict=True)
+
+
+def _min_excess_px(left: np.ndarray, right: np.ndarray, disparity: np.ndarray,
+                   config: DetectionConfig) -> float | np.ndarray:
+    """How far (pixels) a pixel's disparity must exceed the ground plane's for it to stand:
+    ``geometric_min_excess_px``, or per pixel at least ``standing_significance`` times its
+    disparity uncertainty (``float32 (H, W)``)."""
+    if config.standing_significance is None:
+        return config.geometric_min_excess_px
+    left_grey, right_grey = to_grey(left, "left"), to_grey(right, "right")
+    sigma = disparity_sigma_px(left_grey, pair_noise_sigma(left_grey, right_grey, disparity),
+                               max_sigma_px=config.standing_max_sigma_px)
+    return np.maximum(np.float32(config.geometric_min_excess_px), np.float32(config.standing_significance) * sigma)
 
 
 FOOT_REACH_PX = 2
@@ -354,10 +388,10 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     t = time.perf_counter()
     ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
+    min_excess = _min_excess_px(left, right, disparity, config)
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
-                                      config.geometric_min_excess_px, colour_trusted)
-    standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles,
-                               min_excess_px=config.geometric_min_excess_px)
+                                      min_excess, colour_trusted)
+    standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
     groups, measured = group_obstacle_pixels(disparity, standing, config.grouping), disparity
     if config.blind_strip is not None:
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
