@@ -96,3 +96,24 @@ def test_noisy_far_ground_is_not_raised_into_obstacles():
     assert all(c.detected_id is not None for c in comparisons if c.true_distance_m and c.true_distance_m < 10)
     with pytest.raises(InvalidInputError, match="standing_significance"):
         DetectionConfig(standing_significance=-1.0)
+
+
+def test_match_residuals_kernel_equals_its_numpy_definition():
+    from stereo_obstacles._disparity_uncertainty_kernel import match_residuals_kernel
+
+    rng = np.random.default_rng(9)
+    left, right = (rng.uniform(0, 255, (23, 31)).astype(np.float32) for _ in range(2))
+    d = rng.uniform(-2.0, 33.0, (23, 31)).astype(np.float32)  # some fall outside the right image
+    d[rng.random(d.shape) < 0.2] = np.nan
+    expected = []
+    for y in range(0, 23, 4):
+        for x in range(31):
+            if np.isfinite(d[y, x]):
+                x_right = x - float(d[y, x])
+                x0 = int(np.floor(x_right))
+                if 0 <= x0 and x0 + 1 < 31:
+                    frac = x_right - x0
+                    expected.append(left[y, x] - (right[y, x0] * (1 - frac) + right[y, x0 + 1] * frac))
+    got = match_residuals_kernel(left, right, d, 4)
+    assert 0 < got.size < 6 * 31
+    np.testing.assert_allclose(got, expected, rtol=1e-6, atol=1e-4)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from stereo_obstacles._disparity_uncertainty_kernel import match_residuals_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.similarity import RADIUS
 
@@ -64,17 +65,11 @@ def pair_noise_sigma(left_grey: np.ndarray, right_grey: np.ndarray, disparity: n
     if not left_grey.shape == right_grey.shape == disparity.shape or left_grey.ndim != 2:
         raise InvalidInputError(f"left {left_grey.shape}, right {right_grey.shape} and disparity "
                                 f"{disparity.shape} must be one 2-D shape")
-    rows = disparity[::RESIDUAL_ROW_STEP]
-    ys, xs = np.nonzero(np.isfinite(rows))
-    x_right = xs - rows[ys, xs].astype(np.float64)
-    ys = ys * RESIDUAL_ROW_STEP
-    x0 = np.floor(x_right).astype(np.int64)
-    inside = (x0 >= 0) & (x0 + 1 < disparity.shape[1])
-    if not inside.any():
+    residual = match_residuals_kernel(np.ascontiguousarray(left_grey, np.float32),
+                                      np.ascontiguousarray(right_grey, np.float32),
+                                      np.ascontiguousarray(disparity, np.float32), RESIDUAL_ROW_STEP)
+    if residual.size == 0:
         return 0.0
-    ys, xs, x0, frac = ys[inside], xs[inside], x0[inside], (x_right - x0)[inside]
-    warped = right_grey[ys, x0] * (1.0 - frac) + right_grey[ys, x0 + 1] * frac
-    residual = left_grey[ys, xs] - warped
     spread = np.median(np.abs(residual - np.median(residual)))
     return float(MAD_TO_SIGMA * spread / np.sqrt(2.0))
 
@@ -110,9 +105,9 @@ def disparity_sigma_px(left_grey: np.ndarray, noise_sigma: float, *, max_sigma_p
     if grey.ndim != 2:
         raise InvalidInputError(f"left_grey must be 2-D, got shape {grey.shape}")
     side = 2 * RADIUS + 1
-    gradient = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=1, borderType=cv2.BORDER_REPLICATE) * 0.5
-    energy = cv2.boxFilter(gradient * gradient, -1, (side, side), normalize=False, borderType=cv2.BORDER_REPLICATE)
+    gradient = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=1, scale=0.5, borderType=cv2.BORDER_REPLICATE)
+    energy = cv2.boxFilter(cv2.multiply(gradient, gradient), -1, (side, side), normalize=False,
+                           borderType=cv2.BORDER_REPLICATE)
     # a central difference carries half of the noise variance: sigma**2 / 2 per pixel of the window
-    signal = energy - side * side * noise_sigma * noise_sigma / 2.0
-    sigma = np.float32(np.sqrt(2.0) * noise_sigma) / np.sqrt(np.maximum(signal, np.float32(1e-12)))
-    return np.minimum(sigma, np.float32(max_sigma_px)).astype(np.float32)
+    signal = np.maximum(energy - np.float32(side * side * noise_sigma * noise_sigma / 2.0), np.float32(1e-12))
+    return np.minimum(np.float32(np.sqrt(2.0) * noise_sigma) / np.sqrt(signal), np.float32(max_sigma_px))

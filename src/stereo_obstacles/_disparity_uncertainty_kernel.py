@@ -1,0 +1,35 @@
+"""Compiled residuals of the matches, for the pair's noise (private).
+
+The public wrapper is :func:`stereo_obstacles.disparity_uncertainty.pair_noise_sigma`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from stereo_obstacles._similarity_kernel import CACHE
+
+
+@njit(cache=CACHE, nogil=True)
+def match_residuals_kernel(left, right, disparity, row_step):
+    """``left[y, x] - right(x - d, y)`` (right image linearly interpolated) for the matched pixels
+    of rows ``0, row_step, 2 row_step, ...`` whose right position has both neighbours inside
+    the image. ``left, right`` float32 ``(H, W)``, ``disparity`` float32 ``(H, W)`` (NaN:
+    none). Returns float64 ``(N,)`` in raster order."""
+    h, w = disparity.shape
+    out = np.empty(((h + row_step - 1) // row_step) * w, np.float64)
+    n = 0
+    for y in range(0, h, row_step):
+        for x in range(w):
+            d = np.float64(disparity[y, x])
+            if not np.isfinite(d):
+                continue
+            x_right = x - d
+            x0 = int(np.floor(x_right))
+            if x0 < 0 or x0 + 1 >= w:
+                continue
+            frac = x_right - x0
+            out[n] = left[y, x] - (right[y, x0] * (1.0 - frac) + right[y, x0 + 1] * frac)
+            n += 1
+    return out[:n]
