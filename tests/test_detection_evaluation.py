@@ -119,14 +119,31 @@ def test_errors_above_five_percent_are_listed_worst_first():
                                                     "seed 3: #1 pole at 8.00 m, reported 8.80 m (+10.0 %)")
 
 
-def test_evaluate_detection_command_renders_with_the_asked_rays_per_pixel(tmp_path, capsys):
+def _recording_render(monkeypatch) -> list:
+    """Make ``render_pair`` record the ``RenderOptions`` it is given (``pipeline.warm_up`` renders
+    a small pair with the defaults first: ``None``)."""
+    import stereo_obstacles.synthetic as synthetic
+
+    seen, render = [], synthetic.render_pair
+
+    def recording(scene, options=None, **kwargs):
+        seen.append(options)
+        return render(scene, options, **kwargs)
+
+    monkeypatch.setattr(synthetic, "render_pair", recording)
+    return seen
+
+
+def test_evaluate_detection_command_renders_with_the_asked_rays_per_pixel(tmp_path, capsys, monkeypatch):
     import json
 
     from stereo_obstacles import cli
 
+    seen = _recording_render(monkeypatch)
     out = tmp_path / "figures.json"
     assert cli.main(["evaluate-detection", "--scenes", "1", "--size", "320x240", "--supersample", "2",
                      "--json", str(out)]) == 0
+    assert [(o.supersample, o.noise_sigma, o.jpeg_quality) for o in seen if o is not None] == [(2, 0.0, None)]
     assert "(320x240, 2x2 rays per pixel)" in capsys.readouterr().out
     figures = json.loads(out.read_text())["synthetic"]
     assert figures["supersample"] == 2 and figures["n_scenes"] == 1
@@ -136,16 +153,21 @@ def test_evaluate_detection_command_renders_with_the_asked_rays_per_pixel(tmp_pa
     assert exit_info.value.code == 2
 
 
-def test_evaluate_detection_command_degrades_the_images_as_asked(tmp_path, capsys):
+def test_evaluate_detection_command_degrades_the_images_as_asked(tmp_path, capsys, monkeypatch):
     import json
 
     from stereo_obstacles import cli
 
+    seen = _recording_render(monkeypatch)
     out = tmp_path / "figures.json"
     assert cli.main(["evaluate-detection", "--scenes", "1", "--size", "320x240", "--supersample", "1", "--noise", "1",
                      "--jpeg-quality", "90", "--json", str(out)]) == 0
+    assert [(o.supersample, o.noise_sigma, o.jpeg_quality) for o in seen if o is not None] == [(1, 1.0, 90)]
     assert "noise 1, JPEG quality 90)" in capsys.readouterr().out
     figures = json.loads(out.read_text())["synthetic"]
     assert (figures["noise_sigma"], figures["jpeg_quality"]) == (1.0, 90)
-    assert cli.main(["evaluate-detection", "--jpeg-quality", "0"]) == 1
-    assert "jpeg_quality must be None or an integer in [1, 100]" in capsys.readouterr().err
+    for bad in (["--jpeg-quality", "0"], ["--jpeg-quality", "101"], ["--noise", "-1"], ["--noise", "nan"]):
+        with pytest.raises(SystemExit) as exit_info:
+            cli.main(["evaluate-detection", *bad])
+        assert exit_info.value.code == 2
+        assert "expected" in capsys.readouterr().err

@@ -43,8 +43,9 @@ def test_scene_command_options_reach_the_renderer(tmp_path):
     out = tmp_path / "s"
     assert main(["scene", "--out", str(out), "--size", "80x60", "--seed", "4", "--ground", "grass",
                  "--noise", "2", "--gain-diff", "0.1", "--right-rotation-deg", "0.5", "0", "0",
-                 "--right-offset-px", "1.5", "--no-shadows"]) == 0
+                 "--right-offset-px", "1.5", "--no-shadows", "--jpeg-quality", "60"]) == 0
     scene = json.loads((out / "scene.json").read_text())
+    assert scene["render_options"]["jpeg_quality"] == 60
     assert scene["seed"] == 4 and scene["scene"]["ground"]["name"] == "grass"
     assert scene["render_options"]["right_gain"] == pytest.approx(1.1)
     assert scene["right_camera"]["vertical_offset_px"] == 1.5 and scene["right_camera"]["rectified"] is False
@@ -88,3 +89,11 @@ def test_read_only_parent_fails_cleanly(tmp_path, capsys):
         assert list(parent.iterdir()) == []
     finally:
         parent.chmod(0o700)
+
+
+def test_bad_jpeg_quality_is_refused_by_the_scene_command(tmp_path, capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["scene", "--out", str(tmp_path / "s"), "--jpeg-quality", "0"])
+    assert exit_info.value.code == 2
+    assert "expected a JPEG quality 1..100" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()

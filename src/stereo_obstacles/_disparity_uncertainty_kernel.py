@@ -1,4 +1,4 @@
-"""Compiled residuals of the matches, for the pair's noise (private).
+"""Compiled samples of the matches, for the pair's noise (private).
 
 The public wrapper is :func:`stereo_obstacles.disparity_uncertainty.pair_noise_sigma`.
 """
@@ -12,13 +12,15 @@ from stereo_obstacles._similarity_kernel import CACHE
 
 
 @njit(cache=CACHE, nogil=True)
-def match_residuals_kernel(left, right, disparity, row_step):
-    """``left[y, x] - right(x - d, y)`` (right image linearly interpolated) for the matched pixels
-    of rows ``0, row_step, 2 row_step, ...`` whose right position has both neighbours inside
-    the image. ``left, right`` float32 ``(H, W)``, ``disparity`` float32 ``(H, W)`` (NaN:
-    none). Returns float64 ``(N,)`` in raster order."""
+def match_samples_kernel(left, right, disparity, row_step):
+    """The matched pixels of rows ``0, row_step, 2 row_step, ...`` whose right position ``x - d``
+    has both neighbours inside the image: ``left[y, x]``, the right image interpolated linearly
+    there, and ``(1 - f)**2 + f**2`` for the fraction ``f`` of that position (the share of one
+    pixel's noise variance the interpolation keeps). ``left, right`` float32 ``(H, W)``,
+    ``disparity`` float32 ``(H, W)`` (NaN: none). Returns three float64 ``(N,)`` in raster order."""
     h, w = disparity.shape
-    out = np.empty(((h + row_step - 1) // row_step) * w, np.float64)
+    size = ((h + row_step - 1) // row_step) * w
+    lefts, warped, kept = np.empty(size, np.float64), np.empty(size, np.float64), np.empty(size, np.float64)
     n = 0
     for y in range(0, h, row_step):
         for x in range(w):
@@ -30,6 +32,8 @@ def match_residuals_kernel(left, right, disparity, row_step):
             if x0 < 0 or x0 + 1 >= w:
                 continue
             frac = x_right - x0
-            out[n] = left[y, x] - (right[y, x0] * (1.0 - frac) + right[y, x0 + 1] * frac)
+            lefts[n] = left[y, x]
+            warped[n] = right[y, x0] * (1.0 - frac) + right[y, x0 + 1] * frac
+            kept[n] = (1.0 - frac) ** 2 + frac ** 2
             n += 1
-    return out[:n]
+    return lefts[:n], warped[:n], kept[:n]

@@ -156,19 +156,18 @@ EVALUATION_SUPERSAMPLE = 3
 """Rays per pixel along each axis when a scene is rendered for the evaluation.
 
 A camera pixel integrates the light falling on its area. Rendered with one ray through its
-centre, the outline of a thin object lands on whole pixels in each image independently, so the
-images show a disparity up to 0.5 px away from the true one: scene 11's pole at 9.96 m (true
-6.60 px) has its edges 7 px apart in the pair, and no matcher can read 6.60 from those images
-(-10.9 % at 1 ray, -0.04 px median error at 3 x 3 rays; ``docs/pipeline.md``). 3 x 3 rays
-bound that quantisation at 1/6 px."""
+centre, each outline of a thin object lands on whole pixels, in each image independently (up
+to 0.5 px off), so the pair shows a disparity up to 1 px away from the true one: scene 11's
+pole at 9.96 m (true 6.60 px) has its edges 7 px apart in the pair, and its pixels read
++0.30 px (median) with one ray against -0.04 px with 3 x 3 rays (``docs/pipeline.md``). 3 x 3
+rays bound the error at 1/6 px per outline, 1/3 px in disparity."""
 
 
 def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int = 480, config=None,
-                             supersample: int = EVALUATION_SUPERSAMPLE, noise_sigma: float = 0.0,
-                             jpeg_quality: int | None = None) -> SceneEvaluation:
-    """Render scene ``seed`` (0 = the built-in one) with ``supersample`` x ``supersample`` rays per
-    pixel, sensor noise of ``noise_sigma`` grey levels and, unless ``None``, JPEG compression at
-    ``jpeg_quality`` (:class:`~stereo_obstacles.synthetic.RenderOptions`); detect; compare with the truth."""
+                             render_options=None) -> SceneEvaluation:
+    """Render scene ``seed`` (0 = the built-in one) with ``render_options``
+    (:class:`~stereo_obstacles.synthetic.RenderOptions`; default: ``EVALUATION_SUPERSAMPLE`` rays
+    per pixel along each axis, no noise, uncompressed), detect, compare with the truth."""
     import time
 
     from stereo_obstacles.pipeline import DetectionConfig, detect
@@ -176,8 +175,7 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
 
     scene = default_scene(width_px, height_px) if seed == 0 else random_scene(seed, width_px=width_px,
                                                                               height_px=height_px)
-    pair = render_pair(scene, RenderOptions(supersample=supersample, noise_sigma=noise_sigma,
-                                            jpeg_quality=jpeg_quality))
+    pair = render_pair(scene, render_options or RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
     started = time.perf_counter()
     result = detect(pair.left, pair.right, pair.calibration, config=config or DetectionConfig())
     seconds = time.perf_counter() - started

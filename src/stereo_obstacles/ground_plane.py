@@ -323,6 +323,8 @@ def raised_pixels(ground: GroundPlane, disparity: np.ndarray, mask: np.ndarray,
     if floor.shape != d.shape:
         raise InvalidInputError(f"min_excess_px: expected one number or the disparity's shape {d.shape}, "
                                 f"got {floor.shape}")
+    if not np.isfinite(floor).all():
+        raise InvalidInputError("min_excess_px: expected finite numbers of pixels")
     return raised_pixels_kernel(d, m, float(ground.a), float(ground.b), float(ground.c), doffs, scale,
                                 float(min_height_m), bool(strict), floor)
 

@@ -12,7 +12,7 @@ the noise of single matches (a plain 10th percentile of pixel depths reads 1-2 %
 Patches holding fewer than ``distance_min_patch_pixels`` of the obstacle's pixels are left out
 (all are used when none holds that many): they are mostly a fringe of a pixel or two along the
 object's outline, matched at a disparity borrowed from the window around them (a one-pixel
-column of sky beside a far pole read 0.9 px nearer than the pole). Height above the ground uses the
+column of sky beside a far pole read 7.5 px, the pole's own matches 6.9 and its truth 6.6). Height above the ground uses the
 ground plane fitted in (x, y, disparity) space, converted to a 3-D plane; objects whose pixels
 all lie within ``flat_tolerance_m`` of that plane are rejected as flat (markings, puddles),
 and the rejection is reported with its reason.
@@ -21,6 +21,7 @@ and the rejection is reported with its reason.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -76,7 +77,9 @@ class ObstacleParameters:
     def __post_init__(self) -> None:
         if not 0.0 <= self.distance_percentile <= 100.0:
             raise InvalidInputError(f"distance_percentile must be in [0, 100], got {self.distance_percentile}")
-        if not 1 <= self.distance_min_patch_pixels <= DISTANCE_PATCH_PX ** 2:
+        if not (isinstance(self.distance_min_patch_pixels, numbers.Integral)
+                and not isinstance(self.distance_min_patch_pixels, bool)
+                and 1 <= self.distance_min_patch_pixels <= DISTANCE_PATCH_PX ** 2):
             raise InvalidInputError(f"distance_min_patch_pixels must be in [1, {DISTANCE_PATCH_PX ** 2}], got "
                                     f"{self.distance_min_patch_pixels}")
         if not 0.0 <= self.min_standing_fraction <= 1.0:

@@ -14,8 +14,8 @@ Beyond the paper:
 * pixels that phase 1 calls ground but whose disparity puts them clearly above the fitted
   ground plane (``geometric_min_height_m``) are obstacle candidates too: a dark object of the
   ground's hue would otherwise pass for a shadow;
-* a pixel stands above the ground plane only when its disparity exceeds the plane's by three
-  times its own uncertainty, estimated from the pair's noise and the texture of its window
+* with a calibration, a pixel stands above the ground plane only when its disparity exceeds the
+  plane's by three times its own uncertainty, estimated from the pair's noise and the texture of its window
   (:mod:`stereo_obstacles.disparity_uncertainty`): patches of noisy far ground matched a pixel
   too near are not obstacles;
 * candidates standing above the ground plane are grouped into obstacles, and the flat ones
@@ -47,7 +47,8 @@ from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
-from stereo_obstacles.obstacles import ObstacleList, ObstacleParameters, measure_obstacles, standing_pixels
+from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, measure_obstacles,
+                                       standing_pixels)
 from stereo_obstacles.rectification_check import check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
@@ -91,13 +92,14 @@ class DetectionConfig:
     ``blind_strip``: obstacles reaching the strip at the left border that only the left camera
     sees are continued into it for their measurement (:mod:`stereo_obstacles.blind_strip`);
     ``None`` switches that off.
-    ``standing_significance``: a pixel stands above the ground plane (an obstacle candidate of
-    ground colour, or a standing obstacle pixel) only when its disparity also exceeds the plane's
-    by this many times its own disparity uncertainty, estimated from the pair's noise and its
-    window's texture (:mod:`stereo_obstacles.disparity_uncertainty`), the uncertainty taken as at
-    most ``standing_max_sigma_px`` (full-size pixels); ``None`` switches the test off. It keeps
-    noisy or compressed images from raising patches of far ground as obstacles
-    (``docs/pipeline.md``, "Noise and compression").
+    ``standing_significance``: with a calibration and a ground plane, a pixel stands above the
+    plane (an obstacle candidate of ground colour, or a standing obstacle pixel) only when its
+    disparity also exceeds the plane's by this many times its own disparity uncertainty,
+    estimated from the pair's noise and its window's texture
+    (:mod:`stereo_obstacles.disparity_uncertainty`), the uncertainty taken as at most
+    ``standing_max_sigma_px`` (full-size pixels); ``None`` switches the test off. It keeps noisy
+    or compressed images from raising patches of far ground as obstacles (``docs/pipeline.md``,
+    "Noise and compression"); groups it keeps down are listed as rejected.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -271,12 +273,22 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
                                       min_height_m=min_height_m, min_excess_px=min_excess_px, strict=True)
 
 
-def _min_excess_px(left: np.ndarray, right: np.ndarray, disparity: np.ndarray,
-                   config: DetectionConfig) -> float | np.ndarray:
+def _not_clearly_raised(config: DetectionConfig) -> str:
+    """Why a group that is high enough above the ground plane still does not stand."""
+    floor = f"{config.geometric_min_excess_px:g} px"
+    if config.standing_significance is None:
+        return f"not clearly above the ground plane: its disparity exceeds the plane's by less than {floor}"
+    return (f"not clearly above the ground plane: its disparity exceeds the plane's by less than {floor} or "
+            f"{config.standing_significance:g} times its uncertainty (image noise or compression)")
+
+
+def _min_excess_px(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, config: DetectionConfig,
+                   needed: bool) -> float | np.ndarray:
     """How far (pixels) a pixel's disparity must exceed the ground plane's for it to stand:
     ``geometric_min_excess_px``, or per pixel at least ``standing_significance`` times its
-    disparity uncertainty (``float32 (H, W)``)."""
-    if config.standing_significance is None:
+    disparity uncertainty (``float32 (H, W)``). Only the calibrated test with a ground plane uses
+    it (``needed``); otherwise the number is returned without computing the uncertainty."""
+    if config.standing_significance is None or not needed:
         return config.geometric_min_excess_px
     left_grey, right_grey = to_grey(left, "left"), to_grey(right, "right")
     sigma = disparity_sigma_px(left_grey, pair_noise_sigma(left_grey, right_grey, disparity),
@@ -388,7 +400,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     t = time.perf_counter()
     ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
-    min_excess = _min_excess_px(left, right, disparity, config)
+    min_excess = _min_excess_px(left, right, disparity, config, needed=calibration is not None and ground is not None)
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
                                       min_excess, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
@@ -403,7 +415,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
                                                           replace(config.grouping, split_tolerance_px=0.0)),
                                     obstacles.id_map)
         flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles)
-        obstacles = replace(obstacles, rejected=obstacles.rejected + flat.rejected)
+        # groups high enough but not clearly above the plane in disparity (far, or noisy matches)
+        unclear = tuple(RejectedGroup(o.box_px, o.pixel_count, _not_clearly_raised(config)) for o in flat.obstacles)
+        obstacles = replace(obstacles, rejected=obstacles.rejected + flat.rejected + unclear)
     timings["obstacles"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - start
     return DetectionResult(segmentation=segmentation, disparity=disparity, match_stats=matched.stats,

@@ -47,3 +47,22 @@ def positive_int(text: str) -> int:
 def non_negative_int(text: str) -> int:
     """argparse type: an integer >= 0."""
     return _integer_at_least(text, 0, "an integer >= 0")
+
+
+def jpeg_quality(text: str) -> int:
+    """argparse type: a JPEG quality, an integer in 1..100."""
+    value = _integer_at_least(text, 1, "a JPEG quality 1..100")
+    if value > 100:
+        raise argparse.ArgumentTypeError(f"expected a JPEG quality 1..100, got {value}")
+    return value
+
+
+def noise_levels(text: str) -> float:
+    """argparse type: sensor noise in grey levels, a number in 0..50."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected grey levels 0..50, got {text!r}") from None
+    if not 0.0 <= value <= 50.0:  # also refuses NaN
+        raise argparse.ArgumentTypeError(f"expected grey levels 0..50, got {value}")
+    return value

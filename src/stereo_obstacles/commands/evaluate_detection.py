@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from stereo_obstacles.commands._arguments import non_negative_int
+from stereo_obstacles.commands._arguments import jpeg_quality, noise_levels, non_negative_int
 
 if TYPE_CHECKING:  # imported in run(): --help stays instant
     from stereo_obstacles.pipeline import DetectionConfig
@@ -27,9 +27,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--supersample", type=int, default=None, metavar="S", choices=range(1, 5),
                         help="render the scenes with S x S rays per pixel, 1..4 (default 3: a camera pixel "
                              "integrates over its area; with 1 ray thin outlines snap to whole pixels)")
-    parser.add_argument("--noise", type=float, default=0.0, metavar="SIGMA",
+    parser.add_argument("--noise", type=noise_levels, default=0.0, metavar="SIGMA",
                         help="add sensor noise of SIGMA grey levels to the rendered scenes (default 0)")
-    parser.add_argument("--jpeg-quality", type=int, default=None, metavar="Q",
+    parser.add_argument("--jpeg-quality", type=jpeg_quality, default=None, metavar="Q",
                         help="JPEG-compress the rendered pairs at quality Q, 1..100, as a webcam in MJPG "
                              "mode does (default: uncompressed)")
     parser.add_argument("--min-height", type=float, default=0.3, metavar="M",
@@ -80,12 +80,11 @@ def run(args: argparse.Namespace) -> int:
     config = DetectionConfig()
     if args.matching_scale is not None:
         config = DetectionConfig(matching_scale=args.matching_scale)
-    warm_up()
     supersample = EVALUATION_SUPERSAMPLE if args.supersample is None else args.supersample
-    RenderOptions(supersample=supersample, noise_sigma=args.noise, jpeg_quality=args.jpeg_quality)  # checks them
+    imaging = RenderOptions(supersample=supersample, noise_sigma=args.noise, jpeg_quality=args.jpeg_quality)
+    warm_up()
     evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config,
-                                            supersample=supersample, noise_sigma=args.noise,
-                                            jpeg_quality=args.jpeg_quality)
+                                            render_options=imaging)
                    for seed in range(args.first_seed, args.first_seed + args.scenes)]
     summary = summarise(evaluations, min_height_m=args.min_height, max_distance_m=args.max_distance)
     report = {"machine": machine_info(), "config": config.to_dict(),
@@ -94,10 +93,10 @@ def run(args: argparse.Namespace) -> int:
               "datasets": [_dataset_figures(folder, config) for folder in args.dataset]}
     s = summary
     if s.n_scenes:
-        imaging = "".join([f", noise {args.noise:g}" if args.noise else "",
-                           f", JPEG quality {args.jpeg_quality}" if args.jpeg_quality is not None else ""])
+        degraded = "".join([f", noise {args.noise:g}" if args.noise else "",
+                            f", JPEG quality {args.jpeg_quality}" if args.jpeg_quality is not None else ""])
         print(f"synthetic scenes {args.first_seed}..{args.first_seed + args.scenes - 1} ({width}x{height}, "
-              f"{supersample}x{supersample} rays per pixel{imaging}): "
+              f"{supersample}x{supersample} rays per pixel{degraded}): "
               f"{s.n_found}/{s.n_obstacles} true obstacles >= {s.min_height_m:g} m high within "
               f"{s.max_distance_m:g} m found")
         if s.median_abs_error_pct is not None:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import jpeg_quality
+
 GROUNDS = ("pavement", "grass", "tiles", "asphalt")
 
 
@@ -31,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="rotation of the right camera about its X, Y, Z axes, degrees (unrectified pair)")
     parser.add_argument("--right-offset-px", type=float, default=0.0, metavar="PX",
                         help="vertical shift of the right image, pixels")
-    parser.add_argument("--jpeg-quality", type=int, default=None, metavar="Q",
+    parser.add_argument("--jpeg-quality", type=jpeg_quality, default=None, metavar="Q",
                         help="deliver both images JPEG-compressed at quality Q, 1..100 (as a webcam in MJPG "
                              "mode; written as PNG after the round trip)")
     parser.add_argument("--no-shadows", action="store_true", help="render without cast shadows")

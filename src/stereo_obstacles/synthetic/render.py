@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -82,9 +83,10 @@ class RenderOptions:
                 raise InvalidInputError(f"{name} must be in [{lo}, {hi}], got {value!r}")
         if not isinstance(self.right_error, RightCameraError):
             raise InvalidInputError("right_error must be a RightCameraError")
-        if self.jpeg_quality is not None and (not isinstance(self.jpeg_quality, int) or isinstance(self.jpeg_quality, bool)
-                                              or not 1 <= self.jpeg_quality <= 100):
-            raise InvalidInputError(f"jpeg_quality must be None or an integer in [1, 100], got {self.jpeg_quality!r}")
+        quality = self.jpeg_quality
+        if quality is not None and (not isinstance(quality, numbers.Integral) or isinstance(quality, bool)
+                                    or not 1 <= quality <= 100):
+            raise InvalidInputError(f"jpeg_quality must be None or an integer in [1, 100], got {quality!r}")
 
 
 @dataclass(frozen=True, eq=False)
