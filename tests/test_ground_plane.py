@@ -132,7 +132,8 @@ def test_raised_pixels_are_those_whose_3d_points_stand_above_the_ground():
                           usable & (excess >= per_pixel))
     calibrated = raised_pixels(ground, disparity, mask, calibration, min_height_m=0.2, min_excess_px=per_pixel,
                                strict=True)
-    assert np.array_equal(calibrated & ~near_threshold, usable & (heights > 0.2) & (excess >= per_pixel) & ~near_threshold)
+    expected = usable & (heights > 0.2) & (excess >= per_pixel)
+    assert np.array_equal(calibrated & ~near_threshold, expected & ~near_threshold)
     with pytest.raises(InvalidInputError, match="min_excess_px"):
         raised_pixels(ground, disparity, mask, None, min_excess_px=per_pixel[1:])
     per_pixel[7, 7] = np.nan

@@ -41,9 +41,10 @@ def inlier_counts_kernel(planes, x, y, d, threshold):
 def raised_pixels_kernel(disparity, mask, a, b, c, doffs, height_scale, min_height, strict, min_excess):
     """``bool`` map of the ``mask`` pixels with a finite disparity ``d`` standing above the plane.
 
-    A pixel stands when ``d - plane >= min_excess[y, x]`` (``min_excess`` float32 ``(H, W)``) and, if ``height_scale`` is finite (a
-    calibration), also ``d + doffs > 0`` and its height ``height_scale * (d - plane) / (d +
-    doffs)`` is ``> min_height`` (``strict``) or ``>= min_height``; ``plane = a x + b y + c``.
+    A pixel stands when ``d - plane >= min_excess[y, x]`` (``min_excess`` float32 ``(H, W)``)
+    and, if ``height_scale`` is finite (a calibration), also ``d + doffs > 0`` and its height
+    ``height_scale * (d - plane) / (d + doffs)`` is ``> min_height`` (``strict``) or
+    ``>= min_height``; ``plane = a x + b y + c``.
     """
     h, w = disparity.shape
     out = np.zeros((h, w), np.bool_)

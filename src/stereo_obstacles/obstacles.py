@@ -12,10 +12,10 @@ the noise of single matches (a plain 10th percentile of pixel depths reads 1-2 %
 Patches holding fewer than ``distance_min_patch_pixels`` of the obstacle's pixels are left out
 (all are used when none holds that many): they are mostly a fringe of a pixel or two along the
 object's outline, matched at a disparity borrowed from the window around them (a one-pixel
-column of sky beside a far pole read 7.5 px, the pole's own matches 6.9 and its truth 6.6). Height above the ground uses the
-ground plane fitted in (x, y, disparity) space, converted to a 3-D plane; objects whose pixels
-all lie within ``flat_tolerance_m`` of that plane are rejected as flat (markings, puddles),
-and the rejection is reported with its reason.
+column of sky beside a far pole read 7.5 px, the pole's own matches 6.9 and its truth 6.6).
+Height above the ground uses the ground plane fitted in (x, y, disparity) space, converted to a
+3-D plane; objects whose pixels all lie within ``flat_tolerance_m`` of that plane are rejected
+as flat (markings, puddles), and the rejection is reported with its reason.
 """
 
 from __future__ import annotations
