@@ -15,9 +15,9 @@ Beyond the paper:
   ground plane (``geometric_min_height_m``) are obstacle candidates too: a dark object of the
   ground's hue would otherwise pass for a shadow;
 * with a calibration, a pixel stands above the ground plane only when its disparity exceeds the
-  plane's by three times its own uncertainty, estimated from the pair's noise and the texture of its window
-  (:mod:`stereo_obstacles.disparity_uncertainty`): patches of noisy far ground matched a pixel
-  too near are not obstacles;
+  plane's by three times its own uncertainty, estimated from the pair's noise and the texture
+  of its window (:mod:`stereo_obstacles.disparity_uncertainty`): patches of noisy far ground
+  matched a pixel too near are not obstacles;
 * candidates standing above the ground plane are grouped into obstacles, and the flat ones
   separately, only to report them as rejected (markings, puddles): grouping them together
   would chain distinct objects through the ground between them;
