@@ -93,9 +93,24 @@ def test_summary_counts_only_relevant_truths():
     assert (summary.n_obstacles, summary.n_found) == (2, 1)
     assert summary.median_abs_error_pct == pytest.approx(5.0) == summary.max_abs_error_pct
     assert (summary.false_alarms_on_shadow, summary.false_alarms_on_marking, summary.false_alarms_other) == (1, 0, 1)
-    assert summary.missed == ("seed 7: #3 box at 6.0 m (100 px)",)
+    assert summary.missed == ("seed 7: #3 box at 6.0 m (100 px seen by both cameras)",)
     assert summary.large_errors == ()                   # 5.0 % is not above 5 %
     assert summarise([evaluation], max_distance_m=5.0, min_visible_px=50).n_obstacles == 0
+
+
+def test_an_obstacle_counts_by_the_pixels_both_cameras_see():
+    detections, instances, labels, truths = _scene()
+    seen_by_both = np.ones(SHAPE, bool)
+    seen_by_both[0:10, 80:86] = False        # 60 of truth 3's 100 pixels: the left camera's alone
+    comparisons, alarms = compare_with_truth(detections, instances, labels, truths, seen_by_both=seen_by_both)
+    by_id = {c.truth_id: c for c in comparisons}
+    assert (by_id[3].visible_pixels, by_id[3].stereo_visible_pixels) == (100, 40)
+    assert by_id[1].stereo_visible_pixels == 400
+    evaluation = SceneEvaluation(seed=7, ground="asphalt", comparisons=tuple(comparisons),
+                                 false_alarms=tuple(alarms), seconds=0.5)
+    summary = summarise([evaluation], min_visible_px=50)
+    assert (summary.n_obstacles, summary.n_found, summary.missed) == (2, 2, ())
+    assert summarise([evaluation], min_visible_px=40).missed == ("seed 7: #3 box at 6.0 m (40 px seen by both cameras)",)
 
 
 @pytest.mark.parametrize("kwargs, match", [({"min_height_m": -1.0}, "min_height_m"),

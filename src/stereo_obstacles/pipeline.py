@@ -18,6 +18,9 @@ Beyond the paper:
   plane's by three times its own uncertainty, estimated from the pair's noise and the texture
   of its window (:mod:`stereo_obstacles.disparity_uncertainty`): patches of noisy far ground
   matched a pixel too near are not obstacles;
+* matches the right camera cannot see (half-occluded background beside the left edge of a
+  near object, matched anyway to the near object's texture) are removed first
+  (:mod:`stereo_obstacles.visibility`): they put phantom surfaces between two depths;
 * candidates standing above the ground plane are grouped into obstacles, and the flat ones
   separately, only to report them as rejected (markings, puddles): grouping them together
   would chain distinct objects through the ground between them;
@@ -54,6 +57,7 @@ from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceAre
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
+from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
 
 logger = logging.getLogger(__name__)
 
@@ -89,6 +93,9 @@ class DetectionConfig:
     the same distance errors and no false alarm, at about half the matching time
     (``docs/pipeline.md``, "Matching scale"); 1 grows at full size. Segmentation and obstacles
     are always at full size.
+    ``visibility``: matches the right camera cannot see (half-occluded pixels beside the left
+    edge of a near object, matched anyway) are removed from the disparity before anything uses
+    it (:mod:`stereo_obstacles.visibility`); ``None`` keeps them.
     ``blind_strip``: obstacles reaching the strip at the left border that only the left camera
     sees are continued into it for their measurement (:mod:`stereo_obstacles.blind_strip`);
     ``None`` switches that off.
@@ -112,6 +119,7 @@ class DetectionConfig:
     matching_scale: float = 0.5
     geometric_min_excess_px: float = 0.5
     blind_strip: BlindStripParameters | None = field(default_factory=BlindStripParameters)
+    visibility: VisibilityParameters | None = field(default_factory=VisibilityParameters)
     standing_significance: float | None = 3.0
     standing_max_sigma_px: float = 0.75
 
@@ -396,6 +404,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     else:
         matched = refine_at_full_size(left, right, disparity_estimate, **config.matching.to_kwargs())
         disparity = matched.disparity
+    if config.visibility is not None:
+        disparity = np.where(hidden_in_right(disparity, config.visibility), np.float32(np.nan), disparity)
     timings["matching"] = time.perf_counter() - t
 
     t = time.perf_counter()

@@ -1,0 +1,60 @@
+"""Compiled test of which matches the right camera cannot see (private).
+
+The public wrapper is :func:`stereo_obstacles.visibility.hidden_in_right`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from stereo_obstacles._similarity_kernel import CACHE
+
+
+@njit(cache=CACHE, nogil=True, inline="always")
+def _cover(cover, low, high, seen):
+    """Raise ``cover`` to ``seen`` over the integer columns in ``[low, high]``."""
+    w = cover.shape[0]
+    for r in range(max(math.ceil(low), 0), min(math.floor(high), w - 1) + 1):
+        if seen > cover[r]:
+            cover[r] = seen
+
+
+@njit(cache=CACHE, nogil=True)
+def hidden_in_right_kernel(disparity, max_gap_px, surface_tolerance_px, min_depth_gap_px):
+    """bool ``(H, W)``: matches whose right-image column shows a surface at least
+    ``min_depth_gap_px`` nearer (see :func:`stereo_obstacles.visibility.hidden_in_right`).
+
+    ``disparity`` float32 ``(H, W)``, non-finite where unmatched.
+    """
+    h, w = disparity.shape
+    hidden = np.zeros((h, w), np.bool_)
+    cover = np.empty(w, np.float64)  # nearest disparity seen at each right-image column
+    for y in range(h):
+        cover[:] = -np.inf
+        previous = -1
+        for x in range(w + 1):
+            if x < w and not np.isfinite(disparity[y, x]):
+                continue
+            if previous >= 0:  # the previous match, alone or with this one as one surface
+                dp = np.float64(disparity[y, previous])
+                low = previous - dp - 0.5
+                high = low + 1.0
+                seen = dp
+                if x < w:
+                    dx = np.float64(disparity[y, x])
+                    if x - previous <= max_gap_px and abs(dx - dp) <= surface_tolerance_px:
+                        low = min(low, x - dx - 0.5)
+                        high = max(high, x - dx + 0.5)
+                        seen = min(seen, dx)
+                _cover(cover, low, high, seen)
+            previous = x
+        for x in range(w):
+            d = np.float64(disparity[y, x])
+            if np.isfinite(d):
+                r = math.floor(x - d + 0.5)
+                if 0 <= r < w and cover[r] > d + min_depth_gap_px:
+                    hidden[y, x] = True
+    return hidden
