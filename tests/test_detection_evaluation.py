@@ -111,6 +111,10 @@ def test_an_obstacle_counts_by_the_pixels_both_cameras_see():
     summary = summarise([evaluation], min_visible_px=50)
     assert (summary.n_obstacles, summary.n_found, summary.missed) == (2, 2, ())
     assert summarise([evaluation], min_visible_px=40).missed == ("seed 7: #3 box at 6.0 m (40 px seen by both cameras)",)
+    as_png = compare_with_truth(detections, instances, labels, truths, seen_by_both=seen_by_both.astype(np.uint8) * 255)
+    assert [c.stereo_visible_pixels for c in as_png[0]] == [c.stereo_visible_pixels for c in comparisons]
+    with pytest.raises(InvalidInputError, match="seen_by_both"):
+        compare_with_truth(detections, instances, labels, truths, seen_by_both=seen_by_both[:, :-1])
 
 
 @pytest.mark.parametrize("kwargs, match", [({"min_height_m": -1.0}, "min_height_m"),

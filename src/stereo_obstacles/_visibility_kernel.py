@@ -14,6 +14,13 @@ from stereo_obstacles._similarity_kernel import CACHE
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
+def _matched(d, w):
+    """A disparity counts as a match when finite and at most ``2 w`` in size (larger values
+    cannot be disparities of the row; they would overflow the column arithmetic)."""
+    return np.isfinite(d) and abs(d) <= 2.0 * w
+
+
+@njit(cache=CACHE, nogil=True, inline="always")
 def _cover(cover, low, high, seen):
     """Raise ``cover`` to ``seen`` over the integer columns in ``[low, high]``."""
     w = cover.shape[0]
@@ -24,10 +31,10 @@ def _cover(cover, low, high, seen):
 
 @njit(cache=CACHE, nogil=True)
 def hidden_in_right_kernel(disparity, max_gap_px, surface_tolerance_px, min_depth_gap_px):
-    """bool ``(H, W)``: matches whose right-image column shows a surface at least
+    """bool ``(H, W)``: matches whose right-image column shows a surface more than
     ``min_depth_gap_px`` nearer (see :func:`stereo_obstacles.visibility.hidden_in_right`).
 
-    ``disparity`` float32 ``(H, W)``, non-finite where unmatched.
+    ``disparity`` float32 ``(H, W)``; non-finite values and values above ``2 W`` are unmatched.
     """
     h, w = disparity.shape
     hidden = np.zeros((h, w), np.bool_)
@@ -36,7 +43,7 @@ def hidden_in_right_kernel(disparity, max_gap_px, surface_tolerance_px, min_dept
         cover[:] = -np.inf
         previous = -1
         for x in range(w + 1):
-            if x < w and not np.isfinite(disparity[y, x]):
+            if x < w and not _matched(disparity[y, x], w):
                 continue
             if previous >= 0:  # the previous match, alone or with this one as one surface
                 dp = np.float64(disparity[y, previous])
@@ -53,7 +60,7 @@ def hidden_in_right_kernel(disparity, max_gap_px, surface_tolerance_px, min_dept
             previous = x
         for x in range(w):
             d = np.float64(disparity[y, x])
-            if np.isfinite(d):
+            if _matched(d, w):
                 r = math.floor(x - d + 0.5)
                 if 0 <= r < w and cover[r] > d + min_depth_gap_px:
                     hidden[y, x] = True

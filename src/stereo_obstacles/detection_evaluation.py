@@ -90,16 +90,28 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
         the detection that must lie on the true obstacle, for the obstacle to count as found
         (by any detection that passes; the one overlapping it most gives the distance).
     seen_by_both
-        ``bool (H, W)``, True where the right camera sees the left pixel too (the renderer's
-        ``nonocc``); gives each comparison's ``stereo_visible_pixels``.
+        ``(H, W)``, non-zero where the right camera sees the left pixel too (the renderer's
+        ``nonocc``); gives each comparison's ``stereo_visible_pixels``. The true distance stays
+        the nearest depth over all visible pixels (a wall's nearest point may lie in the strip
+        only the left camera sees: :mod:`stereo_obstacles.blind_strip`).
+
+    Raises
+    ------
+    InvalidInputError
+        ``seen_by_both`` of another shape than ``instances``.
     """
     id_map = obstacle_list.id_map
     detected = {o.id: o for o in obstacle_list.obstacles}
     n_ids = max(detected, default=0) + 1
     n_truths = int(instances.max(initial=0)) + 1
     overlap = np.zeros((n_truths, n_ids), dtype=np.int64)
-    stereo_visible = None if seen_by_both is None else np.bincount(instances[seen_by_both].astype(np.int64),
-                                                                   minlength=n_truths)
+    stereo_visible = None
+    if seen_by_both is not None:
+        seen_by_both = np.asarray(seen_by_both).astype(bool)
+        if seen_by_both.shape != instances.shape:
+            raise InvalidInputError(f"seen_by_both {seen_by_both.shape} must have the shape of instances "
+                                    f"{instances.shape}")
+        stereo_visible = np.bincount(instances[seen_by_both].astype(np.int64), minlength=n_truths)
     np.add.at(overlap, (instances.ravel().astype(np.int64), id_map.ravel().astype(np.int64)), 1)
     detection_sizes = overlap.sum(axis=0)
     comparisons = []
