@@ -33,6 +33,10 @@ import numpy as np
 
 from stereo_obstacles._visibility_kernel import hidden_in_right_kernel
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.thread_pool import run_in_threads
+
+THREADS = 2
+"""The rows are tested in this many chunks at once (each row is independent of the others)."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,7 @@ def hidden_in_right(disparity: np.ndarray, params: VisibilityParameters = Visibi
         raise InvalidInputError(f"disparity must be a 2-D map, got shape {d.shape}")
     with np.errstate(over="ignore"):  # float64 beyond float32's range becomes inf: unmatched
         d32 = np.ascontiguousarray(d, dtype=np.float32)
-    return hidden_in_right_kernel(d32, int(params.max_gap_px),
-                                  float(params.surface_tolerance_px),
-                                  float(params.min_depth_gap_px))
+    settings = (int(params.max_gap_px), float(params.surface_tolerance_px), float(params.min_depth_gap_px))
+    bounds = np.linspace(0, d32.shape[0], THREADS + 1).astype(int)
+    chunks = run_in_threads(hidden_in_right_kernel, [(d32[a:b], *settings) for a, b in zip(bounds[:-1], bounds[1:])])
+    return np.concatenate(chunks, axis=0)
