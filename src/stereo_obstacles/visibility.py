@@ -36,7 +36,8 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.thread_pool import run_in_threads
 
 THREADS = 2
-"""The rows are tested in this many chunks at once (each row is independent of the others)."""
+"""The rows are tested in this many chunks at once (each row is independent of the others), as many as
+the matcher's row bands (:data:`stereo_obstacles.matching.BANDS`): one per core of the 2-core target."""
 
 
 @dataclass(frozen=True)
@@ -107,6 +108,8 @@ def hidden_in_right(disparity: np.ndarray, params: VisibilityParameters = Visibi
     with np.errstate(over="ignore"):  # float64 beyond float32's range becomes inf: unmatched
         d32 = np.ascontiguousarray(d, dtype=np.float32)
     settings = (int(params.max_gap_px), float(params.surface_tolerance_px), float(params.min_depth_gap_px))
-    bounds = np.linspace(0, d32.shape[0], THREADS + 1).astype(int)
+    # chunks of equal work, as the refinement does: the matches crowd in the lower rows (ground), not the sky
+    work = np.cumsum(np.count_nonzero(np.isfinite(d32), axis=1))
+    bounds = [0] + [int(np.searchsorted(work, work[-1] * i / THREADS)) for i in range(1, THREADS)] + [d32.shape[0]]
     chunks = run_in_threads(hidden_in_right_kernel, [(d32[a:b], *settings) for a, b in zip(bounds[:-1], bounds[1:])])
     return np.concatenate(chunks, axis=0)
