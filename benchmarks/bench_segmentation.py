@@ -5,7 +5,8 @@ Measures, on this machine:
 * the first call in a fresh process (numba loads its cached kernels or compiles them);
 * the steady-state median of ``--repeat`` calls of :func:`stereo_obstacles.segmentation.segment`
   on the synthetic default scene at 640x480 and on a KITTI frame (1242x375) when the shared
-  data is present;
+  data is present, by colour alone and with the right image (the stereo ground check, run
+  beside the colour labels on the second core), the two calls alternating;
 * :func:`stereo_obstacles.colour.rgb_to_hsi` of the whole image (not part of ``segment``,
   which converts only the reference area and tests colours without an arctangent);
 * a floor: OpenCV ``cvtColor(RGB2HSV)`` plus ``medianBlur(7)`` of the hue plane, the least
@@ -38,12 +39,18 @@ SHARED = Path(os.environ.get("STEREO_OBSTACLES_SHARED_DATA",
 
 
 def _median_ms(function, repeat: int) -> float:
-    times = []
+    return _interleaved_medians_ms([function], repeat)[0]
+
+
+def _interleaved_medians_ms(functions: list, repeat: int) -> list[float]:
+    """Median wall time of each function over ``repeat`` rounds that call them in turn, ms."""
+    times: list[list[float]] = [[] for _ in functions]
     for _ in range(repeat):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return 1000.0 * statistics.median(times)
+        for function, record in zip(functions, times):
+            start = time.perf_counter()
+            function()
+            record.append(time.perf_counter() - start)
+    return [1000.0 * statistics.median(record) for record in times]
 
 
 def _opencv_floor(rgb: np.ndarray) -> None:
@@ -67,10 +74,12 @@ def main() -> int:
     # The KITTI frame's varied reference area warns on every call; timing wants a quiet terminal.
     logging.getLogger("stereo_obstacles").setLevel(logging.ERROR)
 
-    images = {"synthetic default scene 640x480": render_pair(default_scene(640, 480)).left}
-    kitti = SHARED / "kitti2015_000005" / "000005_10_left.png"
-    if kitti.is_file():
-        images["KITTI 000005 1242x375"] = cv2.cvtColor(cv2.imread(str(kitti)), cv2.COLOR_BGR2RGB)
+    pair = render_pair(default_scene(640, 480))
+    images = {"synthetic default scene 640x480": (pair.left, pair.right)}
+    kitti = [SHARED / "kitti2015_000045" / f"000045_10_{side}.png" for side in ("left", "right")]
+    if all(path.is_file() for path in kitti):
+        images["KITTI 000045 1242x375"] = tuple(cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)
+                                                for path in kitti)
     first = _first_call_ms()
     lines = [
         "## Phase 1 segmentation speed", "",
@@ -80,16 +89,19 @@ def main() -> int:
         "after one warm-up call.", "",
         f"First call in a fresh process (numba kernels loaded from the on-disk cache, or compiled "
         f"when the cache is empty): {first:.0f} ms.", "",
-        "| image | segment | rgb_to_hsi (whole image) | OpenCV floor: HSV + 7x7 median of hue | "
-        "segment / floor |",
-        "| --- | ---: | ---: | ---: | ---: |"]
-    for name, rgb in images.items():
+        "| image | segment (colour) | segment with the right image | rgb_to_hsi (whole image) | "
+        "OpenCV floor: HSV + 7x7 median of hue | colour / floor |",
+        "| --- | ---: | ---: | ---: | ---: | ---: |"]
+    for name, (rgb, right) in images.items():
         segment(rgb)
+        segment(rgb, right=right)
         rgb_to_hsi(rgb)
-        seg = _median_ms(lambda rgb=rgb: segment(rgb), args.repeat)
+        seg, stereo = _interleaved_medians_ms([lambda rgb=rgb: segment(rgb),
+                                               lambda rgb=rgb, right=right: segment(rgb, right=right)], args.repeat)
         hsi = _median_ms(lambda rgb=rgb: rgb_to_hsi(rgb), args.repeat)
         floor = _median_ms(lambda rgb=rgb: _opencv_floor(rgb), args.repeat)
-        lines.append(f"| {name} | {seg:.2f} ms | {hsi:.2f} ms | {floor:.2f} ms | {seg / floor:.1f} |")
+        lines.append(f"| {name} | {seg:.2f} ms | {stereo:.2f} ms | {hsi:.2f} ms | {floor:.2f} ms | "
+                     f"{seg / floor:.1f} |")
     report = "\n".join(lines) + "\n"
     print(report)
     if args.out:

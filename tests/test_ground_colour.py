@@ -99,7 +99,9 @@ def test_shadow_on_two_colour_tiles_is_ground():
 
 @pytest.mark.xfail(strict=True, reason="known weakness: a uniformly darkened paver colour falls on cells "
                    "set by the skylight shifts that move blue against red by only 3 cells "
-                   "(min_shadow_chroma_bins=4 fixes it but costs real shadows; docs/segmentation.md)")
+                   "(min_shadow_chroma_bins=4 fixes it but costs real shadows; docs/segmentation.md). "
+                   "Colour alone; with the right image the stereo ground check finds it "
+                   "(tests/test_ground_check.py)")
 def test_dark_obstacle_of_ground_colour_on_tiles_is_an_obstacle():
     image = _two_colour_tiles()
     region = np.s_[20:60, 60:100]

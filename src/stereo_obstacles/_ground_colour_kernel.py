@@ -10,7 +10,7 @@ GROUND_BIT, SHADOW_BIT, SUNLIT_BIT, NEAR_BIT = 1, 2, 4, 8
 shadow, of sunlit ground seen from a shadowed reference, and "near any of them" (veto test)."""
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def ground_cells_kernel(samples, lut, column_strip, n_strips, quorum, min_count, n_bins):
     """Flat indices (``int64``) of the cells shown by enough strips of the reference area.
 
@@ -49,7 +49,7 @@ def ground_cells_kernel(samples, lut, column_strip, n_strips, quorum, min_count,
     return cells[:n_ground].copy()
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def colour_histogram_kernel(rgb, lut, n_bins, step):
     """Pixel count per cell (``int64 (n_bins**3,)``) of every ``step``-th row and column."""
     hist = np.zeros(n_bins * n_bins * n_bins, dtype=np.int64)
@@ -59,7 +59,7 @@ def colour_histogram_kernel(rgb, lut, n_bins, step):
     return hist
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def shift_support_kernel(ground_cells, hist, n_bins, shifts):
     """Per row of ``shifts``: pixels of ``hist`` in the ground cells moved by that shift,
     counting each target cell once and leaving out the ground cells themselves."""
@@ -83,7 +83,7 @@ def shift_support_kernel(ground_cells, hist, n_bins, shifts):
     return support
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fill_table_kernel(ground_cells, n_bins, shifts, table):
     """Fill ``table`` (``uint8 (n, n, n)``, zeroed): every ground cell sets ``shifts[k, 3]``
     at itself plus ``shifts[k, :3]`` (bins) for every row ``k``; then ``NEAR_BIT`` marks every
@@ -115,7 +115,7 @@ def fill_table_kernel(ground_cells, n_bins, shifts, table):
                     table[r, g, b] |= NEAR_BIT
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def lookup_kernel(rgb, lut, table, min_sum, flags, veto):
     """Per pixel: ``flags[..., 0:3]`` the ground / shadow / sunlit bits of its colour cell,
     ``flags[..., 3]`` whether it is bright enough to measure (channel sum >= ``min_sum``),

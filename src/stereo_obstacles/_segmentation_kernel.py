@@ -13,7 +13,7 @@ GROUND_MATCH, SHADOW_MATCH, SUNLIT_MATCH, VALID = 0, 1, 2, 3
 """Channels of the flag image: colour matches for ground, shadow, sunlit ground; colour valid."""
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def match_flags_kernel(rgb, inv_full_scale, min_intensity, min_saturation, grey, ref_x, ref_y,
                        cos_ground, cos_veto, max_sat_ground, max_sat_veto, ref_rgb, blue_shift,
                        chroma_band, flags, veto, intensity):
@@ -77,7 +77,7 @@ def match_flags_kernel(rgb, inv_full_scale, min_intensity, min_saturation, grey,
             veto[y, x] = far
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def classify_kernel(counts, n_window, veto, intensity, min_intensity, ground_low, ground_high,
                     shadow_low, shadow_high, sunlit_low, sunlit_high, shadow_rule, unknown,
                     ground, shadow, obstacle, labels):
@@ -109,7 +109,7 @@ def classify_kernel(counts, n_window, veto, intensity, min_intensity, ground_low
                 labels[y, x] = obstacle
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def classify_modes_kernel(counts, veto, measurable, unknown, ground, shadow, obstacle, labels):
     """Label every pixel from the window counts of the ground colour model's tests.
 
@@ -139,7 +139,7 @@ def classify_modes_kernel(counts, veto, measurable, unknown, ground, shadow, obs
                 labels[y, x] = obstacle
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def fill_small_components_kernel(components, n_components, min_area, darker, fill, fill_darker,
                                  labels):
     """Relabel the pixels of every component smaller than ``min_area`` pixels, in place.

@@ -40,6 +40,12 @@ too dark to measure; obstacle otherwise.
 5. Clean-up: obstacle specks smaller than ``min_obstacle_area_px`` become ground (or shadow
    when darker than the ground range), and non-obstacle holes smaller than
    ``max_hole_area_px`` become obstacle. Both are area tests, so a thin long pole stays.
+
+Given the right image of a rectified pair as well (``segment(left, right=right)``), a stereo
+cue is added to either colour model (:mod:`stereo_obstacles.ground_check`, beyond the paper):
+pixels that the right image does not see on the ground plane, estimated from the same
+reference area, become obstacles whatever their colour (a box of the ground's own colour, a
+dark object read as shadow). Shadows lie on the ground and stay ground.
 """
 
 from __future__ import annotations
@@ -55,11 +61,13 @@ from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_mod
                                                    fill_small_components_kernel, match_flags_kernel)
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
-from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.ground_check import GroundCheck, GroundCheckParameters, check_ground
 from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
                                             colour_flags)
 from stereo_obstacles.hue_filter import DEFAULT_FILTER_SIZE, window_counts
 from stereo_obstacles.labels import Label
+from stereo_obstacles.thread_pool import run_in_threads
 from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
                                              ReferenceParameters, ReferenceStatistics,
                                              reference_statistics)
@@ -117,6 +125,8 @@ class SegmentationParameters:
         Obstacle regions (8-connected) smaller than this are specks and become ground.
     max_hole_area_px
         Non-obstacle regions (4-connected) smaller than this become obstacle.
+    ground_check
+        The stereo cue's settings, used when :func:`segment` is given the right image.
     """
 
     colour_model: str = "log_rgb"
@@ -135,9 +145,13 @@ class SegmentationParameters:
     intensity_smoothing_px: int = 3
     min_obstacle_area_px: int = 16
     max_hole_area_px: int = 16
+    ground_check: GroundCheckParameters = field(default_factory=GroundCheckParameters)
 
     def __post_init__(self) -> None:
         check_thresholds(self.min_intensity, self.min_saturation)
+        if not isinstance(self.ground_check, GroundCheckParameters):
+            raise InvalidInputError("ground_check must be GroundCheckParameters, got "
+                                    f"{type(self.ground_check).__name__}")
         if self.colour_model not in ("log_rgb", "hsi"):
             raise InvalidInputError(f"colour_model must be 'log_rgb' or 'hsi', got {self.colour_model!r}")
         if not isinstance(self.ground_colour, GroundColourParameters):
@@ -182,11 +196,15 @@ class SegmentationResult:
         The ground statistics the labels were computed from.
     params
         The parameters used.
+    ground_check
+        The stereo cue (ground plane and off-ground pixels) when the right image was given and
+        the plane could be estimated; None otherwise.
     """
 
     labels: np.ndarray
     reference: ReferenceStatistics
     params: SegmentationParameters
+    ground_check: GroundCheck | None = None
 
     def __post_init__(self) -> None:
         if self.labels.dtype != np.uint8 or self.labels.ndim != 2:
@@ -260,14 +278,20 @@ def _clean_up(labels: np.ndarray, darker: np.ndarray | None, params: Segmentatio
                                      int(Label.OBSTACLE), labels)
 
 
-def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_AREA,
+def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
+            reference: ReferenceArea = DEFAULT_REFERENCE_AREA,
             params: SegmentationParameters = SegmentationParameters()) -> SegmentationResult:
     """Label every pixel as ground, ground in shadow, obstacle or unknown.
 
     Parameters
     ----------
     rgb
-        ``uint8`` or ``uint16`` ``(H, W, 3)`` RGB image.
+        ``uint8`` or ``uint16`` ``(H, W, 3)`` RGB image (the left one of a rectified pair).
+    right
+        Optional right image of the rectified pair, same size and dtype: adds the stereo cue
+        (pixels off the ground plane become obstacles, :mod:`~stereo_obstacles.ground_check`).
+        When the plane cannot be estimated from the reference area, a warning is logged and
+        the colour labels are returned (``ground_check`` None).
     reference
         The rectangle assumed to be ground (default: the full-width bottom 15 %,
         :data:`~stereo_obstacles.reference_area.DEFAULT_REFERENCE_AREA`).
@@ -283,6 +307,8 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     ------
     InvalidInputError
         Bad image, or an unusable reference area (too dark, or not one ground).
+    ImageMismatchError
+        ``right`` differs from ``rgb`` in size or dtype.
 
     Examples
     --------
@@ -296,6 +322,11 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     [3, 2, 1]
     """
     a, inv_full_scale = check_rgb(rgb)
+    b = None
+    if right is not None:
+        b, _ = check_rgb(right, "right")
+        if b.shape != a.shape or b.dtype != a.dtype:
+            raise ImageMismatchError(f"left and right images differ: {a.shape} {a.dtype} vs {b.shape} {b.dtype}")
     if not isinstance(reference, ReferenceArea):
         raise InvalidInputError(f"reference must be a ReferenceArea, got {type(reference).__name__}")
     if not isinstance(params, SegmentationParameters):
@@ -305,13 +336,32 @@ def segment(rgb: np.ndarray, *, reference: ReferenceArea = DEFAULT_REFERENCE_ARE
     area = a[y0:y1:step, x0:x1:step]
     area_hsi = rgb_to_hsi(area, min_intensity=params.min_intensity, min_saturation=params.min_saturation)
     ref = reference_statistics(area, area_hsi, box, params=params.reference)
-    if params.colour_model == "hsi":
-        labels = _hsi_labels(a, inv_full_scale, ref, params)
-    else:
-        labels = _log_rgb_labels(a, box, params)
+    if b is None:
+        labels, ground = _colour_labels(a, inv_full_scale, ref, box, params), None
+    else:  # both cues at once, on the two cores (the kernels and OpenCV release the GIL)
+        labels, ground = run_in_threads(lambda cue, *arguments: cue(*arguments), [
+            (_colour_labels, a, inv_full_scale, ref, box, params), (_stereo_cue, a, b, box, params.ground_check)])
+    if ground is not None:
+        labels[ground.off_ground] = Label.OBSTACLE
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
                  100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
-    return SegmentationResult(labels=labels, reference=ref, params=params)
+    return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground)
+
+
+def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
+                   box: tuple[int, int, int, int], params: SegmentationParameters) -> np.ndarray:
+    if params.colour_model == "hsi":
+        return _hsi_labels(a, inv_full_scale, ref, params)
+    return _log_rgb_labels(a, box, params)
+
+
+def _stereo_cue(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int],
+                params: GroundCheckParameters) -> GroundCheck | None:
+    try:
+        return check_ground(left, right, box, params=params)
+    except InvalidInputError as error:
+        logger.warning("stereo ground check skipped, colour labels only: %s", error)
+        return None
 
 
 def _hsi_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,

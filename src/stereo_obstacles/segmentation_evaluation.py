@@ -269,11 +269,14 @@ class SceneScore:
 
 def score_image(rgb: np.ndarray, truth: np.ndarray, *, name: str, ground: str,
                 params: SegmentationParameters = SegmentationParameters(),
-                sun: tuple[float, float] | None = None) -> SceneScore:
-    """Segment one image with the shadow rule on and off and count against ``truth``."""
+                sun: tuple[float, float] | None = None, right: np.ndarray | None = None) -> SceneScore:
+    """Segment one image with the shadow rule on and off and count against ``truth``.
+
+    With ``right`` (the right image of the rectified pair) the stereo ground check is used too.
+    """
     counts = []
     for rule in (True, False):
-        result = segment(rgb, params=replace(params, shadow_rule=rule))
+        result = segment(rgb, right=right, params=replace(params, shadow_rule=rule))
         counts.append(count_segmentation(result.labels, truth))
     return SceneScore(name=name, ground=ground, sun_azimuth_deg=None if sun is None else sun[0],
                       sun_elevation_deg=None if sun is None else sun[1], with_rule=counts[0],
@@ -282,13 +285,15 @@ def score_image(rgb: np.ndarray, truth: np.ndarray, *, name: str, ground: str,
 
 def evaluate_synthetic(seeds: Iterable[int], *, params: SegmentationParameters = SegmentationParameters(),
                        width_px: int = 640, height_px: int = 480, noise_sigma: float = 2.0,
+                       stereo: bool = True,
                        progress: Callable[[SceneScore], None] | None = None) -> list[SceneScore]:
     """Score phase 1 on random synthetic scenes (one per seed) against their label truth.
 
     Each seed draws its ground material, sun direction, obstacles (the first a dark box of
     the ground's hue), markings and an off-screen tree whose shadow usually covers the
-    reference area (:func:`stereo_obstacles.synthetic.random_scene`). The left image is
-    rendered with sensor noise ``noise_sigma`` grey levels.
+    reference area (:func:`stereo_obstacles.synthetic.random_scene`). The pair is rendered
+    with sensor noise ``noise_sigma`` grey levels; the left image is segmented, with the
+    stereo ground check on the right image when ``stereo`` (False: colour alone).
     """
     from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
 
@@ -299,7 +304,8 @@ def evaluate_synthetic(seeds: Iterable[int], *, params: SegmentationParameters =
         info = scene.description
         score = score_image(pair.left, pair.labels, name=f"synthetic-{seed}", ground=str(info["ground"]),
                             params=params, sun=(float(info["sun_azimuth_deg"]),
-                                                float(info["sun_elevation_deg"])))
+                                                float(info["sun_elevation_deg"])),
+                            right=pair.right if stereo else None)
         scores.append(score)
         if progress is not None:
             progress(score)

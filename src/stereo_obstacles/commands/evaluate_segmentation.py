@@ -18,8 +18,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "shadow rule on and off: balanced error rate (obstacle vs ground, shadow counting "
             "as ground, sky and markings ignored), obstacle recall, shadow pixels called "
             "obstacle. --dataset folders (KITTI pairs with ground-truth disparity) are scored "
-            "against labels derived from the road plane fitted to the ground truth. Prints "
-            "Markdown tables; --json writes everything."),
+            "against labels derived from the road plane fitted to the ground truth. The left image "
+            "is segmented with the stereo ground check on the right image (--colour-only: colour "
+            "alone, the paper's phase 1). Prints Markdown tables; --json writes everything."),
     )
     parser.add_argument("--scenes", type=non_negative_int, default=40, metavar="N",
                         help="number of synthetic scenes (seeds 0..N-1 from --first-seed; "
@@ -31,6 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--dataset", "--kitti", dest="kitti", nargs="+", action="extend", default=[], metavar="DIR",
                         help="KITTI folders with a left image and ground-truth disparity (several after one "
                              "--dataset, or --dataset repeated; --kitti is the older name)")
+    parser.add_argument("--colour-only", action="store_true",
+                        help="segment by colour alone, without the stereo ground check on the right image")
     parser.add_argument("--json", metavar="FILE", default=None, help="also write the results as JSON")
     parser.set_defaults(handler=run)
 
@@ -79,8 +82,9 @@ def run(args: argparse.Namespace) -> int:
             c = score.with_rule
             print(f"  {score.name} ({score.ground}): BER {c.ber_percent:.1f} %", file=sys.stderr)
 
+    stereo = not args.colour_only
     synthetic = evaluate_synthetic(range(args.first_seed, args.first_seed + args.scenes), params=params,
-                                   width_px=width, height_px=height, progress=progress)
+                                   width_px=width, height_px=height, stereo=stereo, progress=progress)
     kitti = []
     truth_params = KittiTruthParameters()
     for folder in args.kitti:
@@ -89,9 +93,10 @@ def run(args: argparse.Namespace) -> int:
             raise InputFileError(f"{folder}: no ground-truth disparity to derive labels from")
         truth, plane = kitti_truth(pair.gt_disparity, params=truth_params)
         log.info("%s: road plane %s", pair.name, plane)
-        kitti.append(score_image(pair.left, truth, name=pair.name, ground="road", params=params))
+        kitti.append(score_image(pair.left, truth, name=pair.name, ground="road", params=params,
+                                 right=pair.right if stereo else None))
 
-    lines = []
+    lines = [f"Phase 1 with {'colour alone' if args.colour_only else 'colour and the stereo ground check'}.", ""]
     if synthetic:
         by_ground: dict = {"all": synthetic}
         for score in synthetic:
@@ -106,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         report = {"version": __version__, "python": platform.python_version(),
                   "machine": platform.machine(), "size": [width, height],
-                  "parameters": repr(params), "kitti_truth_parameters": repr(truth_params),
+                  "stereo_ground_check": stereo, "parameters": repr(params), "kitti_truth_parameters": repr(truth_params),
                   "synthetic": [s.summary() for s in synthetic],
                   "synthetic_total": {"shadow_rule_on": total(synthetic).summary(),
                                       "shadow_rule_off": total(synthetic, rule=False).summary()},

@@ -15,9 +15,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "as in the paper with --colour-model hsi) are measured in a reference rectangle in front of "
             "the camera; every pixel becomes ground (1), "
             "shadow (2, ground in shadow), obstacle (3) or unknown (0). The labels are written "
-            "as an 8-bit PNG; --overlay writes a picture for people. See docs/segmentation.md."),
+            "as an 8-bit PNG; --overlay writes a picture for people. With --right (the right image "
+            "of a rectified pair) pixels that the right image does not see on the ground plane "
+            "become obstacles whatever their colour. See docs/segmentation.md."),
     )
     parser.add_argument("image", metavar="IMAGE", help="colour image (left camera)")
+    parser.add_argument("--right", metavar="RIGHT", default=None,
+                        help="right image of the rectified pair: adds the stereo ground check")
     parser.add_argument("-o", "--output", required=True, metavar="LABELS.png",
                         help="label image to write (uint8 PNG with the values above)")
     parser.add_argument("--overlay", metavar="PICTURE.png", default=None,
@@ -31,6 +35,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--colour-model", choices=("log_rgb", "hsi"), default="log_rgb",
                         help="ground colours as a log-RGB colour table (default) or the paper's HSI rule")
     parser.set_defaults(handler=run)
+
+
+def _ground_check_record(check) -> dict | None:
+    """JSON record of the stereo ground check (None when not made)."""
+    if check is None:
+        return None
+    plane = check.plane
+    return {"plane_disparity_px": {"a": plane.a, "b": plane.b, "c": plane.c,
+                                   "meaning": "d = a x + b y + c, x column and y row in pixels"},
+            "patches": check.n_patches, "plane_inliers": plane.n_inliers,
+            "noise_variance_grey_levels_sq": check.noise_variance,
+            "off_ground_fraction": float(check.off_ground.mean())}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -47,9 +63,10 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.segmentation import SegmentationParameters, segment
 
     rgb = read_image(args.image, mode="color")
+    right = None if args.right is None else read_image(args.right, mode="color")
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
     params = SegmentationParameters(shadow_rule=not args.no_shadow_rule, colour_model=args.colour_model)
-    result = segment(rgb, reference=reference, params=params)
+    result = segment(rgb, right=right, reference=reference, params=params)
     write_labels(args.output, result.labels)
     if args.overlay:
         picture = rgb if rgb.dtype == np.uint8 else (rgb >> 8).astype(np.uint8)
@@ -61,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
     sidecar = {"version": __version__, "image": str(args.image),
                "reference": result.reference.as_dict(),
                "shadow_rule": params.shadow_rule, "colour_model": params.colour_model,
+               "right_image": None if args.right is None else str(args.right),
+               "ground_check": _ground_check_record(result.ground_check),
                "fractions": {label.name.lower(): float(np.mean(result.labels == label))
                              for label in (Label.GROUND, Label.SHADOW, Label.OBSTACLE, Label.UNKNOWN)}}
     write_text_atomic(f"{args.output}.json", json.dumps(sidecar, indent=2) + "\n")

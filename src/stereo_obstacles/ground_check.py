@@ -1,0 +1,318 @@
+"""Phase 1's stereo cue: pixels that the right image does not see on the ground plane.
+
+Colour alone cannot tell an obstacle from the ground when it has the ground's colour (a box of
+darkened pavers, a grey post on grey asphalt) or looks like the ground in shadow. Geometry can:
+for a rectified pair, every ground pixel ``(x, y)`` of the left image appears in the right image
+at ``x - d(x, y)``, with ``d = a x + b y + c`` the ground plane in disparity space. A pixel
+that stands up from the ground (an obstacle) has a larger disparity, so the right image read
+through the plane shows something else there. This module
+
+1. estimates the plane from the reference area alone (the rectangle phase 1 already assumes to
+   be ground): small patches of the left image are found along their row in the right image
+   (normalised cross-correlation, parabola subpixel) and a plane is fitted robustly to the
+   patch disparities (:func:`stereo_obstacles.ground_plane.fit_plane_points`);
+2. reads the right image through the plane and compares it with the left over a
+   ``window_px`` square: the variance of the difference ``D`` (zero mean, so a gain or offset
+   between the cameras does not count), against the ground's own level ``D_ref`` (the median
+   over the reference area: sensor noise) and against what small misalignments would explain
+   on strong edges, ``E`` = the window mean of ``dx^2 gx^2 + dy^2 gy^2`` with ``gx``, ``gy``
+   the image gradient, ``dx = misalignment_px`` (an error of the plane) and
+   ``dy = row_misalignment_px`` (real pairs are rectified to a fraction of a pixel, and lane
+   markings have strong edges): a pixel is **off the ground** when
+   ``D > mismatch_factor * D_ref + E``.
+
+Textureless surfaces give no evidence either way (``D`` stays at the noise level), so the
+check only ever adds obstacles to the colour labels; it never turns a colour obstacle into
+ground. Known false alarms (measured in docs/segmentation.md): ground just left of an obstacle
+that the right camera cannot see (its width is the obstacle's disparity minus the ground's),
+and a rim of about ``window_px / 2`` around obstacles.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from stereo_obstacles._ground_check_kernel import ground_warp_terms_kernel, off_ground_kernel
+from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.ground_plane import GroundPlane, PlaneFitParameters, fit_plane_points
+
+logger = logging.getLogger(__name__)
+
+MIN_NOISE_VARIANCE = 0.25
+"""Floor of the ground's difference variance ``D_ref`` (grey levels squared, 0..255 scale): a
+noise-free pair would otherwise call every rounding difference an obstacle."""
+
+
+@dataclass(frozen=True)
+class GroundCheckParameters:
+    """Settings of the stereo ground check (defaults measured in docs/segmentation.md).
+
+    Attributes
+    ----------
+    window_px
+        Side of the square over which left and warped right are compared, pixels (odd, >= 3).
+    mismatch_factor
+        Off the ground when the difference variance exceeds this many times the ground's own
+        (the reference area's median).
+    misalignment_px
+        Disparity error of the plane tolerated on strong edges, pixels: adds
+        ``misalignment_px^2`` times the window's mean squared horizontal gradient.
+    row_misalignment_px
+        Rectification error across the rows tolerated on strong edges, pixels: adds its square
+        times the window's mean squared vertical gradient.
+    vote_window_px, vote_fraction
+        The off-ground pixels are then smoothed by a vote: a pixel is off the ground when more
+        than ``vote_fraction`` of the ``vote_window_px`` square around it is (fills the
+        speckle on weakly textured obstacles, drops isolated specks). 1 turns the vote off.
+    patch_rows_px, patch_cols_px
+        Size of the reference-area patches matched to estimate the plane, pixels (odd).
+    patch_grid
+        ``(rows, columns)``: that many patches, evenly spread over the reference area.
+    min_patch_std
+        Patches flatter than this (grey levels, 0..255 scale) are not matched.
+    min_patch_correlation
+        A patch's disparity is kept when its correlation peak reaches this.
+    max_disparity_fraction
+        The patch search covers disparities up to this fraction of the image width.
+    min_inlier_fraction
+        The plane must agree (within ``plane_fit.inlier_threshold_px``) with at least this
+        fraction of the patch disparities; otherwise the reference area is not one plane
+        (obstacles, a slope, a poor match) and the check is not made.
+    plane_fit
+        RANSAC settings of the plane fit to the patch disparities. Its ``min_slope_y`` is 0.03
+        px of disparity per row here, not 0.01: the reference area spans few rows, and over
+        60 rows a wall's noisy disparities can pass for a slope of 0.01; a ground seen by a
+        rig of baseline ``B`` at height ``h`` has ``B / h`` (0.075 for 6 cm at 0.8 m, 0.33 on
+        KITTI).
+    """
+
+    window_px: int = 9
+    mismatch_factor: float = 1.5
+    misalignment_px: float = 0.75
+    row_misalignment_px: float = 0.5
+    vote_window_px: int = 15
+    vote_fraction: float = 0.4
+    patch_rows_px: int = 9
+    patch_cols_px: int = 33
+    patch_grid: tuple[int, int] = (4, 16)
+    min_patch_std: float = 2.0
+    min_patch_correlation: float = 0.7
+    max_disparity_fraction: float = 0.25
+    min_inlier_fraction: float = 0.5
+    plane_fit: PlaneFitParameters = field(
+        default_factory=lambda: PlaneFitParameters(inlier_threshold_px=0.5, min_inliers=10, min_slope_y=0.03))
+
+    def __post_init__(self) -> None:
+        for name, low in (("window_px", 3), ("vote_window_px", 1), ("patch_rows_px", 3), ("patch_cols_px", 3)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low or value % 2 == 0:
+                raise InvalidInputError(f"{name} must be an odd integer >= {low}, got {value!r}")
+        grid = self.patch_grid
+        if (not isinstance(grid, tuple) or len(grid) != 2
+                or any(isinstance(n, bool) or not isinstance(n, int) or n < 1 for n in grid)):
+            raise InvalidInputError(f"patch_grid must be a tuple of two integers >= 1, got {grid!r}")
+        for name, low, high in (("mismatch_factor", 1.0, 100.0), ("misalignment_px", 0.0, 10.0),
+                                ("row_misalignment_px", 0.0, 10.0), ("vote_fraction", 0.0, 1.0),
+                                ("min_patch_std", 0.0, 255.0), ("min_patch_correlation", 0.0, 1.0),
+                                ("max_disparity_fraction", 0.01, 1.0), ("min_inlier_fraction", 0.0, 1.0)):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
+                raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
+        if not isinstance(self.plane_fit, PlaneFitParameters):
+            raise InvalidInputError(f"plane_fit must be PlaneFitParameters, got {type(self.plane_fit).__name__}")
+
+
+@dataclass(frozen=True, eq=False)
+class GroundCheck:
+    """Result of :func:`check_ground`.
+
+    Attributes
+    ----------
+    plane
+        The ground plane in disparity space estimated from the reference area.
+    off_ground
+        ``bool (H, W)``: pixels the right image does not see on that plane.
+    noise_variance
+        ``D_ref``, the ground's difference variance (grey levels squared, 0..255 scale).
+    n_patches
+        Reference-area patches whose disparity entered the plane fit.
+    """
+
+    plane: GroundPlane
+    off_ground: np.ndarray
+    noise_variance: float
+    n_patches: int
+
+
+def grey_levels(rgb: np.ndarray) -> np.ndarray:
+    """``float32 (H, W)`` luma of an ``uint8`` or ``uint16`` RGB image on the 0..255 scale."""
+    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
+    if rgb.dtype == np.uint16:
+        grey *= np.float32(255.0 / 65535.0)
+    return grey
+
+
+def _spread(first: int, last: int, n: int) -> list[int]:
+    """Up to ``n`` distinct integers evenly spread over ``[first, last]`` (none when empty)."""
+    if last < first:
+        return []
+    return sorted({int(round(v)) for v in np.linspace(first, last, n)})
+
+
+def estimate_ground_plane(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int], *,
+                          params: GroundCheckParameters = GroundCheckParameters()) -> tuple[GroundPlane, int]:
+    """The ground plane from patches of the reference area found in the right image.
+
+    Parameters
+    ----------
+    left, right
+        ``float32 (H, W)`` grey images of a rectified pair (:func:`grey_levels`).
+    box
+        Reference area ``(x0, y0, x1, y1)`` in pixels, end exclusive, assumed to be ground.
+    params
+        Patch sizes, search range and fit settings.
+
+    Returns
+    -------
+    (GroundPlane, int)
+        The plane and the number of patch disparities it was fitted to.
+
+    Raises
+    ------
+    InvalidInputError
+        Fewer than ``params.plane_fit.min_inliers`` patches matched, no ground-like plane
+        (e.g. a wall fills the area, or the area has no texture), or a plane that fits fewer
+        than ``params.min_inlier_fraction`` of the patches.
+    """
+    x0, y0, x1, y1 = box
+    w = left.shape[1]
+    ry, rx = params.patch_rows_px // 2, params.patch_cols_px // 2
+    max_d = max(1, int(params.max_disparity_fraction * w))
+    rows = _spread(y0 + ry, y1 - 1 - ry, params.patch_grid[0])
+    cols = _spread(max(x0, 1) + rx, x1 - 1 - rx, params.patch_grid[1])
+    xs, ys, ds = [], [], []
+    for y in rows:
+        for x in cols:
+            patch = left[y - ry:y + ry + 1, x - rx:x + rx + 1]
+            if float(patch.std()) < params.min_patch_std:
+                continue
+            low = max(0, x - rx - max_d)
+            strip = right[y - ry:y + ry + 1, low:x + rx + 1]
+            scores = cv2.matchTemplate(strip, patch, cv2.TM_CCOEFF_NORMED)[0]
+            k = int(np.argmax(scores))
+            if scores[k] < params.min_patch_correlation or k == 0 or k == scores.size - 1:
+                continue  # weak peak, or on the border of the search (the true one may lie beyond)
+            curvature = scores[k - 1] - 2.0 * scores[k] + scores[k + 1]
+            offset = 0.5 * (scores[k - 1] - scores[k + 1]) / curvature if curvature < 0 else 0.0
+            xs.append(x)
+            ys.append(y)
+            ds.append(x - (low + k + offset + rx))
+    if len(ds) < params.plane_fit.min_inliers:
+        raise InvalidInputError(f"reference area {box}: only {len(ds)} textured patches found in the right "
+                                f"image, need {params.plane_fit.min_inliers} to estimate the ground plane")
+    plane = fit_plane_points(np.array(xs, dtype=np.float64), np.array(ys, dtype=np.float64),
+                             np.array(ds, dtype=np.float64), params=params.plane_fit)
+    if plane.inlier_fraction < params.min_inlier_fraction:
+        raise InvalidInputError(f"reference area {box}: the ground plane agrees with only {plane.n_inliers} of "
+                                f"{len(ds)} patch disparities (need {params.min_inlier_fraction:.0%})")
+    return plane, len(ds)
+
+
+def off_ground_mask(left: np.ndarray, right: np.ndarray, plane: GroundPlane, box: tuple[int, int, int, int], *,
+                    params: GroundCheckParameters = GroundCheckParameters()) -> tuple[np.ndarray, float]:
+    """Pixels whose window disagrees with the right image read through ``plane``.
+
+    Parameters
+    ----------
+    left, right
+        ``float32 (H, W)`` grey images, 0..255 scale.
+    plane
+        Ground plane in disparity space.
+    box
+        Reference area ``(x0, y0, x1, y1)``: its median difference variance is the ground's level.
+    params
+        Window and thresholds.
+
+    Returns
+    -------
+    (numpy.ndarray, float)
+        ``bool (H, W)`` off-ground mask (False where the plane maps outside the right image
+        or has no positive disparity, e.g. above the horizon), and the ground's variance.
+    """
+    left = np.ascontiguousarray(left, dtype=np.float32)
+    right = np.ascontiguousarray(right, dtype=np.float32)
+    terms = np.empty(left.shape + (3,), dtype=np.float32)
+    valid = np.empty(left.shape, dtype=np.bool_)
+    ground_warp_terms_kernel(left, right, plane.a, plane.b, plane.c, params.misalignment_px ** 2,
+                             params.row_misalignment_px ** 2, terms, valid)
+    means = cv2.blur(terms, (params.window_px, params.window_px))
+    x0, y0, x1, y1 = box
+    area = means[y0:y1, x0:x1]
+    reference = (area[..., 1] - area[..., 0] ** 2)[valid[y0:y1, x0:x1]]
+    noise = max(float(np.median(reference)) if reference.size else 0.0, MIN_NOISE_VARIANCE)
+    off = np.empty(left.shape, dtype=np.bool_)
+    off_ground_kernel(means, valid, np.float32(params.mismatch_factor * noise), off)
+    if params.vote_window_px > 1:
+        k = params.vote_window_px
+        votes = cv2.boxFilter(off.view(np.uint8), cv2.CV_16U, (k, k), normalize=False)
+        off = valid & (votes > params.vote_fraction * k * k)
+    return off, noise
+
+
+def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, int, int, int], *,
+                 params: GroundCheckParameters = GroundCheckParameters()) -> GroundCheck:
+    """Estimate the ground plane from the reference area and mark the pixels off it.
+
+    Parameters
+    ----------
+    left_rgb, right_rgb
+        ``uint8`` or ``uint16`` ``(H, W, 3)`` RGB images of a rectified pair, of one size and dtype.
+    box
+        Reference area ``(x0, y0, x1, y1)`` in pixels, assumed to be ground.
+    params
+        See :class:`GroundCheckParameters`.
+
+    Returns
+    -------
+    GroundCheck
+
+    Raises
+    ------
+    ImageMismatchError
+        The images differ in size or dtype.
+    InvalidInputError
+        The plane cannot be estimated (see :func:`estimate_ground_plane`).
+
+    Examples
+    --------
+    >>> import cv2, numpy as np
+    >>> rng = np.random.default_rng(1)
+    >>> noise = rng.normal(128, 60, (120, 300)).astype(np.float32)
+    >>> scene = np.clip(cv2.GaussianBlur(noise, (0, 0), 2) * 3 - 256, 0, 255).astype(np.uint8)
+    >>> rows = np.arange(120)[:, None]
+    >>> disparity = np.rint(0.2 * rows).astype(int)                     # ground: d = 0.2 y
+    >>> cols = np.arange(200)[None, :] + 40
+    >>> left, right = scene[rows, cols], scene[rows, cols + disparity]  # left x is right x - d
+    >>> left[30:50, 100:120] = right[30:50, 80:100] = scene[:20, 250:270]  # a box at d = 20
+    >>> check = check_ground(np.dstack([left] * 3), np.dstack([right] * 3), (0, 90, 200, 120))
+    >>> round(check.plane.b, 1), bool(check.off_ground[40, 110]), bool(check.off_ground[100, 110])
+    (0.2, True, False)
+    """
+    if left_rgb.shape != right_rgb.shape or left_rgb.dtype != right_rgb.dtype:
+        raise ImageMismatchError(f"left and right images differ: {left_rgb.shape} {left_rgb.dtype} vs "
+                                 f"{right_rgb.shape} {right_rgb.dtype}")
+    left, right = grey_levels(left_rgb), grey_levels(right_rgb)
+    plane, n_patches = estimate_ground_plane(left, right, box, params=params)
+    off_ground, noise = off_ground_mask(left, right, plane, box, params=params)
+    logger.debug("ground check: plane %s from %d patches, noise variance %.2f, %.1f %% off the ground",
+                 plane, n_patches, noise, 100.0 * np.count_nonzero(off_ground) / off_ground.size)
+    return GroundCheck(plane=plane, off_ground=off_ground, noise_variance=noise, n_patches=n_patches)
+
+
+__all__ = ["GroundCheckParameters", "GroundCheck", "grey_levels", "estimate_ground_plane", "off_ground_mask",
+           "check_ground"]
