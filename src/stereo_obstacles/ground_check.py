@@ -11,15 +11,18 @@ through the plane shows something else there. This module
    be ground): small patches of the left image are found along their row in the right image
    (normalised cross-correlation, parabola subpixel) and a plane is fitted robustly to the
    patch disparities (:func:`stereo_obstacles.ground_plane.fit_plane_points`);
-2. reads the right image through the plane and compares it with the left over a
-   ``window_px`` square: the variance of the difference ``D`` (zero mean, so a gain or offset
-   between the cameras does not count), against the ground's own level ``D_ref`` (the median
-   over the reference area: sensor noise) and against what small misalignments would explain
-   on strong edges, ``E`` = the window mean of ``dx^2 gx^2 + dy^2 gy^2`` with ``gx``, ``gy``
-   the image gradient, ``dx = misalignment_px`` (an error of the plane) and
-   ``dy = row_misalignment_px`` (real pairs are rectified to a fraction of a pixel, and lane
-   markings have strong edges): a pixel is **off the ground** when
-   ``D > mismatch_factor * D_ref + E``.
+2. reads the right image through the plane and compares it with the left over the valid
+   pixels of a ``window_px`` square (where the plane maps into the right image; at least
+   :data:`MIN_VALID_SHARE` of the square): the variance of the difference ``D`` (zero mean,
+   so an offset between the cameras does not count, and a gain only through the texture it
+   scales), against the ground's own level ``D_ref`` (the median over the reference area:
+   sensor noise) and against what small misalignments would explain on strong edges, ``E`` =
+   the window mean of ``dx^2 gx^2 + dy^2 gy^2`` with ``gx``, ``gy`` the image gradient,
+   ``dx = misalignment_px`` (an error of the plane) and ``dy = row_misalignment_px`` (real
+   pairs are rectified to a fraction of a pixel, and lane markings have strong edges): a
+   pixel is **off the ground** when ``D > mismatch_factor * D_ref + E``;
+3. smooths that mask by a vote (:func:`vote`): off where more than ``vote_fraction`` of the
+   ``vote_window_px`` square around the pixel is.
 
 Textureless surfaces give no evidence either way (``D`` stays at the noise level), so the
 check only ever adds obstacles to the colour labels; it never turns a colour obstacle into
@@ -37,11 +40,17 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from stereo_obstacles._ground_check_kernel import ground_warp_terms_kernel, off_ground_kernel
+from stereo_obstacles._ground_check_kernel import (TERMS, ground_warp_terms_kernel, off_ground_kernel,
+                                                   window_variance_kernel)
+from stereo_obstacles.colour import check_rgb
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane, PlaneFitParameters, fit_plane_points
 
 logger = logging.getLogger(__name__)
+
+MIN_VALID_SHARE = 0.5
+"""A window is judged on its valid pixels (where the plane maps into the right image), and only
+when they are at least this share of it (near the left border and the horizon)."""
 
 MIN_NOISE_VARIANCE = 0.25
 """Floor of the ground's difference variance ``D_ref`` (grey levels squared, 0..255 scale): a
@@ -108,16 +117,18 @@ class GroundCheckParameters:
         default_factory=lambda: PlaneFitParameters(inlier_threshold_px=0.5, min_inliers=10, min_slope_y=0.03))
 
     def __post_init__(self) -> None:
-        for name, low in (("window_px", 3), ("vote_window_px", 1), ("patch_rows_px", 3), ("patch_cols_px", 3)):
+        for name, low, high in (("window_px", 3, 255), ("vote_window_px", 1, 255), ("patch_rows_px", 3, 255),
+                                ("patch_cols_px", 3, 255)):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low or value % 2 == 0:
-                raise InvalidInputError(f"{name} must be an odd integer >= {low}, got {value!r}")
+            if (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high
+                    or value % 2 == 0):
+                raise InvalidInputError(f"{name} must be an odd integer in [{low}, {high}], got {value!r}")
         grid = self.patch_grid
         if (not isinstance(grid, tuple) or len(grid) != 2
                 or any(isinstance(n, bool) or not isinstance(n, int) or n < 1 for n in grid)):
             raise InvalidInputError(f"patch_grid must be a tuple of two integers >= 1, got {grid!r}")
         for name, low, high in (("mismatch_factor", 1.0, 100.0), ("misalignment_px", 0.0, 10.0),
-                                ("row_misalignment_px", 0.0, 10.0), ("vote_fraction", 0.0, 1.0),
+                                ("row_misalignment_px", 0.0, 10.0), ("vote_fraction", 0.0, 0.99),
                                 ("min_patch_std", 0.0, 255.0), ("min_patch_correlation", 0.0, 1.0),
                                 ("max_disparity_fraction", 0.01, 1.0), ("min_inlier_fraction", 0.0, 1.0)):
             value = getattr(self, name)
@@ -150,7 +161,11 @@ class GroundCheck:
 
 
 def grey_levels(rgb: np.ndarray) -> np.ndarray:
-    """``float32 (H, W)`` luma of an ``uint8`` or ``uint16`` RGB image on the 0..255 scale."""
+    """``float32 (H, W)`` luma of an ``uint8`` or ``uint16`` RGB image on the 0..255 scale.
+
+    Unlike :func:`stereo_obstacles.similarity.to_grey` (any dtype, own units), ``uint16`` is
+    rescaled: the thresholds here (``min_patch_std``, :data:`MIN_NOISE_VARIANCE`) are in 8-bit
+    grey levels."""
     grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY).astype(np.float32)
     if rgb.dtype == np.uint16:
         grey *= np.float32(255.0 / 65535.0)
@@ -194,27 +209,35 @@ def estimate_ground_plane(left: np.ndarray, right: np.ndarray, box: tuple[int, i
     ry, rx = params.patch_rows_px // 2, params.patch_cols_px // 2
     max_d = max(1, int(params.max_disparity_fraction * w))
     rows = _spread(y0 + ry, y1 - 1 - ry, params.patch_grid[0])
-    cols = _spread(max(x0, 1) + rx, x1 - 1 - rx, params.patch_grid[1])
+    cols = _spread(x0 + rx, x1 - 1 - rx, params.patch_grid[1])
     xs, ys, ds = [], [], []
+    flat = weak = border = 0
     for y in rows:
         for x in cols:
             patch = left[y - ry:y + ry + 1, x - rx:x + rx + 1]
             if float(patch.std()) < params.min_patch_std:
+                flat += 1
                 continue
             low = max(0, x - rx - max_d)
             strip = right[y - ry:y + ry + 1, low:x + rx + 1]
             scores = cv2.matchTemplate(strip, patch, cv2.TM_CCOEFF_NORMED)[0]
             k = int(np.argmax(scores))
-            if scores[k] < params.min_patch_correlation or k == 0 or k == scores.size - 1:
-                continue  # weak peak, or on the border of the search (the true one may lie beyond)
+            if not scores[k] >= params.min_patch_correlation:
+                weak += 1
+                continue
+            if k == 0 or k == scores.size - 1:
+                border += 1  # the largest or no disparity searched: the true peak may lie beyond
+                continue
             curvature = scores[k - 1] - 2.0 * scores[k] + scores[k + 1]
             offset = 0.5 * (scores[k - 1] - scores[k + 1]) / curvature if curvature < 0 else 0.0
             xs.append(x)
             ys.append(y)
             ds.append(x - (low + k + offset + rx))
     if len(ds) < params.plane_fit.min_inliers:
-        raise InvalidInputError(f"reference area {box}: only {len(ds)} textured patches found in the right "
-                                f"image, need {params.plane_fit.min_inliers} to estimate the ground plane")
+        raise InvalidInputError(
+            f"reference area {box}: {len(ds)} of {len(rows) * len(cols)} patches found in the right image "
+            f"({flat} too flat, {weak} without a clear correlation peak, {border} at the end of the "
+            f"disparity search), need {params.plane_fit.min_inliers} to estimate the ground plane")
     plane = fit_plane_points(np.array(xs, dtype=np.float64), np.array(ys, dtype=np.float64),
                              np.array(ds, dtype=np.float64), params=params.plane_fit)
     if plane.inlier_fraction < params.min_inlier_fraction:
@@ -246,22 +269,46 @@ def off_ground_mask(left: np.ndarray, right: np.ndarray, plane: GroundPlane, box
     """
     left = np.ascontiguousarray(left, dtype=np.float32)
     right = np.ascontiguousarray(right, dtype=np.float32)
-    terms = np.empty(left.shape + (3,), dtype=np.float32)
-    valid = np.empty(left.shape, dtype=np.bool_)
+    terms = np.empty(left.shape + (TERMS,), dtype=np.float32)
     ground_warp_terms_kernel(left, right, plane.a, plane.b, plane.c, params.misalignment_px ** 2,
-                             params.row_misalignment_px ** 2, terms, valid)
+                             params.row_misalignment_px ** 2, terms)
     means = cv2.blur(terms, (params.window_px, params.window_px))
     x0, y0, x1, y1 = box
-    area = means[y0:y1, x0:x1]
-    reference = (area[..., 1] - area[..., 0] ** 2)[valid[y0:y1, x0:x1]]
+    variance = np.empty((y1 - y0, x1 - x0), dtype=np.float32)
+    window_variance_kernel(means[y0:y1, x0:x1], MIN_VALID_SHARE, variance)
+    reference = variance[(variance >= 0) & (terms[y0:y1, x0:x1, 3] > 0)]
     noise = max(float(np.median(reference)) if reference.size else 0.0, MIN_NOISE_VARIANCE)
     off = np.empty(left.shape, dtype=np.bool_)
-    off_ground_kernel(means, valid, np.float32(params.mismatch_factor * noise), off)
+    off_ground_kernel(terms, means, MIN_VALID_SHARE, np.float32(params.mismatch_factor * noise), off)
     if params.vote_window_px > 1:
-        k = params.vote_window_px
-        votes = cv2.boxFilter(off.view(np.uint8), cv2.CV_16U, (k, k), normalize=False)
-        off = valid & (votes > params.vote_fraction * k * k)
+        off = vote(off, terms[..., 3] > 0, params.vote_window_px, params.vote_fraction)
     return off, noise
+
+
+def vote(off: np.ndarray, valid: np.ndarray, window_px: int, fraction: float) -> np.ndarray:
+    """``bool (H, W)``: valid pixels whose ``window_px`` square holds more than ``fraction`` of
+    ``off`` pixels (counted over the whole square; outside the image counts as not off)."""
+    votes = cv2.boxFilter(off.view(np.uint8), cv2.CV_16U, (window_px, window_px), normalize=False,
+                          borderType=cv2.BORDER_CONSTANT)
+    return valid & (votes > fraction * window_px * window_px)
+
+
+def check_colour_pair(left_rgb: np.ndarray, right_rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Both images as C-contiguous ``(H, W, 3)`` ``uint8``/``uint16`` arrays of one size and dtype.
+
+    Raises
+    ------
+    InvalidInputError
+        Either image is not such an array (the message names ``left`` or ``right``).
+    ImageMismatchError
+        They differ in size or dtype.
+    """
+    left, _ = check_rgb(left_rgb, "left")
+    right, _ = check_rgb(right_rgb, "right")
+    if left.shape != right.shape or left.dtype != right.dtype:
+        raise ImageMismatchError(f"left and right images differ: {left.shape} {left.dtype} vs "
+                                 f"{right.shape} {right.dtype}")
+    return left, right
 
 
 def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, int, int, int], *,
@@ -283,10 +330,11 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
 
     Raises
     ------
+    InvalidInputError
+        Not ``(H, W, 3)`` ``uint8``/``uint16`` images, a box that is not a non-empty rectangle
+        inside the image, or a plane that cannot be estimated (see :func:`estimate_ground_plane`).
     ImageMismatchError
         The images differ in size or dtype.
-    InvalidInputError
-        The plane cannot be estimated (see :func:`estimate_ground_plane`).
 
     Examples
     --------
@@ -303,9 +351,11 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
     >>> round(check.plane.b, 1), bool(check.off_ground[40, 110]), bool(check.off_ground[100, 110])
     (0.2, True, False)
     """
-    if left_rgb.shape != right_rgb.shape or left_rgb.dtype != right_rgb.dtype:
-        raise ImageMismatchError(f"left and right images differ: {left_rgb.shape} {left_rgb.dtype} vs "
-                                 f"{right_rgb.shape} {right_rgb.dtype}")
+    left_rgb, right_rgb = check_colour_pair(left_rgb, right_rgb)
+    x0, y0, x1, y1 = box
+    h, w = left_rgb.shape[:2]
+    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
+        raise InvalidInputError(f"reference area {box} is not a non-empty rectangle inside the {w}x{h} image")
     left, right = grey_levels(left_rgb), grey_levels(right_rgb)
     plane, n_patches = estimate_ground_plane(left, right, box, params=params)
     off_ground, noise = off_ground_mask(left, right, plane, box, params=params)
@@ -315,4 +365,4 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
 
 
 __all__ = ["GroundCheckParameters", "GroundCheck", "grey_levels", "estimate_ground_plane", "off_ground_mask",
-           "check_ground"]
+           "vote", "check_colour_pair", "check_ground"]

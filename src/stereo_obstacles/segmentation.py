@@ -45,7 +45,9 @@ Given the right image of a rectified pair as well (``segment(left, right=right)`
 cue is added to either colour model (:mod:`stereo_obstacles.ground_check`, beyond the paper):
 pixels that the right image does not see on the ground plane, estimated from the same
 reference area, become obstacles whatever their colour (a box of the ground's own colour, a
-dark object read as shadow). Shadows lie on the ground and stay ground.
+dark object read as shadow). A cast shadow lies on the ground, so both cameras see it at the
+plane's disparity and the check has no reason to flag it (measured in docs/segmentation.md:
+held-out shadow pixels called obstacle 0.32 % by colour alone, 1.13 % with the check).
 """
 
 from __future__ import annotations
@@ -61,16 +63,16 @@ from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_mod
                                                    fill_small_components_kernel, match_flags_kernel)
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
-from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
-from stereo_obstacles.ground_check import GroundCheck, GroundCheckParameters, check_ground
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.ground_check import GroundCheck, GroundCheckParameters, check_colour_pair, check_ground
 from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
                                             colour_flags)
 from stereo_obstacles.hue_filter import DEFAULT_FILTER_SIZE, window_counts
 from stereo_obstacles.labels import Label
-from stereo_obstacles.thread_pool import run_in_threads
 from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
                                              ReferenceParameters, ReferenceStatistics,
                                              reference_statistics)
+from stereo_obstacles.thread_pool import run_in_threads
 
 logger = logging.getLogger(__name__)
 
@@ -324,9 +326,7 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     a, inv_full_scale = check_rgb(rgb)
     b = None
     if right is not None:
-        b, _ = check_rgb(right, "right")
-        if b.shape != a.shape or b.dtype != a.dtype:
-            raise ImageMismatchError(f"left and right images differ: {a.shape} {a.dtype} vs {b.shape} {b.dtype}")
+        a, b = check_colour_pair(a, right)
     if not isinstance(reference, ReferenceArea):
         raise InvalidInputError(f"reference must be a ReferenceArea, got {type(reference).__name__}")
     if not isinstance(params, SegmentationParameters):
@@ -339,7 +339,7 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     if b is None:
         labels, ground = _colour_labels(a, inv_full_scale, ref, box, params), None
     else:  # both cues at once, on the two cores (the kernels and OpenCV release the GIL)
-        labels, ground = run_in_threads(lambda cue, *arguments: cue(*arguments), [
+        labels, ground = run_in_threads(_call, [
             (_colour_labels, a, inv_full_scale, ref, box, params), (_stereo_cue, a, b, box, params.ground_check)])
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
@@ -348,8 +348,14 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground)
 
 
+def _call(function, *arguments):
+    """``function(*arguments)``: lets :func:`run_in_threads` run different functions at once."""
+    return function(*arguments)
+
+
 def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
                    box: tuple[int, int, int, int], params: SegmentationParameters) -> np.ndarray:
+    """``uint8 (H, W)`` labels of the chosen colour model, cleaned up."""
     if params.colour_model == "hsi":
         return _hsi_labels(a, inv_full_scale, ref, params)
     return _log_rgb_labels(a, box, params)
@@ -357,6 +363,8 @@ def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistic
 
 def _stereo_cue(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int],
                 params: GroundCheckParameters) -> GroundCheck | None:
+    """The stereo ground check, or None (with a logged warning) when the plane cannot be
+    estimated from the reference area ``box``; the images were validated by the caller."""
     try:
         return check_ground(left, right, box, params=params)
     except InvalidInputError as error:

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from stereo_obstacles.ground_check import GroundCheck
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -37,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def _ground_check_record(check) -> dict | None:
+def _ground_check_record(check: GroundCheck | None) -> dict | None:
     """JSON record of the stereo ground check (None when not made)."""
     if check is None:
         return None
