@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 
@@ -26,6 +27,22 @@ def test_errors_of_pool_tasks_reach_the_caller():
 
     with pytest.raises(ValueError, match="task 1"):
         run_in_threads(fail, [(0,), (1,)])
+
+
+@pytest.mark.parametrize("failing", [0, 1])
+def test_a_failure_propagates_after_every_task_has_ended(failing):
+    ended = []
+
+    def task(k):
+        if k == failing:
+            raise ValueError(f"task {k}")
+        time.sleep(0.05)
+        ended.append(k)
+        return k
+
+    with pytest.raises(ValueError, match=f"task {failing}"):
+        run_in_threads(task, [(0,), (1,), (2,)])
+    assert sorted(ended) == sorted({0, 1, 2} - {failing})
 
 
 def test_callers_in_several_threads_at_once_each_get_their_results():

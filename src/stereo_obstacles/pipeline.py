@@ -52,11 +52,12 @@ from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacl
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, measure_obstacles,
                                        standing_pixels)
-from stereo_obstacles.rectification_check import check_rectification
+from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
+from stereo_obstacles.thread_pool import run_each_in_threads
 from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
 
 logger = logging.getLogger(__name__)
@@ -335,6 +336,36 @@ def warm_up() -> float:
     return time.perf_counter() - started
 
 
+def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig,
+                  timings: dict[str, float]) -> tuple[SegmentationResult, RectificationCheck | None]:
+    """Phase 1 and the rectification check, their times written to ``timings`` (seconds)."""
+    t = time.perf_counter()
+    segmentation = segment(left, reference=config.reference, params=config.segmentation)
+    timings["segmentation"] = time.perf_counter() - t
+    t = time.perf_counter()
+    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX)
+                     if config.check_rectification else None)
+    timings["rectification_check"] = time.perf_counter() - t
+    return segmentation, rectification
+
+
+def _match_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, seed_points, disparity_estimate,
+                 timings: dict[str, float]):
+    """Phase 2: ``(disparity, matched)`` with the matches the right camera cannot see removed;
+    its time written to ``timings["matching"]`` (seconds)."""
+    t = time.perf_counter()
+    if disparity_estimate is None:
+        disparity, matched = match_at_scale(left, right, config.matching_scale, seed_points=seed_points,
+                                            **config.matching.to_kwargs())
+    else:
+        matched = refine_at_full_size(left, right, disparity_estimate, **config.matching.to_kwargs())
+        disparity = matched.disparity
+    if config.visibility is not None:
+        disparity = np.where(hidden_in_right(disparity, config.visibility), np.float32(np.nan), disparity)
+    timings["matching"] = time.perf_counter() - t
+    return disparity, matched
+
+
 def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration | None = None, *,
            config: DetectionConfig = DetectionConfig(), seed_points: np.ndarray | None = None,
            disparity_estimate: np.ndarray | None = None) -> DetectionResult:
@@ -387,26 +418,11 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         calibration.check_image_size(left.shape[1], left.shape[0])
     timings: dict[str, float] = {}
     start = time.perf_counter()
-
-    t = time.perf_counter()
-    segmentation = segment(left, reference=config.reference, params=config.segmentation)
-    timings["segmentation"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX)
-                     if config.check_rectification else None)
-    timings["rectification_check"] = time.perf_counter() - t
-
-    t = time.perf_counter()
-    if disparity_estimate is None:
-        disparity, matched = match_at_scale(left, right, config.matching_scale, seed_points=seed_points,
-                                            **config.matching.to_kwargs())
-    else:
-        matched = refine_at_full_size(left, right, disparity_estimate, **config.matching.to_kwargs())
-        disparity = matched.disparity
-    if config.visibility is not None:
-        disparity = np.where(hidden_in_right(disparity, config.visibility), np.float32(np.nan), disparity)
-    timings["matching"] = time.perf_counter() - t
+    # phase 1 and the rectification check on a pool thread while the matcher runs here: the
+    # matcher's serial stages leave a core idle (measured in docs/pipeline.md, "Speed")
+    (disparity, matched), (segmentation, rectification) = run_each_in_threads([
+        (_match_stage, left, right, config, seed_points, disparity_estimate, timings),
+        (_colour_stage, left, right, config, timings)])
 
     t = time.perf_counter()
     ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)

@@ -72,7 +72,7 @@ from stereo_obstacles.labels import Label
 from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
                                              ReferenceParameters, ReferenceStatistics,
                                              reference_statistics)
-from stereo_obstacles.thread_pool import run_in_threads
+from stereo_obstacles.thread_pool import run_each_in_threads
 
 logger = logging.getLogger(__name__)
 
@@ -339,18 +339,13 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     if b is None:
         labels, ground = _colour_labels(a, inv_full_scale, ref, box, params), None
     else:  # both cues at once, on the two cores (the kernels and OpenCV release the GIL)
-        labels, ground = run_in_threads(_call, [
+        labels, ground = run_each_in_threads([
             (_colour_labels, a, inv_full_scale, ref, box, params), (_stereo_cue, a, b, box, params.ground_check)])
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
                  100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
     return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground)
-
-
-def _call(function, *arguments):
-    """``function(*arguments)``: lets :func:`run_in_threads` run different functions at once."""
-    return function(*arguments)
 
 
 def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,

@@ -8,9 +8,9 @@ alive between calls (waking them is cheap; measured in ``docs/matching.md``).
 from __future__ import annotations
 
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 
-__all__ = ["run_in_threads"]
+__all__ = ["run_in_threads", "run_each_in_threads"]
 
 _pool: ThreadPoolExecutor | None = None
 _pool_size = 0
@@ -18,8 +18,10 @@ _pool_lock = threading.Lock()
 
 MIN_POOL_THREADS = 4
 """The pool has at least this many threads (started only when tasks wait for one): two callers
-at once (a stream's frames in flight), each handing over a task or two, never wait for each
-other's tasks (a pool of one thread held the second frame's band behind the first's)."""
+at once (a stream's frames in flight), each handing over a task or two (a detection hands over
+its phase-1 stage and, from the matcher, a band), never wait for each other's tasks (a pool of
+one thread held the second frame's band behind the first's). No task waits for another pool
+task, so more callers only queue."""
 
 
 def _submit(function, arguments: list[tuple]) -> list:
@@ -40,7 +42,8 @@ def _submit(function, arguments: list[tuple]) -> list:
 
 def run_in_threads(function, arguments: list[tuple]) -> list:
     """``[function(*a) for a in arguments]``, the first call on the calling thread and the others on
-    the persistent pool (``function`` should release the GIL to gain anything).
+    the persistent pool (``function`` should release the GIL to gain anything). When a call
+    raises, the first exception in argument order propagates, after every call has ended.
 
     Examples
     --------
@@ -50,4 +53,25 @@ def run_in_threads(function, arguments: list[tuple]) -> list:
     if not arguments:
         return []
     futures = _submit(function, arguments[1:]) if len(arguments) > 1 else []
-    return [function(*arguments[0])] + [f.result() for f in futures]
+    try:
+        first = function(*arguments[0])
+    except BaseException:
+        wait(futures)  # no task of this call keeps running after it has failed
+        raise
+    wait(futures)
+    return [first] + [f.result() for f in futures]
+
+
+def _call(function, *arguments):
+    return function(*arguments)
+
+
+def run_each_in_threads(calls: list[tuple]) -> list:
+    """``[f(*a) for f, *a in calls]``: :func:`run_in_threads` with a function per call.
+
+    Examples
+    --------
+    >>> run_each_in_threads([(pow, 2, 3), (max, 3, 7)])
+    [8, 7]
+    """
+    return run_in_threads(_call, calls)
