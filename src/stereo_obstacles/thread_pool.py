@@ -1,4 +1,5 @@
-"""A persistent pool of worker threads for the matcher's parallel stages.
+"""A persistent pool of worker threads for parallel stages (the matcher's bands, phase 1 beside
+the matcher, the colour labels beside the stereo ground check).
 
 The compiled kernels release the GIL (``nogil``), so running them in threads uses both cores.
 A call runs its first task on the calling thread and the others on the pool, whose threads stay
