@@ -130,6 +130,7 @@ def test_unusable_reference_is_an_error():
     ({"filter_size": 6}, "odd"),
     ({"shadow_rule": 1}, "bool"),
     ({"min_obstacle_area_px": -1}, "min_obstacle_area_px"),
+    ({"max_hole_fraction": 1.5}, "max_hole_fraction"), ({"max_hole_fraction": float("nan")}, "max_hole_fraction"),
 ])
 def test_parameters_are_validated(kwargs, match):
     with pytest.raises(InvalidInputError, match=match):
@@ -180,3 +181,48 @@ def test_clean_up_matches_its_definition(seed):
     expected = _clean_up_reference(labels, darker, params)
     _clean_up(labels, darker, params)
     np.testing.assert_array_equal(labels, expected)
+
+
+def _enclosed_holes_reference(labels, max_area):
+    """Enclosed-hole filling written with OpenCV component statistics (slow, obviously right)."""
+    import cv2
+
+    out = labels.copy()
+    h, w = out.shape
+    _, components, stats, _ = cv2.connectedComponentsWithStats((out != Label.OBSTACLE).view(np.uint8),
+                                                                connectivity=4)
+    x, y = stats[:, cv2.CC_STAT_LEFT], stats[:, cv2.CC_STAT_TOP]
+    inside = (x > 0) & (y > 0) & (x + stats[:, cv2.CC_STAT_WIDTH] < w) & (y + stats[:, cv2.CC_STAT_HEIGHT] < h)
+    enclosed = inside & (stats[:, cv2.CC_STAT_AREA] <= max_area)
+    enclosed[0] = False
+    out[enclosed[components]] = Label.OBSTACLE
+    return out
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_enclosed_hole_filling_matches_its_definition(seed):
+    from stereo_obstacles.segmentation import _fill_enclosed_holes
+
+    rng = np.random.default_rng(100 + seed)
+    height, width = (int(v) for v in rng.integers(1, 50, 2))
+    labels = np.where(rng.uniform(size=(height, width)) < rng.uniform(0.3, 0.8), Label.OBSTACLE,
+                      rng.integers(0, 3, (height, width))).astype(np.uint8)
+    max_area = int(rng.integers(0, 30))
+    expected = _enclosed_holes_reference(labels, max_area)
+    _fill_enclosed_holes(labels, max_area)
+    np.testing.assert_array_equal(labels, expected)
+
+
+def test_the_inside_of_an_obstacle_outline_is_filled():
+    image = _ground(GREEN)
+    image[20:70, 50:110] = (200, 40, 40)                 # a red frame ...
+    image[28:62, 58:102] = _ground(GREEN, (34, 44), seed=1)   # ... around a ground-coloured inside
+    rgb = _u8(image)
+    inside = np.s_[30:60, 60:100]
+    tenth = SegmentationParameters(max_hole_fraction=0.1)    # 1920 px of this small image
+    assert _fraction(segment(rgb, params=tenth).labels, inside, Label.OBSTACLE) == 1.0
+    assert _fraction(segment(rgb).labels, inside, Label.GROUND) > 0.95   # 2 %: 384 px < the 1496 inside
+    off = segment(rgb, params=SegmentationParameters(max_hole_fraction=0.0)).labels
+    assert _fraction(off, inside, Label.GROUND) > 0.95
+    image[28:62, 50:58] = _ground(GREEN, (34, 8), seed=2)    # open the frame on the left: no longer enclosed
+    assert _fraction(segment(_u8(image), params=tenth).labels, inside, Label.GROUND) > 0.95

@@ -161,3 +161,35 @@ def fill_small_components_kernel(components, n_components, min_area, darker, fil
         for x in range(width):
             if small[components[y, x]]:
                 labels[y, x] = fill_darker if darker[y, x] else fill
+
+
+@njit(cache=True, nogil=True)
+def fill_enclosed_components_kernel(components, n_components, max_area, fill, labels):
+    """Relabel, in place, every component of at most ``max_area`` pixels that does not touch the
+    image border (a hole enclosed by the background) to ``fill``.
+
+    ``components`` is an ``int32 (H, W)`` component map with ``n_components`` labels, 0 the
+    background (never relabelled).
+    """
+    height, width = components.shape
+    on_border = np.zeros(n_components, dtype=np.bool_)
+    for x in range(width):
+        on_border[components[0, x]] = True
+        on_border[components[height - 1, x]] = True
+    for y in range(height):
+        on_border[components[y, 0]] = True
+        on_border[components[y, width - 1]] = True
+    if on_border[1:].all():
+        return  # every region reaches the border: no hole
+    area = np.zeros(n_components, dtype=np.int64)
+    for y in range(height):
+        for x in range(width):
+            area[components[y, x]] += 1
+    enclosed = (area <= max_area) & ~on_border
+    enclosed[0] = False
+    if not enclosed.any():
+        return
+    for y in range(height):
+        for x in range(width):
+            if enclosed[components[y, x]]:
+                labels[y, x] = fill

@@ -40,6 +40,8 @@ too dark to measure; obstacle otherwise.
 5. Clean-up: obstacle specks smaller than ``min_obstacle_area_px`` become ground (or shadow
    when darker than the ground range), and non-obstacle holes smaller than
    ``max_hole_area_px`` become obstacle. Both are area tests, so a thin long pole stays.
+   Last (after the stereo cue below, for both colour models), regions enclosed by obstacle
+   pixels up to ``max_hole_fraction`` of the image become obstacle.
 
 Given the right image of a rectified pair as well (``segment(left, right=right)``), a stereo
 cue is added to either colour model (:mod:`stereo_obstacles.ground_check`, beyond the paper):
@@ -60,7 +62,8 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_modes_kernel,
-                                                   fill_small_components_kernel, match_flags_kernel)
+                                                   fill_enclosed_components_kernel, fill_small_components_kernel,
+                                                   match_flags_kernel)
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
@@ -127,6 +130,10 @@ class SegmentationParameters:
         Obstacle regions (8-connected) smaller than this are specks and become ground.
     max_hole_area_px
         Non-obstacle regions (4-connected) smaller than this become obstacle.
+    max_hole_fraction
+        Non-obstacle regions (4-connected) enclosed by obstacle pixels (not touching the image
+        border) of at most this fraction of the image become obstacle: the flat, unmatched
+        inside of a car or a box whose outline was found. 0 turns it off.
     ground_check
         The stereo cue's settings, used when :func:`segment` is given the right image.
     """
@@ -147,6 +154,7 @@ class SegmentationParameters:
     intensity_smoothing_px: int = 3
     min_obstacle_area_px: int = 16
     max_hole_area_px: int = 16
+    max_hole_fraction: float = 0.02
     ground_check: GroundCheckParameters = field(default_factory=GroundCheckParameters)
 
     def __post_init__(self) -> None:
@@ -172,6 +180,8 @@ class SegmentationParameters:
             raise InvalidInputError(f"veto_factor must be >= 1, got {self.veto_factor!r}")
         if not (math.isfinite(self.shadow_chroma_band) and self.shadow_chroma_band >= 1.0):
             raise InvalidInputError(f"shadow_chroma_band must be >= 1, got {self.shadow_chroma_band!r}")
+        if not (isinstance(self.max_hole_fraction, (int, float)) and 0.0 <= self.max_hole_fraction <= 1.0):
+            raise InvalidInputError(f"max_hole_fraction must be in [0, 1], got {self.max_hole_fraction!r}")
         for name in ("ground_intensity_margin",):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
@@ -343,9 +353,18 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
             (_colour_labels, a, inv_full_scale, ref, box, params), (_stereo_cue, a, b, box, params.ground_check)])
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
+    if params.max_hole_fraction > 0:
+        _fill_enclosed_holes(labels, int(params.max_hole_fraction * labels.size))
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
                  100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
     return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground)
+
+
+def _fill_enclosed_holes(labels: np.ndarray, max_area_px: int) -> None:
+    """Non-obstacle regions enclosed by obstacle, of at most ``max_area_px``, become obstacle (in place)."""
+    free = (labels != Label.OBSTACLE).view(np.uint8)
+    n, components = cv2.connectedComponents(free, connectivity=4, ltype=cv2.CV_32S)
+    fill_enclosed_components_kernel(components, n, max_area_px, int(Label.OBSTACLE), labels)
 
 
 def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
