@@ -131,6 +131,7 @@ def test_unusable_reference_is_an_error():
     ({"shadow_rule": 1}, "bool"),
     ({"min_obstacle_area_px": -1}, "min_obstacle_area_px"),
     ({"max_hole_fraction": 1.5}, "max_hole_fraction"), ({"max_hole_fraction": float("nan")}, "max_hole_fraction"),
+    ({"max_hole_fraction": True}, "max_hole_fraction"),
 ])
 def test_parameters_are_validated(kwargs, match):
     with pytest.raises(InvalidInputError, match=match):

@@ -54,3 +54,22 @@ def test_callers_in_several_threads_at_once_each_get_their_results():
     with ThreadPoolExecutor(4) as callers:
         results = list(callers.map(call, range(40)))
     assert results == [[k * j for j in range(1 + k % 3)] for k in range(40)]
+
+
+def test_tasks_that_run_tasks_do_not_wait_for_ever():
+    """More outer tasks than pool threads, each running inner tasks: on a pool thread the inner
+    tasks run in order there, so no pool thread waits for a task queued behind it."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from stereo_obstacles.thread_pool import MIN_POOL_THREADS
+
+    def outer(k):
+        time.sleep(0.01)
+        return sum(run_in_threads(lambda a, b: a * b, [(k, 1), (k, 2)]))
+
+    watchdog = ThreadPoolExecutor(1)
+    future = watchdog.submit(run_in_threads, outer, [(k,) for k in range(3 * MIN_POOL_THREADS)])
+    try:
+        assert future.result(timeout=30) == [3 * k for k in range(3 * MIN_POOL_THREADS)]
+    finally:
+        watchdog.shutdown(wait=False)  # a deadlocked call must not hang the test run as well

@@ -36,7 +36,7 @@ def hsi_pixel(r, g, b, inv_full_scale):
     return intensity, saturation, chroma_x, chroma_y
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def rgb_to_hsi_kernel(rgb, inv_full_scale, min_intensity, min_saturation, hue, saturation,
                       intensity):
     """Fill ``hue`` (degrees, NaN if invalid), ``saturation`` (NaN if invalid) and ``intensity``."""

@@ -420,8 +420,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         calibration.check_image_size(left.shape[1], left.shape[0])
     timings: dict[str, float] = {}
     start = time.perf_counter()
-    # phase 1 and the rectification check on a pool thread while the matcher runs here: the
-    # matcher's serial stages leave a core idle (measured in docs/pipeline.md, "Speed")
+    # phase 1 and the rectification check on a pool thread while the matcher runs here, on the
+    # core its serial stages leave idle (whole call 4-7 % faster: docs/pipeline.md, "Speed")
     stage_times: dict[str, float] = {}
     (disparity, matched), (segmentation, rectification) = run_each_in_threads([
         (_match_stage, left, right, config, seed_points, disparity_estimate, stage_times),

@@ -180,7 +180,8 @@ class SegmentationParameters:
             raise InvalidInputError(f"veto_factor must be >= 1, got {self.veto_factor!r}")
         if not (math.isfinite(self.shadow_chroma_band) and self.shadow_chroma_band >= 1.0):
             raise InvalidInputError(f"shadow_chroma_band must be >= 1, got {self.shadow_chroma_band!r}")
-        if not (isinstance(self.max_hole_fraction, (int, float)) and 0.0 <= self.max_hole_fraction <= 1.0):
+        if (isinstance(self.max_hole_fraction, bool) or not isinstance(self.max_hole_fraction, (int, float))
+                or not 0.0 <= self.max_hole_fraction <= 1.0):
             raise InvalidInputError(f"max_hole_fraction must be in [0, 1], got {self.max_hole_fraction!r}")
         for name in ("ground_intensity_margin",):
             value = getattr(self, name)

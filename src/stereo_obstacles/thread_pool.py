@@ -21,8 +21,16 @@ MIN_POOL_THREADS = 4
 """The pool has at least this many threads (started only when tasks wait for one): two callers
 at once (a stream's frames in flight), each handing over a task or two (a detection hands over
 its phase-1 stage and, from the matcher, a band), never wait for each other's tasks (a pool of
-one thread held the second frame's band behind the first's). No task waits for another pool
-task, so more callers only queue."""
+one thread held the second frame's band behind the first's). A task never waits for another
+pool task (a call made on a pool thread runs its tasks there, one after the other), so more
+callers only queue."""
+
+_on_pool_thread = threading.local()
+"""``flag`` is set on the pool's own threads."""
+
+
+def _mark_pool_thread() -> None:
+    _on_pool_thread.flag = True
 
 
 def _submit(function, arguments: list[tuple]) -> list:
@@ -37,14 +45,18 @@ def _submit(function, arguments: list[tuple]) -> list:
             if _pool is not None:
                 _pool.shutdown(wait=False)
             _pool_size = max(len(arguments), MIN_POOL_THREADS)
-            _pool = ThreadPoolExecutor(max_workers=_pool_size, thread_name_prefix="gcs-band")
+            _pool = ThreadPoolExecutor(max_workers=_pool_size, thread_name_prefix="gcs-band",
+                                       initializer=_mark_pool_thread)
         return [_pool.submit(function, *a) for a in arguments]
 
 
 def run_in_threads(function, arguments: list[tuple]) -> list:
     """``[function(*a) for a in arguments]``, the first call on the calling thread and the others on
-    the persistent pool (``function`` should release the GIL to gain anything). When a call
-    raises, the first exception in argument order propagates, after every call has ended.
+    the persistent pool (``function`` should release the GIL to gain anything). Called on a pool
+    thread (a task that itself runs tasks), all calls run on that thread in order: a pool task
+    waiting for other pool tasks could wait for ever once every pool thread does the same. When
+    a call raises, the first exception in argument order propagates, after the others have
+    ended (unless an interrupt arrives while waiting for them).
 
     Examples
     --------
@@ -53,13 +65,13 @@ def run_in_threads(function, arguments: list[tuple]) -> list:
     """
     if not arguments:
         return []
+    if getattr(_on_pool_thread, "flag", False):
+        return [function(*a) for a in arguments]
     futures = _submit(function, arguments[1:]) if len(arguments) > 1 else []
     try:
         first = function(*arguments[0])
-    except BaseException:
-        wait(futures)  # no task of this call keeps running after it has failed
-        raise
-    wait(futures)
+    finally:
+        wait(futures)  # no task of this call keeps running after it has ended or failed
     return [first] + [f.result() for f in futures]
 
 
