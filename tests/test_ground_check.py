@@ -141,9 +141,9 @@ def test_plane_is_recovered_from_the_reference_area():
     assert n_patches >= 30
     assert plane.a == pytest.approx(PLANE.a, abs=0.002)
     assert plane.b == pytest.approx(PLANE.b, abs=0.01)
-    # the disparity below the horizon within 0.25 px (the check tolerates misalignment_px = 0.75)
+    # the disparity below the horizon within 0.4 px (the check tolerates misalignment_px = 0.75)
     ys, xs = np.mgrid[80:HEIGHT:20, 0:WIDTH:40]
-    assert np.max(np.abs(plane.disparity_at(xs, ys) - PLANE.disparity_at(xs, ys))) < 0.25
+    assert np.max(np.abs(plane.disparity_at(xs, ys) - PLANE.disparity_at(xs, ys))) < 0.4
 
 
 def test_box_of_the_ground_colour_is_off_the_ground_and_a_shadow_is_not():
@@ -235,7 +235,7 @@ def test_uint16_images_give_the_same_result():
 
 def test_textureless_reference_warns_and_keeps_the_colour_labels(caplog):
     flat = np.full((HEIGHT, WIDTH, 3), (150, 118, 105), dtype=np.uint8)
-    with pytest.raises(InvalidInputError, match="0 of 64 patches found.*64 too flat"):
+    with pytest.raises(InvalidInputError, match="0 of 39 patches found.*39 too flat"):
         check_ground(flat, flat, REFERENCE)
     with caplog.at_level(logging.WARNING, logger="stereo_obstacles.segmentation"):
         result = segment(flat, right=flat)

@@ -108,7 +108,7 @@ class GroundCheckParameters:
     vote_fraction: float = 0.4
     patch_rows_px: int = 9
     patch_cols_px: int = 33
-    patch_grid: tuple[int, int] = (4, 16)
+    patch_grid: tuple[int, int] = (3, 13)
     min_patch_std: float = 2.0
     min_patch_correlation: float = 0.7
     max_disparity_fraction: float = 0.25
