@@ -170,7 +170,7 @@ def _clean_up_reference(labels, darker, params):
 
 @pytest.mark.parametrize("seed", range(12))
 def test_clean_up_matches_its_definition(seed):
-    from stereo_obstacles.segmentation import _clean_up
+    from stereo_obstacles.segmentation import _fill_holes, _remove_specks
 
     rng = np.random.default_rng(seed)
     height, width = (int(v) for v in rng.integers(1, 50, 2))
@@ -178,9 +178,11 @@ def test_clean_up_matches_its_definition(seed):
                       rng.integers(0, 3, (height, width))).astype(np.uint8)
     darker = rng.uniform(size=(height, width)) < 0.5 if seed % 3 else None
     params = SegmentationParameters(min_obstacle_area_px=int(rng.integers(0, 20)),
-                                    max_hole_area_px=int(rng.integers(0, 20)), shadow_rule=seed % 4 != 0)
+                                    max_hole_area_px=int(rng.integers(0, 20)), shadow_rule=seed % 4 != 0,
+                                    max_hole_fraction=0.0)
     expected = _clean_up_reference(labels, darker, params)
-    _clean_up(labels, darker, params)
+    _remove_specks(labels, darker, params)
+    _fill_holes(labels, params)
     np.testing.assert_array_equal(labels, expected)
 
 
@@ -202,7 +204,7 @@ def _enclosed_holes_reference(labels, max_area):
 
 @pytest.mark.parametrize("seed", range(12))
 def test_enclosed_hole_filling_matches_its_definition(seed):
-    from stereo_obstacles.segmentation import _fill_enclosed_holes
+    from stereo_obstacles.segmentation import _fill_holes
 
     rng = np.random.default_rng(100 + seed)
     height, width = (int(v) for v in rng.integers(1, 50, 2))
@@ -210,7 +212,8 @@ def test_enclosed_hole_filling_matches_its_definition(seed):
                       rng.integers(0, 3, (height, width))).astype(np.uint8)
     max_area = int(rng.integers(0, 30))
     expected = _enclosed_holes_reference(labels, max_area)
-    _fill_enclosed_holes(labels, max_area)
+    _fill_holes(labels, SegmentationParameters(max_hole_area_px=0,
+                                               max_hole_fraction=min(1.0, (max_area + 0.5) / labels.size)))
     np.testing.assert_array_equal(labels, expected)
 
 

@@ -164,9 +164,10 @@ def fill_small_components_kernel(components, n_components, min_area, darker, fil
 
 
 @njit(cache=True, nogil=True)
-def fill_enclosed_components_kernel(components, n_components, max_area, fill, labels):
-    """Relabel, in place, every component of at most ``max_area`` pixels that does not touch the
-    image border (a hole enclosed by the background) to ``fill``.
+def fill_holes_kernel(components, n_components, min_area, max_enclosed_area, fill, labels):
+    """Relabel to ``fill``, in place, every component smaller than ``min_area`` pixels, and every
+    component of at most ``max_enclosed_area`` pixels that does not touch the image border (a
+    hole enclosed by the background).
 
     ``components`` is an ``int32 (H, W)`` component map with ``n_components`` labels, 0 the
     background (never relabelled).
@@ -179,17 +180,15 @@ def fill_enclosed_components_kernel(components, n_components, max_area, fill, la
     for y in range(height):
         on_border[components[y, 0]] = True
         on_border[components[y, width - 1]] = True
-    if on_border[1:].all():
-        return  # every region reaches the border: no hole
     area = np.zeros(n_components, dtype=np.int64)
     for y in range(height):
         for x in range(width):
             area[components[y, x]] += 1
-    enclosed = (area <= max_area) & ~on_border
-    enclosed[0] = False
-    if not enclosed.any():
+    hole = (area < min_area) | ((area <= max_enclosed_area) & ~on_border)
+    hole[0] = False
+    if not hole.any():
         return
     for y in range(height):
         for x in range(width):
-            if enclosed[components[y, x]]:
+            if hole[components[y, x]]:
                 labels[y, x] = fill

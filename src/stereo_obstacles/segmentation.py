@@ -38,10 +38,10 @@ too dark to measure; obstacle otherwise.
    * **unknown**: too dark to measure colour but bright enough for a shadow;
    * **obstacle**: everything else (including grey objects on coloured ground).
 5. Clean-up: obstacle specks smaller than ``min_obstacle_area_px`` become ground (or shadow
-   when darker than the ground range), and non-obstacle holes smaller than
-   ``max_hole_area_px`` become obstacle. Both are area tests, so a thin long pole stays.
-   Last (after the stereo cue below, for both colour models), regions enclosed by obstacle
-   pixels up to ``max_hole_fraction`` of the image become obstacle.
+   when darker than the ground range). Last (after the stereo cue below, for both colour
+   models), holes become obstacle: non-obstacle regions smaller than ``max_hole_area_px``,
+   and regions enclosed by obstacle pixels up to ``max_hole_fraction`` of the image. These
+   are area tests, so a thin long pole stays.
 
 Given the right image of a rectified pair as well (``segment(left, right=right)``), a stereo
 cue is added to either colour model (:mod:`stereo_obstacles.ground_check`, beyond the paper):
@@ -62,7 +62,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_modes_kernel,
-                                                   fill_enclosed_components_kernel, fill_small_components_kernel,
+                                                   fill_holes_kernel, fill_small_components_kernel,
                                                    match_flags_kernel)
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
@@ -271,11 +271,9 @@ def _window_sizes(height: int, width: int, size: int) -> np.ndarray:
     return np.outer(along(height), along(width)).astype(np.int32)
 
 
-def _clean_up(labels: np.ndarray, darker: np.ndarray | None, params: SegmentationParameters) -> None:
-    """Remove obstacle specks and fill small holes in obstacles, in place (area tests only).
-
-    Specks become ground, or shadow where ``darker`` (``bool (H, W)``) is set.
-    """
+def _remove_specks(labels: np.ndarray, darker: np.ndarray | None, params: SegmentationParameters) -> None:
+    """Obstacle regions smaller than ``params.min_obstacle_area_px`` become ground, or shadow
+    where ``darker`` (``bool (H, W)``) is set, in place."""
     if params.min_obstacle_area_px > 1:
         obstacle = (labels == Label.OBSTACLE).view(np.uint8)
         n, components = cv2.connectedComponents(obstacle, connectivity=8, ltype=cv2.CV_32S)
@@ -283,12 +281,6 @@ def _clean_up(labels: np.ndarray, darker: np.ndarray | None, params: Segmentatio
             darker = np.zeros(labels.shape, dtype=np.bool_)
         fill_small_components_kernel(components, n, params.min_obstacle_area_px, darker,
                                      int(Label.GROUND), int(Label.SHADOW), labels)
-    if params.max_hole_area_px > 1:
-        free = (labels != Label.OBSTACLE).view(np.uint8)
-        n, components = cv2.connectedComponents(free, connectivity=4, ltype=cv2.CV_32S)
-        fill_small_components_kernel(components, n, params.max_hole_area_px,
-                                     np.zeros(labels.shape, dtype=np.bool_), int(Label.OBSTACLE),
-                                     int(Label.OBSTACLE), labels)
 
 
 def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
@@ -354,18 +346,22 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
             (_colour_labels, a, inv_full_scale, ref, box, params), (_stereo_cue, a, b, box, params.ground_check)])
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
-    if params.max_hole_fraction > 0:
-        _fill_enclosed_holes(labels, int(params.max_hole_fraction * labels.size))
+    _fill_holes(labels, params)
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
                  100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
     return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground)
 
 
-def _fill_enclosed_holes(labels: np.ndarray, max_area_px: int) -> None:
-    """Non-obstacle regions enclosed by obstacle, of at most ``max_area_px``, become obstacle (in place)."""
+def _fill_holes(labels: np.ndarray, params: SegmentationParameters) -> None:
+    """Holes become obstacle, in place: non-obstacle regions (4-connected) smaller than
+    ``params.max_hole_area_px``, and those not touching the image border of at most
+    ``params.max_hole_fraction`` of the image. One labelling serves both rules."""
+    max_enclosed = int(params.max_hole_fraction * labels.size)
+    if params.max_hole_area_px <= 1 and max_enclosed < 1:
+        return
     free = (labels != Label.OBSTACLE).view(np.uint8)
     n, components = cv2.connectedComponents(free, connectivity=4, ltype=cv2.CV_32S)
-    fill_enclosed_components_kernel(components, n, max_area_px, int(Label.OBSTACLE), labels)
+    fill_holes_kernel(components, n, params.max_hole_area_px, max_enclosed, int(Label.OBSTACLE), labels)
 
 
 def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
@@ -407,7 +403,7 @@ def _hsi_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
                     np.float32(median / params.shadow_min_ratio), params.shadow_rule,
                     int(Label.UNKNOWN), int(Label.GROUND), int(Label.SHADOW), int(Label.OBSTACLE),
                     labels)
-    _clean_up(labels, intensity < ground_low, params)
+    _remove_specks(labels, intensity < ground_low, params)
     return labels
 
 
@@ -424,7 +420,7 @@ def _log_rgb_labels(a: np.ndarray, box: tuple[int, int, int, int],
     labels = np.empty(a.shape[:2], dtype=np.uint8)
     classify_modes_kernel(counts, veto, flags[..., 3], int(Label.UNKNOWN), int(Label.GROUND),
                           int(Label.SHADOW), int(Label.OBSTACLE), labels)
-    _clean_up(labels, None, params)
+    _remove_specks(labels, None, params)
     return labels
 
 
