@@ -67,7 +67,8 @@ from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_mod
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.ground_check import GroundCheck, GroundCheckParameters, check_colour_pair, check_ground
+from stereo_obstacles.ground_check import (GroundCheck, GroundCheckParameters, check_colour_pair, check_ground,
+                                           grey_levels)
 from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
                                             colour_flags)
 from stereo_obstacles.hue_filter import DEFAULT_FILTER_SIZE, window_counts
@@ -75,6 +76,7 @@ from stereo_obstacles.labels import Label
 from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
                                              ReferenceParameters, ReferenceStatistics,
                                              reference_statistics)
+from stereo_obstacles.shadow_texture import ShadowTextureParameters, smooth_pixels, textureless_shadow
 from stereo_obstacles.thread_pool import run_each_in_threads
 
 logger = logging.getLogger(__name__)
@@ -134,6 +136,9 @@ class SegmentationParameters:
         Non-obstacle regions (4-connected) enclosed by obstacle pixels (not touching the image
         border) of at most this fraction of the image become obstacle: the flat, unmatched
         inside of a car or a box whose outline was found. 0 turns it off.
+    shadow_texture
+        The shadow texture test (:mod:`~stereo_obstacles.shadow_texture`): shadow pixels much
+        smoother than the ground become obstacles (both colour models, when ``shadow_rule``).
     ground_check
         The stereo cue's settings, used when :func:`segment` is given the right image.
     """
@@ -155,10 +160,14 @@ class SegmentationParameters:
     min_obstacle_area_px: int = 16
     max_hole_area_px: int = 16
     max_hole_fraction: float = 0.02
+    shadow_texture: ShadowTextureParameters = field(default_factory=ShadowTextureParameters)
     ground_check: GroundCheckParameters = field(default_factory=GroundCheckParameters)
 
     def __post_init__(self) -> None:
         check_thresholds(self.min_intensity, self.min_saturation)
+        if not isinstance(self.shadow_texture, ShadowTextureParameters):
+            raise InvalidInputError("shadow_texture must be ShadowTextureParameters, got "
+                                    f"{type(self.shadow_texture).__name__}")
         if not isinstance(self.ground_check, GroundCheckParameters):
             raise InvalidInputError("ground_check must be GroundCheckParameters, got "
                                     f"{type(self.ground_check).__name__}")
@@ -339,11 +348,16 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     area = a[y0:y1:step, x0:x1:step]
     area_hsi = rgb_to_hsi(area, min_intensity=params.min_intensity, min_saturation=params.min_saturation)
     ref = reference_statistics(area, area_hsi, box, params=params.reference)
+    # two tasks at once on the two cores (the kernels and OpenCV release the GIL): the colour
+    # labels beside the texture map, or (longer) both beside the stereo cue
     if b is None:
-        labels, ground = _colour_labels(a, inv_full_scale, ref, box, params), None
-    else:  # both cues at once, on the two cores (the kernels and OpenCV release the GIL)
-        labels, ground = run_each_in_threads([
-            (_colour_labels, a, inv_full_scale, ref, box, params), (_stereo_cue, a, b, box, params.ground_check)])
+        (labels, smooth), ground = run_each_in_threads([
+            (_colour_labels, a, inv_full_scale, ref, box, params), (_smooth_pixels, a, box, params)]), None
+    else:
+        (labels, smooth), ground = run_each_in_threads([
+            (_colour_labels_and_texture, a, inv_full_scale, ref, box, params),
+            (_stereo_cue, a, b, box, params.ground_check)])
+    labels[textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)] = Label.OBSTACLE
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
     _fill_holes(labels, params)
@@ -370,6 +384,20 @@ def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistic
     if params.colour_model == "hsi":
         return _hsi_labels(a, inv_full_scale, ref, params)
     return _log_rgb_labels(a, box, params)
+
+
+def _colour_labels_and_texture(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
+                               box: tuple[int, int, int, int],
+                               params: SegmentationParameters) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`_colour_labels` and :func:`_smooth_pixels`, one after the other."""
+    return _colour_labels(a, inv_full_scale, ref, box, params), _smooth_pixels(a, box, params)
+
+
+def _smooth_pixels(a: np.ndarray, box: tuple[int, int, int, int], params: SegmentationParameters) -> np.ndarray | None:
+    """The shadow texture test's smooth pixels (``bool (H, W)``), or None when it is not made."""
+    if not params.shadow_rule:
+        return None
+    return smooth_pixels(grey_levels(a), box, params=params.shadow_texture)
 
 
 def _stereo_cue(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int],
