@@ -105,7 +105,7 @@ def test_segment_turns_a_smooth_dark_face_read_as_shadow_into_an_obstacle():
     colour rule alone calls it shadow; with the texture test it is an obstacle, while a real
     cast shadow (texture kept) stays shadow."""
     rng = np.random.default_rng(5)
-    texture = _textured((120, 160), seed=6, contrast=6.0)[..., None] / 120.0
+    texture = _textured((120, 160), seed=6, contrast=8.0)[..., None] / 120.0
     image = np.array((90.0, 140.0, 60.0)) * texture
     skylight = np.array((0.57, 0.625, 0.71))
     image[20:60, 10:70] *= skylight                        # cast shadow
@@ -122,12 +122,12 @@ def test_segment_turns_a_smooth_dark_face_read_as_shadow_into_an_obstacle():
 @pytest.mark.slow
 def test_synthetic_scenes_with_darkened_tiles_colour_alone():
     """Seeds 15 and 20 (boxes of darkened tiles read as shadow): colour-alone recall rises from
-    below 30 % to above 80 %; the shadows the boxes cast lose a rim to the widening (under 4 %)."""
+    below 30 % to above 70 %, shadows stay ground."""
     from stereo_obstacles.segmentation_evaluation import evaluate_synthetic, total
 
     off = SegmentationParameters(shadow_texture=ShadowTextureParameters(min_relative_texture=0.0))
     before = total(evaluate_synthetic([15, 20], stereo=False, params=off))
     after = total(evaluate_synthetic([15, 20], stereo=False))
     assert before.recall < 0.3
-    assert after.recall > 0.8
-    assert after.shadow_to_obstacle_rate < 0.04
+    assert after.recall > 0.7
+    assert after.shadow_to_obstacle_rate < 0.02

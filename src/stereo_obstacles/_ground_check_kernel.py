@@ -17,15 +17,12 @@ validity (1 or 0)."""
 
 
 @njit(cache=CACHE, nogil=True, inline="always")
-def _derivative(row_or_column, i, n):
-    """Central difference of a 1-D sequence at ``i`` (one-sided at the ends, 0 when ``n == 1``)."""
-    if n == 1:
-        return 0.0
-    if i == 0:
-        return row_or_column[1] - row_or_column[0]
-    if i == n - 1:
-        return row_or_column[n - 1] - row_or_column[n - 2]
-    return 0.5 * (row_or_column[i + 1] - row_or_column[i - 1])
+def _neighbours(i, n):
+    """Indices ``(before, after)`` and the step between them for a central difference at ``i``
+    of a sequence of ``n`` (one-sided at the ends; the step is 0 when ``n == 1``)."""
+    before = max(i - 1, 0)
+    after = min(i + 1, n - 1)
+    return before, after, after - before
 
 
 @njit(cache=CACHE, nogil=True)
@@ -42,9 +39,11 @@ def ground_warp_terms_kernel(left, right, a, b, c, weight_x, weight_y, terms):
     """
     h, w = left.shape
     for y in range(h):
+        up, down, dy = _neighbours(y, h)
         for x in range(w):
-            gx = _derivative(left[y], x, w)
-            gy = _derivative(left[:, x], y, h)
+            before, after, dx = _neighbours(x, w)
+            gx = (left[y, after] - left[y, before]) / dx if dx > 0 else 0.0
+            gy = (left[down, x] - left[up, x]) / dy if dy > 0 else 0.0
             terms[y, x, 2] = weight_x * gx * gx + weight_y * gy * gy
             d = a * x + b * y + c
             xr = x - d

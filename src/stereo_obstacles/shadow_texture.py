@@ -10,9 +10,9 @@ pixels labelled shadow had a median relative texture of 0.2-0.3 times the refere
 true shadow pixels 0.8-1.1 (docs/segmentation.md).
 
 :func:`smooth_pixels` and :func:`textureless_shadow` mark the shadow pixels whose relative texture is below
-``min_relative_texture`` times the reference area's median (measured on 2 x 2 blocks), smoothed
-by a vote and widened into the shadow (the windows on a smooth face's rim see its edge);
-phase 1 makes them obstacles. The sensor noise variance comes from the image itself
+``min_relative_texture`` times the reference area's median, smoothed by a vote and widened
+into the shadow (the windows on a smooth face's rim see its edge); phase 1 makes them
+obstacles. The sensor noise variance comes from the image itself
 (:func:`noise_floor`), so the test needs one image only. Where the reference area's own
 texture is not clearly above the noise (a smooth floor), the test is not made.
 """
@@ -45,12 +45,9 @@ class ShadowTextureParameters:
     min_relative_texture
         A shadow pixel whose relative texture is below this times the reference area's
         median is textureless; 0 turns the test off.
-    block_px
-        The texture is measured on the grey image averaged over ``block_px`` squares (2: a
-        quarter of the work; it scored within 0.05 points of BER of full resolution).
     window_px
-        Side of the square over which the local mean and standard deviation are taken, in
-        blocks (odd; 7 blocks of 2 px are 14 px).
+        Side of the square over which the local mean and standard deviation are taken,
+        pixels (odd).
     vote_window_px, vote_fraction
         A textureless shadow pixel becomes an obstacle only when more than ``vote_fraction``
         of the ``vote_window_px`` square around it is textureless shadow too (an obstacle
@@ -68,9 +65,8 @@ class ShadowTextureParameters:
         whose only texture is sensor noise, a shadow has nothing to keep.
     """
 
-    min_relative_texture: float = 0.4
-    block_px: int = 2
-    window_px: int = 7
+    min_relative_texture: float = 0.3
+    window_px: int = 9
     vote_window_px: int = 15
     vote_fraction: float = 0.5
     widen_px: int = 4
@@ -82,10 +78,8 @@ class ShadowTextureParameters:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 255 or value % 2 == 0:
                 raise InvalidInputError(f"{name} must be an odd integer in [1, 255], got {value!r}")
-        for name, low in (("block_px", 1), ("widen_px", 0)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= 64:
-                raise InvalidInputError(f"{name} must be an integer in [{low}, 64], got {value!r}")
+        if isinstance(self.widen_px, bool) or not isinstance(self.widen_px, int) or not 0 <= self.widen_px <= 64:
+            raise InvalidInputError(f"widen_px must be an integer in [0, 64], got {self.widen_px!r}")
         for name, low, high in (("min_relative_texture", 0.0, 10.0), ("vote_fraction", 0.0, 0.99),
                                 ("noise_percentile", 0.0, 100.0), ("min_reference_snr", 0.0, 1000.0)):
             value = getattr(self, name)
@@ -167,24 +161,16 @@ def smooth_pixels(grey: np.ndarray, box: tuple[int, int, int, int], *,
     """
     if params.min_relative_texture <= 0.0:
         return None
-    h, w = grey.shape
-    k = params.block_px
-    if k > 1:
-        grey = cv2.resize(grey, (max(1, w // k), max(1, h // k)), interpolation=cv2.INTER_AREA)
     noise = noise_floor(grey, window_px=params.window_px, percentile=params.noise_percentile)
     variance, mean = texture_variance(grey, noise, params.window_px)
-    x0, y0, x1, y1 = (v // k for v in box)
-    y1, x1 = max(y1, y0 + 1), max(x1, x0 + 1)
+    x0, y0, x1, y1 = box
     if not float(np.median(variance[y0:y1, x0:x1])) >= params.min_reference_snr * noise:
         logger.debug("shadow texture test skipped: the reference area's texture is not %.1f times the noise "
                      "variance %.3f", params.min_reference_snr, noise)
         return None
     relative = np.sqrt(variance) / np.maximum(mean, 1.0)
     reference = float(np.median(relative[y0:y1, x0:x1]))
-    smooth = relative < np.float32(params.min_relative_texture * reference)
-    if k > 1:
-        smooth = cv2.resize(smooth.view(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST).view(np.bool_)
-    return smooth
+    return relative < np.float32(params.min_relative_texture * reference)
 
 
 def textureless_shadow(smooth: np.ndarray | None, shadow: np.ndarray, *,
