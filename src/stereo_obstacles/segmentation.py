@@ -43,6 +43,10 @@ too dark to measure; obstacle otherwise.
    and regions enclosed by obstacle pixels up to ``max_hole_fraction`` of the image. These
    are area tests, so a thin long pole stays.
 
+In both colour models, shadow pixels that have lost the ground's texture (relative to their
+brightness) become obstacles: a cast shadow keeps the texture of the ground it falls on, a
+smooth dark face does not (:mod:`stereo_obstacles.shadow_texture`, beyond the paper).
+
 Given the right image of a rectified pair as well (``segment(left, right=right)``), a stereo
 cue is added to either colour model (:mod:`stereo_obstacles.ground_check`, beyond the paper):
 pixels that the right image does not see on the ground plane, estimated from the same
