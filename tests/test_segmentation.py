@@ -117,11 +117,14 @@ def test_uint16_input_gives_the_same_labels():
     np.testing.assert_array_equal(eight, sixteen)
 
 
-def test_unusable_reference_is_an_error():
+def test_unusable_reference_is_an_error(caplog):
     rgb = _u8(_ground(GREEN))
     rgb[100:, :] = 3                                     # black bottom: nothing to measure
     with pytest.raises(InvalidInputError, match="reference area .* unusable"):
         segment(rgb)
+    with pytest.raises(InvalidInputError, match="reference area .* unusable"):
+        segment(rgb, right=rgb)                          # before any stereo work, no warning of it
+    assert "stereo ground check" not in caplog.text
 
 
 @pytest.mark.parametrize("kwargs, match", [

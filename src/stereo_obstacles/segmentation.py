@@ -347,18 +347,23 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         raise InvalidInputError(f"reference must be a ReferenceArea, got {type(reference).__name__}")
     if not isinstance(params, SegmentationParameters):
         raise InvalidInputError(f"params must be SegmentationParameters, got {type(params).__name__}")
-    box = reference.to_pixels(a.shape[0], a.shape[1])
-    # two tasks at once on the two cores (the kernels and OpenCV release the GIL): the reference
-    # statistics and colour labels beside the texture map, or (longer) all three beside the
-    # stereo cue
+    x0, y0, x1, y1 = box = reference.to_pixels(a.shape[0], a.shape[1])
+    step = params.reference.sample_step(y1 - y0, x1 - x0)
+    area = a[y0:y1:step, x0:x1:step]
+    area_hsi = rgb_to_hsi(area, min_intensity=params.min_intensity, min_saturation=params.min_saturation)
+    ref = reference_statistics(area, area_hsi, box, params=params.reference)
+    # two tasks at once on the two cores (the kernels and OpenCV release the GIL): the colour
+    # labels beside the texture map, or (longer) both beside the stereo cue
     if b is None:
-        (ref, labels, _), smooth = run_each_in_threads([
-            (_colour_stage, a, inv_full_scale, box, params, False), (_smooth_pixels, a, box, params)])
+        labels, smooth = run_each_in_threads([(_colour_labels, a, inv_full_scale, ref, box, params),
+                                              (_smooth_pixels, a, box, params)])
         ground = None
     else:
-        (ref, labels, smooth), ground = run_each_in_threads([
-            (_colour_stage, a, inv_full_scale, box, params, True), (_stereo_cue, a, b, box, params.ground_check)])
-    labels[textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)] = Label.OBSTACLE
+        (labels, smooth), ground = run_each_in_threads([
+            (_colour_labels_and_texture, a, inv_full_scale, ref, box, params),
+            (_stereo_cue, a, b, box, params.ground_check)])
+    if smooth is not None:
+        labels[textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)] = Label.OBSTACLE
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
     _fill_holes(labels, params)
@@ -387,18 +392,11 @@ def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistic
     return _log_rgb_labels(a, box, params)
 
 
-def _colour_stage(a: np.ndarray, inv_full_scale: float, box: tuple[int, int, int, int],
-                  params: SegmentationParameters,
-                  with_texture: bool) -> tuple[ReferenceStatistics, np.ndarray, np.ndarray | None]:
-    """The reference statistics, the colour labels and (when ``with_texture``) the shadow
-    texture test's smooth pixels, one after the other."""
-    x0, y0, x1, y1 = box
-    step = params.reference.sample_step(y1 - y0, x1 - x0)
-    area = a[y0:y1:step, x0:x1:step]
-    area_hsi = rgb_to_hsi(area, min_intensity=params.min_intensity, min_saturation=params.min_saturation)
-    ref = reference_statistics(area, area_hsi, box, params=params.reference)
-    labels = _colour_labels(a, inv_full_scale, ref, box, params)
-    return ref, labels, _smooth_pixels(a, box, params) if with_texture else None
+def _colour_labels_and_texture(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
+                               box: tuple[int, int, int, int],
+                               params: SegmentationParameters) -> tuple[np.ndarray, np.ndarray | None]:
+    """:func:`_colour_labels` and :func:`_smooth_pixels`, one after the other."""
+    return _colour_labels(a, inv_full_scale, ref, box, params), _smooth_pixels(a, box, params)
 
 
 def _smooth_pixels(a: np.ndarray, box: tuple[int, int, int, int], params: SegmentationParameters) -> np.ndarray | None:

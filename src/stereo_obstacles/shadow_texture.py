@@ -5,16 +5,17 @@ variations) stays and scales with the brightness: the relative texture ``s / m``
 standard deviation over local mean, after the sensor noise is taken out) of ground in shadow
 is about that of the lit ground in the reference area. A dark object that the colour rule
 reads as shadow (a box of dark, weathered metal on red pavers; the unlit face of a crate)
-usually has far less texture than the ground: on the synthetic world the missed obstacle
-pixels labelled shadow had a median relative texture of 0.2-0.3 times the reference's,
-true shadow pixels 0.8-1.1 (docs/segmentation.md).
+usually has far less texture than the ground: on the synthetic world 62 % of the missed
+obstacle pixels labelled shadow were below 0.3 times the reference's relative texture, 3 % of
+the true shadow pixels (docs/segmentation.md, "First look").
 
 :func:`smooth_pixels` and :func:`textureless_shadow` mark the shadow pixels whose relative texture is below
 ``min_relative_texture`` times the reference area's median, smoothed by a vote and widened
 into the shadow (the windows on a smooth face's rim see its edge); phase 1 makes them
 obstacles. The sensor noise variance comes from the image itself
 (:func:`noise_floor`), so the test needs one image only. Where the reference area's own
-texture is not clearly above the noise (a smooth floor), the test is not made.
+texture is not clearly above the noise and the rounding to grey levels (a smooth floor), the
+test is not made. Grey images are on the 0..255 scale (:func:`stereo_obstacles.ground_check.grey_levels`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,15 @@ from stereo_obstacles.ground_check import vote
 
 logger = logging.getLogger(__name__)
 
+MIN_NOISE_VARIANCE = 1.0 / 12.0
+"""Floor of the noise variance, grey levels squared: the rounding of an image to whole grey
+levels adds this much, so a clipped or flat-quantised image (noise floor 0) does not turn the
+rounding flicker of the lit ground into texture that a smooth shadow lacks."""
+
+MIN_REFERENCE_TEXTURE_VARIANCE = 1.0
+"""The reference area's median texture variance (noise taken out) must also reach this, grey
+levels squared (a standard deviation of 1 grey level), for the test to be made."""
+
 _NOISE_MASK = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], dtype=np.float32)
 """Second differences along both axes: flat to any ramp, white noise of variance ``v`` gives
 a response of variance ``36 v`` (the sum of the squared coefficients)."""
@@ -46,8 +56,8 @@ class ShadowTextureParameters:
         A shadow pixel whose relative texture is below this times the reference area's
         median is textureless; 0 turns the test off.
     window_px
-        Side of the square over which the local mean and standard deviation are taken,
-        pixels (odd).
+        Side of the square over which the local mean and standard deviation are taken, and
+        over which :func:`noise_floor` averages, pixels (odd).
     vote_window_px, vote_fraction
         A textureless shadow pixel becomes an obstacle only when more than ``vote_fraction``
         of the ``vote_window_px`` square around it is textureless shadow too (an obstacle
@@ -61,8 +71,9 @@ class ShadowTextureParameters:
         :func:`noise_floor`).
     min_reference_snr
         The test is made only when the reference area's median texture variance (noise taken
-        out) is at least this many times the noise variance: on a smooth floor, or ground
-        whose only texture is sensor noise, a shadow has nothing to keep.
+        out) is at least this many times the noise variance (and at least
+        :data:`MIN_REFERENCE_TEXTURE_VARIANCE`): on a smooth floor, or ground whose only
+        texture is sensor noise, a shadow has nothing to keep.
     """
 
     min_relative_texture: float = 0.3
@@ -94,7 +105,8 @@ def noise_floor(grey: np.ndarray, *, window_px: int = 9, percentile: float = 5.0
     The image is filtered with second differences along both axes (blind to constant and
     linear brightness), the squared response averaged over ``window_px`` squares and divided
     by 36 (white noise of variance ``v`` then averages ``v``); the ``percentile`` of that over
-    the image is the estimate: the flattest windows hold noise alone. Taking the flattest
+    the windows centred on every fourth row and column is the estimate, at least
+    :data:`MIN_NOISE_VARIANCE`: the flattest windows hold noise alone. Taking the flattest
     windows makes it low: about 0.6 ``v`` for white noise at the defaults (tested), so the
     texture test subtracts a little less noise than there is. An image without any flat
     window gives more.
@@ -102,13 +114,14 @@ def noise_floor(grey: np.ndarray, *, window_px: int = 9, percentile: float = 5.0
     Parameters
     ----------
     grey
-        ``float32 (H, W)`` grey image.
+        ``float32 (H, W)`` grey image, 0..255 scale.
     window_px, percentile
         Averaging window (odd, pixels) and the percentile taken.
     """
     response = cv2.filter2D(grey, cv2.CV_32F, _NOISE_MASK, borderType=cv2.BORDER_REFLECT)
     energy = cv2.blur(response * response, (window_px, window_px), borderType=cv2.BORDER_REFLECT)
-    return float(np.percentile(energy[::4, ::4], percentile)) / float(np.sum(_NOISE_MASK ** 2))
+    noise = float(np.percentile(energy[::4, ::4], percentile)) / float(np.sum(_NOISE_MASK ** 2))
+    return max(noise, MIN_NOISE_VARIANCE)
 
 
 def texture_variance(grey: np.ndarray, noise: float, window_px: int) -> tuple[np.ndarray, np.ndarray]:
@@ -146,7 +159,7 @@ def smooth_pixels(grey: np.ndarray, box: tuple[int, int, int, int], *,
     Parameters
     ----------
     grey
-        ``float32 (H, W)`` grey image (any scale).
+        ``float32 (H, W)`` grey image, 0..255 scale (the mean is floored at 1 grey level).
     box
         Reference area ``(x0, y0, x1, y1)`` in pixels, end exclusive: the lit ground whose
         texture a shadow must keep.
@@ -164,9 +177,10 @@ def smooth_pixels(grey: np.ndarray, box: tuple[int, int, int, int], *,
     noise = noise_floor(grey, window_px=params.window_px, percentile=params.noise_percentile)
     variance, mean = texture_variance(grey, noise, params.window_px)
     x0, y0, x1, y1 = box
-    if not float(np.median(variance[y0:y1, x0:x1])) >= params.min_reference_snr * noise:
-        logger.debug("shadow texture test skipped: the reference area's texture is not %.1f times the noise "
-                     "variance %.3f", params.min_reference_snr, noise)
+    needed = max(params.min_reference_snr * noise, MIN_REFERENCE_TEXTURE_VARIANCE)
+    if not float(np.median(variance[y0:y1, x0:x1])) >= needed:
+        logger.debug("shadow texture test skipped: the reference area's texture variance is below %.3f "
+                     "(noise variance %.3f)", needed, noise)
         return None
     relative = np.sqrt(variance) / np.maximum(mean, 1.0)
     reference = float(np.median(relative[y0:y1, x0:x1]))
