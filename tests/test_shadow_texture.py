@@ -172,3 +172,24 @@ def test_synthetic_scenes_with_darkened_tiles_colour_alone():
     assert before.recall < 0.3
     assert after.recall > 0.7
     assert after.shadow_to_obstacle_rate < 0.02
+
+
+def test_segment_command_records_the_texture_test_and_can_turn_it_off(tmp_path):
+    import json
+
+    from stereo_obstacles.cli import main
+    from stereo_obstacles.fileio import read_labels, write_image
+
+    rgb, face, _ = _face_and_shadow_scene()
+    write_image(tmp_path / "in.png", rgb)
+    records = {}
+    for name, extra in (("on", []), ("off", ["--no-shadow-texture"])):
+        out = tmp_path / f"{name}.png"
+        assert main(["segment", str(tmp_path / "in.png"), "-o", str(out)] + extra) == 0
+        records[name] = (read_labels(out), json.loads((tmp_path / f"{name}.png.json").read_text()))
+    labels_on, record_on = records["on"]
+    labels_off, record_off = records["off"]
+    assert np.mean(labels_on[face] == Label.OBSTACLE) > 0.9 and np.mean(labels_off[face] == Label.SHADOW) > 0.9
+    assert record_on["shadow_texture"]["made"] is True
+    assert 0.05 < record_on["shadow_texture"]["obstacle_fraction"] < 0.2     # the face: 60 x 40 of 160 x 120
+    assert record_off["shadow_texture"] == {"made": False, "obstacle_fraction": None}

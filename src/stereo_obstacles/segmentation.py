@@ -225,12 +225,16 @@ class SegmentationResult:
     ground_check
         The stereo cue (ground plane and off-ground pixels) when the right image was given and
         the plane could be estimated; None otherwise.
+    textureless_shadow
+        ``bool (H, W)``: the shadow pixels the shadow texture test made obstacles; None when
+        the test was not made (off, no shadow rule, or a reference area without texture).
     """
 
     labels: np.ndarray
     reference: ReferenceStatistics
     params: SegmentationParameters
     ground_check: GroundCheck | None = None
+    textureless_shadow: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if self.labels.dtype != np.uint8 or self.labels.ndim != 2:
@@ -362,14 +366,17 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         (labels, smooth), ground = run_each_in_threads([
             (_colour_labels_and_texture, a, inv_full_scale, ref, box, params),
             (_stereo_cue, a, b, box, params.ground_check)])
+    smooth_shadow = None
     if smooth is not None:
-        labels[textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)] = Label.OBSTACLE
+        smooth_shadow = textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)
+        labels[smooth_shadow] = Label.OBSTACLE
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
     _fill_holes(labels, params)
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
                  100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
-    return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground)
+    return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground,
+                              textureless_shadow=smooth_shadow)
 
 
 def _fill_holes(labels: np.ndarray, params: SegmentationParameters) -> None:

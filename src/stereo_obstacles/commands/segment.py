@@ -36,6 +36,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "0,0.85,1,1)")
     parser.add_argument("--no-shadow-rule", action="store_true",
                         help="do not recognise shadows (the ablation: shadows become obstacles)")
+    parser.add_argument("--no-shadow-texture", action="store_true",
+                        help="do not make obstacles of shadow pixels that lack the ground's texture "
+                             "(smooth dark faces; docs/segmentation.md)")
     parser.add_argument("--colour-model", choices=("log_rgb", "hsi"), default="log_rgb",
                         help="ground colours as a log-RGB colour table (default) or the paper's HSI rule")
     parser.set_defaults(handler=run)
@@ -65,11 +68,15 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.labels import Label, colorize_labels
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
     from stereo_obstacles.segmentation import SegmentationParameters, segment
+    from stereo_obstacles.shadow_texture import ShadowTextureParameters
 
     rgb = read_image(args.image, mode="color")
     right = None if args.right is None else read_image(args.right, mode="color")
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
-    params = SegmentationParameters(shadow_rule=not args.no_shadow_rule, colour_model=args.colour_model)
+    texture = (ShadowTextureParameters(min_relative_texture=0.0) if args.no_shadow_texture
+               else ShadowTextureParameters())
+    params = SegmentationParameters(shadow_rule=not args.no_shadow_rule, colour_model=args.colour_model,
+                                    shadow_texture=texture)
     result = segment(rgb, right=right, reference=reference, params=params)
     write_labels(args.output, result.labels)
     if args.overlay:
@@ -84,6 +91,9 @@ def run(args: argparse.Namespace) -> int:
                "shadow_rule": params.shadow_rule, "colour_model": params.colour_model,
                "right_image": None if args.right is None else str(args.right),
                "ground_check": _ground_check_record(result.ground_check),
+               "shadow_texture": {"made": result.textureless_shadow is not None,
+                                  "obstacle_fraction": (None if result.textureless_shadow is None
+                                                        else float(result.textureless_shadow.mean()))},
                "fractions": {label.name.lower(): float(np.mean(result.labels == label))
                              for label in (Label.GROUND, Label.SHADOW, Label.OBSTACLE, Label.UNKNOWN)}}
     write_text_atomic(f"{args.output}.json", json.dumps(sidecar, indent=2) + "\n")
