@@ -34,7 +34,6 @@ and a rim of about ``window_px / 2`` around obstacles.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass, field
 
 import cv2
@@ -44,6 +43,7 @@ from stereo_obstacles._ground_check_kernel import (TERMS, ground_warp_terms_kern
                                                    window_variance_kernel)
 from stereo_obstacles.colour import check_rgb
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.ground_plane import GroundPlane, PlaneFitParameters, fit_plane_points
 
 logger = logging.getLogger(__name__)
@@ -117,23 +117,16 @@ class GroundCheckParameters:
         default_factory=lambda: PlaneFitParameters(inlier_threshold_px=0.5, min_inliers=10, min_slope_y=0.03))
 
     def __post_init__(self) -> None:
-        for name, low, high in (("window_px", 3, 255), ("vote_window_px", 1, 255), ("patch_rows_px", 3, 255),
-                                ("patch_cols_px", 3, 255)):
-            value = getattr(self, name)
-            if (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high
-                    or value % 2 == 0):
-                raise InvalidInputError(f"{name} must be an odd integer in [{low}, {high}], got {value!r}")
+        check_integers(self, (("window_px", 3, 255), ("vote_window_px", 1, 255), ("patch_rows_px", 3, 255),
+                              ("patch_cols_px", 3, 255)), odd=True)
         grid = self.patch_grid
         if (not isinstance(grid, tuple) or len(grid) != 2
                 or any(isinstance(n, bool) or not isinstance(n, int) or n < 1 for n in grid)):
             raise InvalidInputError(f"patch_grid must be a tuple of two integers >= 1, got {grid!r}")
-        for name, low, high in (("mismatch_factor", 1.0, 100.0), ("misalignment_px", 0.0, 10.0),
-                                ("row_misalignment_px", 0.0, 10.0), ("vote_fraction", 0.0, 0.99),
-                                ("min_patch_std", 0.0, 255.0), ("min_patch_correlation", 0.0, 1.0),
-                                ("max_disparity_fraction", 0.01, 1.0), ("min_inlier_fraction", 0.0, 1.0)):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
-                raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
+        check_numbers(self, (("mismatch_factor", 1.0, 100.0), ("misalignment_px", 0.0, 10.0),
+                             ("row_misalignment_px", 0.0, 10.0), ("vote_fraction", 0.0, 0.99),
+                             ("min_patch_std", 0.0, 255.0), ("min_patch_correlation", 0.0, 1.0),
+                             ("max_disparity_fraction", 0.01, 1.0), ("min_inlier_fraction", 0.0, 1.0)))
         if not isinstance(self.plane_fit, PlaneFitParameters):
             raise InvalidInputError(f"plane_fit must be PlaneFitParameters, got {type(self.plane_fit).__name__}")
 

@@ -21,13 +21,12 @@ test is not made. Grey images are on the 0..255 scale (:func:`stereo_obstacles.g
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.ground_check import vote
 
 logger = logging.getLogger(__name__)
@@ -85,18 +84,10 @@ class ShadowTextureParameters:
     min_reference_snr: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ("window_px", "vote_window_px"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 255 or value % 2 == 0:
-                raise InvalidInputError(f"{name} must be an odd integer in [1, 255], got {value!r}")
-        if isinstance(self.widen_px, bool) or not isinstance(self.widen_px, int) or not 0 <= self.widen_px <= 64:
-            raise InvalidInputError(f"widen_px must be an integer in [0, 64], got {self.widen_px!r}")
-        for name, low, high in (("min_relative_texture", 0.0, 10.0), ("vote_fraction", 0.0, 0.99),
-                                ("noise_percentile", 0.0, 100.0), ("min_reference_snr", 0.0, 1000.0)):
-            value = getattr(self, name)
-            if (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
-                    or not low <= value <= high):
-                raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
+        check_integers(self, (("window_px", 1, 255), ("vote_window_px", 1, 255)), odd=True)
+        check_integers(self, (("widen_px", 0, 64),))
+        check_numbers(self, (("min_relative_texture", 0.0, 10.0), ("vote_fraction", 0.0, 0.99),
+                             ("noise_percentile", 0.0, 100.0), ("min_reference_snr", 0.0, 1000.0)))
 
 
 def noise_floor(grey: np.ndarray, *, window_px: int = 9, percentile: float = 5.0) -> float:

@@ -1,0 +1,45 @@
+"""Checks of the fields of the frozen parameter dataclasses, each failing with one clear line."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+from stereo_obstacles.errors import InvalidInputError
+
+
+def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> None:
+    """Each ``(name, low, high)``: ``owner.name`` must be a finite real number (not a bool) in
+    ``[low, high]``.
+
+    Raises
+    ------
+    InvalidInputError
+        ``"<name> must be in [low, high], got <value>"`` for the first field that is not.
+    """
+    for name, low, high in ranges:
+        value = getattr(owner, name)
+        if (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+                or not low <= value <= high):
+            raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
+
+
+def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd: bool = False) -> None:
+    """Each ``(name, low, high)``: ``owner.name`` must be an integer (not a bool) in
+    ``[low, high]``, and odd when ``odd`` (a window side).
+
+    Raises
+    ------
+    InvalidInputError
+        ``"<name> must be an (odd) integer in [low, high], got <value>"`` for the first field
+        that is not.
+    """
+    for name, low, high in ranges:
+        value = getattr(owner, name)
+        if (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high
+                or (odd and value % 2 == 0)):
+            kind = "an odd integer" if odd else "an integer"
+            raise InvalidInputError(f"{name} must be {kind} in [{low}, {high}], got {value!r}")
+
+
+__all__ = ["check_numbers", "check_integers"]

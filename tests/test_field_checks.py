@@ -1,0 +1,36 @@
+"""The shared checks of parameter fields."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers
+
+
+@dataclass
+class _Fields:
+    size: object = 5
+    share: object = 0.5
+
+
+@pytest.mark.parametrize("share", [-0.1, 1.5, float("nan"), float("inf"), True, "0.5", None])
+def test_numbers_outside_their_range_or_not_numbers_fail(share):
+    with pytest.raises(InvalidInputError, match=r"share must be in \[0.0, 1.0\], got"):
+        check_numbers(_Fields(share=share), (("share", 0.0, 1.0),))
+
+
+@pytest.mark.parametrize("size, odd, message", [
+    (4, True, "an odd integer"), (0, False, "an integer"), (2.0, False, "an integer"), (True, False, "an integer"),
+])
+def test_integers_outside_their_range_even_or_not_integers_fail(size, odd, message):
+    with pytest.raises(InvalidInputError, match=f"size must be {message} in \\[1, 9\\], got"):
+        check_integers(_Fields(size=size), (("size", 1, 9),), odd=odd)
+
+
+def test_valid_fields_pass():
+    check_numbers(_Fields(), (("share", 0.0, 1.0),))
+    check_integers(_Fields(), (("size", 1, 9),), odd=True)
+    check_integers(_Fields(size=4), (("size", 1, 9),))
