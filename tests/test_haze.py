@@ -56,7 +56,31 @@ def test_far_hazy_ground_becomes_ground_but_not_a_far_red_box_nor_near_pixels():
     assert not flipped[~obstacle].any()
 
 
-@pytest.mark.parametrize("case", ["dark horizon", "colour drifts near", "no sloping plane", "off"])
+def test_an_obstacle_standing_on_nearer_ground_keeps_its_far_rows():
+    """A pole whose base is near (row 150) reaches up into the far rows, with the ground's own
+    colour there (what haze or an untextured face could look like): none of it becomes ground;
+    the far band beside it does."""
+    rgb = _hazy_scene(k=0.5)
+    obstacle = np.zeros((HEIGHT, WIDTH), bool)
+    obstacle[41:56, :] = True                                      # the far band, called obstacle
+    obstacle[41:150, 120:130] = True                               # the pole, down to its base
+    flipped = hazy_ground(rgb, obstacle, estimate_haze(rgb, PLANE, BOX), BOX, min_intensity=0.05)
+    assert not flipped[:, 120:130].any()
+    assert np.mean(flipped[49:55, :90]) > 0.95
+
+
+def test_uint16_images_give_the_same_decision_and_estimate():
+    rgb = _hazy_scene(k=0.5)
+    wide = rgb.astype(np.uint16) * 257
+    narrow, deep = estimate_haze(rgb, PLANE, BOX), estimate_haze(wide, PLANE, BOX)
+    assert deep.k_px == pytest.approx(narrow.k_px, rel=1e-6)
+    dull = _hazy_scene(airlight=GROUND + (6.0, 5.0, 4.0))                 # no distinct airlight colour
+    assert estimate_haze(dull, PLANE, BOX) is None
+    assert estimate_haze(dull.astype(np.uint16) * 257, PLANE, BOX) is None
+
+
+@pytest.mark.parametrize("case", ["dark horizon", "colour drifts near", "no sloping plane", "off",
+                                  "horizon at infinity"])
 def test_no_estimate_when_the_image_does_not_show_haze(case):
     rgb, plane, params = _hazy_scene(), PLANE, HazeParameters()
     if case == "dark horizon":                                      # buildings or trees at the horizon
@@ -65,6 +89,8 @@ def test_no_estimate_when_the_image_does_not_show_haze(case):
         rgb = _hazy_scene(k=5.0)
     elif case == "no sloping plane":
         plane = GroundPlane(a=0.0, b=0.0, c=5.0)
+    elif case == "horizon at infinity":
+        plane = GroundPlane(a=0.0, b=1e-320, c=-5.0)
     else:
         params = HazeParameters(enabled=False)
     assert estimate_haze(rgb, plane, BOX, params=params) is None
@@ -74,6 +100,8 @@ def test_no_estimate_when_the_image_does_not_show_haze(case):
     ({"enabled": 1}, "enabled"), ({"window_px": 4}, "window_px"), ({"horizon_rows": 0}, "horizon_rows"),
     ({"estimate_disparity_px": (8.0, 0.5)}, "estimate_disparity_px"), ({"max_haze": 0.99}, "max_haze"),
     ({"min_distance_factor": 0.5}, "min_distance_factor"), ({"ground_fraction": float("nan")}, "ground_fraction"),
+    ({"estimate_disparity_px": (False, True)}, "estimate_disparity_px"), ({"near_disparity_px": 20.0}, "near_disparity_px"),
+    ({"min_haze": 0.7, "max_haze": 0.6}, "min_haze"),
 ])
 def test_parameters_are_validated(kwargs, match):
     with pytest.raises(InvalidInputError, match=match):

@@ -25,8 +25,13 @@ Then (:func:`hazy_ground`) only the far ground, at least ``min_distance_factor``
 as the reference area, is cleared of the haze, ``c0 = (c - A h) / (1 - h)`` (``h`` capped at
 ``max_haze``), and its obstacle pixels whose ``window_px`` square is mostly (``ground_fraction``)
 of the ground's colours (lit, shadowed or sunlit) become ground, unless the stereo check saw
-them off the ground. Near obstacles are never touched: on paved ground a wider band cost up to
-2.5 points of recall.
+them off the ground, and whose column of obstacle pixels does not run on, unbroken, down to
+ground half as far as the band's edge (an obstacle standing on nearer ground and reaching up
+into the far rows keeps its pixels).
+Nearer rows are never touched: on paved ground a wider band cost up to 2.5 points of recall.
+Flipped pixels become GROUND (a far cast shadow is not told apart). The colour test uses the
+log-RGB ground colour model whichever colour model phase 1 used (only the default, log-RGB,
+was evaluated).
 """
 
 from __future__ import annotations
@@ -97,11 +102,17 @@ class HazeParameters:
         check_integers(self, (("window_px", 1, 255),), odd=True)
         pair = self.estimate_disparity_px
         if (not isinstance(pair, tuple) or len(pair) != 2
-                or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in pair) or not 0 <= pair[0] < pair[1]):
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pair)
+                or not 0 <= pair[0] < pair[1]):
             raise InvalidInputError(f"estimate_disparity_px must be (low, high) with 0 <= low < high, got {pair!r}")
         check_numbers(self, (("min_airlight_ratio", 0.0, 100.0), ("near_disparity_px", 0.0, 1000.0),
                              ("max_near_haze", 0.0, 1.0), ("min_distance_factor", 1.0, 1000.0),
                              ("min_haze", 0.0, 1.0), ("max_haze", 0.0, 0.95), ("ground_fraction", 0.0, 1.0)))
+        if not self.estimate_disparity_px[0] <= self.near_disparity_px <= self.estimate_disparity_px[1]:
+            raise InvalidInputError(f"near_disparity_px must be within estimate_disparity_px "
+                                    f"{self.estimate_disparity_px}, got {self.near_disparity_px}")
+        if self.min_haze > self.max_haze:
+            raise InvalidInputError(f"min_haze must not exceed max_haze, got {self.min_haze} > {self.max_haze}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,16 +158,18 @@ def estimate_haze(rgb: np.ndarray, plane: GroundPlane, box: tuple[int, int, int,
         return None
     middle = width / 2.0
     row_disparity = plane.a * middle + plane.b * np.arange(height) + plane.c
-    horizon = int(round(-(plane.c + plane.a * middle) / plane.b))
-    if horizon < params.horizon_rows - 1 or horizon >= height - 2:
+    horizon_row = -(plane.c + plane.a * middle) / plane.b
+    if not (params.horizon_rows - 1 <= horizon_row < height - 2.5):       # also an infinite one (b ~ 0)
         return None
+    horizon = int(round(horizon_row))
     x0, y0, x1, y1 = box
     ground = np.median(rgb[y0:y1, x0:x1].reshape(-1, 3), axis=0).astype(np.float64)
     airlight = np.median(rgb[horizon - params.horizon_rows + 1:horizon + 1].reshape(-1, 3), axis=0).astype(np.float64)
     direction = airlight - ground
     length_sq = float(direction @ direction)
-    if length_sq < 100.0 or airlight.mean() < params.min_airlight_ratio * ground.mean():
-        return None
+    grey_level = float(np.iinfo(rgb.dtype).max) / 255.0                  # one 8-bit grey level in the image's units
+    if length_sq < (10.0 * grey_level) ** 2 or airlight.mean() < params.min_airlight_ratio * ground.mean():
+        return None                                                        # no distinct airlight colour
     low, high = params.estimate_disparity_px
     rows = horizon + 1 + np.flatnonzero(row_disparity[horizon + 1:] >= low)
     rows = rows[np.cumsum(row_disparity[rows] > high) == 0]           # down to the first row beyond high
@@ -173,6 +186,22 @@ def estimate_haze(rgb: np.ndarray, plane: GroundPlane, box: tuple[int, int, int,
         haze = np.where(row_disparity > 0, -np.expm1(-k / np.maximum(row_disparity, 1e-12)), 1.0)
     return HazeEstimate(airlight=tuple(float(v) for v in airlight), k_px=k,
                         haze=np.minimum(haze, params.max_haze), row_disparity=row_disparity)
+
+
+def _standing_on_nearer_ground(obstacle: np.ndarray, rows: np.ndarray, near_row: int) -> np.ndarray:
+    """``bool (len(rows), W)``: pixels of the contiguous band ``rows`` whose column of obstacle
+    pixels runs on, unbroken, down to ``near_row`` (where the ground is at most half as far as
+    at the band's edge): part of an obstacle standing on nearer ground (a pole, a box taller than
+    the camera), not of the far ground or of the haze's fringe just below the band."""
+    height, width = obstacle.shape
+    below = obstacle[near_row] if near_row < height else np.zeros(width, dtype=np.bool_)
+    for row in range(min(near_row, height) - 1, int(rows[-1]), -1):
+        below = obstacle[row] & below
+    runs = np.empty((rows.size, width), dtype=np.bool_)
+    for i in range(rows.size - 1, -1, -1):
+        below = obstacle[rows[i]] & below
+        runs[i] = below
+    return runs
 
 
 def hazy_ground(rgb: np.ndarray, obstacle: np.ndarray, estimate: HazeEstimate, box: tuple[int, int, int, int], *,
@@ -217,7 +246,10 @@ def hazy_ground(rgb: np.ndarray, obstacle: np.ndarray, estimate: HazeEstimate, b
     flags, _ = colour_flags(np.ascontiguousarray(cleared.astype(rgb.dtype)), model, min_intensity)
     ground_like = (flags[..., 0] | flags[..., 1] | flags[..., 2]).astype(np.float32)
     share = cv2.blur(ground_like, (params.window_px, params.window_px))
-    result[rows] = obstacle[rows] & (share[rows - top] > params.ground_fraction)
+    edge = reference_disparity / params.min_distance_factor
+    near_row = int(np.searchsorted(d, 2.0 * edge)) if d[-1] >= 2.0 * edge else d.size   # d grows down the image
+    standing = _standing_on_nearer_ground(obstacle, rows, near_row)
+    result[rows] = obstacle[rows] & (share[rows - top] > params.ground_fraction) & ~standing
     logger.debug("haze: airlight %s, k %.3f px, %d far obstacle pixels made ground", estimate.airlight,
                  estimate.k_px, np.count_nonzero(result))
     return result

@@ -384,6 +384,8 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     _fill_holes(labels, params)
     if ground is not None:
         _clear_haze(a, labels, ground, box, params)
+    if smooth_shadow is not None:
+        smooth_shadow &= labels == Label.OBSTACLE          # what the texture test made obstacle and still is
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
                  100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
     return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground,
