@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import pytest
 
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_types
 
 
 @dataclass
@@ -34,3 +34,9 @@ def test_valid_fields_pass():
     check_numbers(_Fields(), (("share", 0.0, 1.0),))
     check_integers(_Fields(), (("size", 1, 9),), odd=True)
     check_integers(_Fields(size=4), (("size", 1, 9),))
+
+
+def test_a_nested_field_of_the_wrong_type_fails():
+    with pytest.raises(InvalidInputError, match="share must be int, got float"):
+        check_types(_Fields(), (("share", int),))
+    check_types(_Fields(), (("size", int),))

@@ -42,4 +42,19 @@ def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd
             raise InvalidInputError(f"{name} must be {kind} in [{low}, {high}], got {value!r}")
 
 
-__all__ = ["check_numbers", "check_integers"]
+def check_types(owner: object, kinds: Iterable[tuple[str, type]]) -> None:
+    """Each ``(name, kind)``: ``owner.name`` must be an instance of ``kind`` (a nested parameter
+    dataclass).
+
+    Raises
+    ------
+    InvalidInputError
+        ``"<name> must be <Kind>, got <type>"`` for the first field that is not.
+    """
+    for name, kind in kinds:
+        value = getattr(owner, name)
+        if not isinstance(value, kind):
+            raise InvalidInputError(f"{name} must be {kind.__name__}, got {type(value).__name__}")
+
+
+__all__ = ["check_numbers", "check_integers", "check_types"]

@@ -73,6 +73,7 @@ from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_mod
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_types
 from stereo_obstacles.ground_check import (GroundCheck, GroundCheckParameters, check_colour_pair, check_ground,
                                            grey_levels)
 from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
@@ -176,21 +177,11 @@ class SegmentationParameters:
 
     def __post_init__(self) -> None:
         check_thresholds(self.min_intensity, self.min_saturation)
-        if not isinstance(self.haze, HazeParameters):
-            raise InvalidInputError(f"haze must be HazeParameters, got {type(self.haze).__name__}")
-        if not isinstance(self.shadow_texture, ShadowTextureParameters):
-            raise InvalidInputError("shadow_texture must be ShadowTextureParameters, got "
-                                    f"{type(self.shadow_texture).__name__}")
-        if not isinstance(self.ground_check, GroundCheckParameters):
-            raise InvalidInputError("ground_check must be GroundCheckParameters, got "
-                                    f"{type(self.ground_check).__name__}")
+        check_types(self, (("ground_colour", GroundColourParameters), ("reference", ReferenceParameters),
+                           ("shadow_texture", ShadowTextureParameters), ("ground_check", GroundCheckParameters),
+                           ("haze", HazeParameters)))
         if self.colour_model not in ("log_rgb", "hsi"):
             raise InvalidInputError(f"colour_model must be 'log_rgb' or 'hsi', got {self.colour_model!r}")
-        if not isinstance(self.ground_colour, GroundColourParameters):
-            raise InvalidInputError("ground_colour must be GroundColourParameters, got "
-                                    f"{type(self.ground_colour).__name__}")
-        if not isinstance(self.reference, ReferenceParameters):
-            raise InvalidInputError(f"reference must be ReferenceParameters, got {type(self.reference).__name__}")
         if not isinstance(self.shadow_rule, bool):
             raise InvalidInputError(f"shadow_rule must be a bool, got {self.shadow_rule!r}")
         if not 0.0 < self.shadow_min_ratio < self.shadow_max_ratio < 1.0:
