@@ -96,7 +96,7 @@ def test_kernel_matches_a_slow_reference(seed):
     right = rng.uniform(0, 255, (h, w)).astype(np.float32)
     a, b, c = rng.uniform(-0.2, 0.2), rng.uniform(0.1, 1.0), rng.uniform(-3.0, 2.0)
     terms = np.empty((h, w, TERMS), np.float32)
-    ground_warp_terms_kernel(left, right, a, b, c, 0.5, 0.25, terms)
+    ground_warp_terms_kernel(left, right, a, b, c, 0.5, 0.25, 0, terms)
     want_difference, want_energy, want_valid = _reference_terms(left, right, a, b, c, 0.5, 0.25)
     valid = terms[..., 3] == 1
     np.testing.assert_array_equal(valid, want_valid)

@@ -5,8 +5,7 @@ The public wrapper is :func:`stereo_obstacles.ground_check.off_ground_mask`.
 
 from __future__ import annotations
 
-import math
-
+import numpy as np
 from numba import njit
 
 from stereo_obstacles._similarity_kernel import CACHE
@@ -16,49 +15,55 @@ TERMS = 4
 validity (1 or 0)."""
 
 
-@njit(cache=CACHE, nogil=True, inline="always")
-def _neighbours(i, n):
-    """Indices ``(before, after)`` and the step between them for a central difference at ``i``
-    of a sequence of ``n`` (one-sided at the ends; the step is 0 when ``n == 1``)."""
-    before = max(i - 1, 0)
-    after = min(i + 1, n - 1)
-    return before, after, after - before
-
-
 @njit(cache=CACHE, nogil=True)
-def ground_warp_terms_kernel(left, right, a, b, c, weight_x, weight_y, terms):
+def ground_warp_terms_kernel(left, right, a, b, c, weight_x, weight_y, first_row, terms):
     """Left minus right seen through the ground plane, and the left's edge energy.
 
     ``left``, ``right``: ``float32 (H, W)`` grey images. The ground plane's disparity at
     ``(x, y)`` is ``a x + b y + c``; the right image is read at ``x - d`` by linear
-    interpolation along the row (a rectified pair: same row). Writes ``terms``
-    ``(H, W, TERMS)``: the difference ``left - right``, its square, the edge energy
-    ``weight_x gx^2 + weight_y gy^2`` with ``gx``, ``gy`` the gradient of ``left``, and 1 where
-    the pixel is valid (the plane's disparity is positive and its right column lies inside the
-    image), else 0 with a zero difference.
+    interpolation along the row (a rectified pair: same row). Writes rows ``first_row`` to
+    ``H - 1`` of ``terms`` ``(H, W, TERMS)`` (the rows above are left as they are): the
+    difference ``left - right``, its square, the edge energy ``weight_x gx^2 + weight_y gy^2``
+    with ``gx``, ``gy`` the central-difference gradient of ``left`` (one-sided at the image
+    border), and 1 where the pixel is valid (the plane's disparity is positive and its right
+    column lies inside the image), else 0 with a zero difference.
+
+    Each row is swept in separate passes without divisions or index clamping in the inner
+    loops, so that the compiler can vectorise them (about 2x faster than a per-pixel loop).
     """
     h, w = left.shape
-    for y in range(h):
-        up, down, dy = _neighbours(y, h)
+    half = np.float32(0.5)
+    for y in range(first_row, h):
+        up, down = max(y - 1, 0), min(y + 1, h - 1)
+        row_step = np.float32(1.0 / (down - up)) if down > up else np.float32(0.0)
+        out = terms[y]
+        if w > 1:
+            gx = left[y, 1] - left[y, 0]
+            out[0, 2] = weight_x * gx * gx
+            gx = left[y, w - 1] - left[y, w - 2]
+            out[w - 1, 2] = weight_x * gx * gx
+        else:
+            out[0, 2] = 0.0
+        for x in range(1, w - 1):
+            gx = (left[y, x + 1] - left[y, x - 1]) * half
+            out[x, 2] = weight_x * gx * gx
         for x in range(w):
-            before, after, dx = _neighbours(x, w)
-            gx = (left[y, after] - left[y, before]) / dx if dx > 0 else 0.0
-            gy = (left[down, x] - left[up, x]) / dy if dy > 0 else 0.0
-            terms[y, x, 2] = weight_x * gx * gx + weight_y * gy * gy
+            gy = (left[down, x] - left[up, x]) * row_step
+            out[x, 2] += weight_y * gy * gy
+        for x in range(w):
             d = a * x + b * y + c
             xr = x - d
-            if d > 0.0 and 0.0 <= xr <= w - 1:
-                x0 = min(int(math.floor(xr)), w - 1)
-                t = xr - x0                          # 0 when xr is the last column
-                r = right[y, x0] if t == 0.0 else right[y, x0] * (1.0 - t) + right[y, x0 + 1] * t
-                difference = left[y, x] - r
-                terms[y, x, 0] = difference
-                terms[y, x, 1] = difference * difference
-                terms[y, x, 3] = 1.0
+            if w > 1 and d > 0.0 and 0.0 <= xr <= w - 1:
+                x0 = min(int(xr), w - 2)             # xr >= 0: int() is the floor
+                t = xr - x0                          # 1 when xr is the last column
+                difference = left[y, x] - (right[y, x0] * (1.0 - t) + right[y, x0 + 1] * t)
+                out[x, 0] = difference
+                out[x, 1] = difference * difference
+                out[x, 3] = 1.0
             else:
-                terms[y, x, 0] = 0.0
-                terms[y, x, 1] = 0.0
-                terms[y, x, 3] = 0.0
+                out[x, 0] = 0.0
+                out[x, 1] = 0.0
+                out[x, 3] = 0.0
 
 
 @njit(cache=CACHE, nogil=True, inline="always")

@@ -34,6 +34,7 @@ and a rim of about ``window_px / 2`` around obstacles.
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, field
 
 import cv2
@@ -262,20 +263,35 @@ def off_ground_mask(left: np.ndarray, right: np.ndarray, plane: GroundPlane, box
     """
     left = np.ascontiguousarray(left, dtype=np.float32)
     right = np.ascontiguousarray(right, dtype=np.float32)
+    x0, y0, x1, y1 = box
+    # rows above the plane's horizon have no valid pixel: their windows are not judged, so the
+    # work starts half a window above the first row where the plane's disparity can be positive
+    top = min(max(0, _first_positive_row(plane, left.shape) - params.window_px // 2), y0)
     terms = np.empty(left.shape + (TERMS,), dtype=np.float32)
     ground_warp_terms_kernel(left, right, plane.a, plane.b, plane.c, params.misalignment_px ** 2,
-                             params.row_misalignment_px ** 2, terms)
+                             params.row_misalignment_px ** 2, top, terms)
+    terms = terms[top:]
     means = cv2.blur(terms, (params.window_px, params.window_px))
-    x0, y0, x1, y1 = box
     variance = np.empty((y1 - y0, x1 - x0), dtype=np.float32)
-    window_variance_kernel(means[y0:y1, x0:x1], MIN_VALID_SHARE, variance)
-    reference = variance[(variance >= 0) & (terms[y0:y1, x0:x1, 3] > 0)]
+    window_variance_kernel(means[y0 - top:y1 - top, x0:x1], MIN_VALID_SHARE, variance)
+    reference = variance[(variance >= 0) & (terms[y0 - top:y1 - top, x0:x1, 3] > 0)]
     noise = max(float(np.median(reference)) if reference.size else 0.0, MIN_NOISE_VARIANCE)
-    off = np.empty(left.shape, dtype=np.bool_)
-    off_ground_kernel(terms, means, MIN_VALID_SHARE, np.float32(params.mismatch_factor * noise), off)
+    off = np.zeros(left.shape, dtype=np.bool_)
+    off_ground_kernel(terms, means, MIN_VALID_SHARE, np.float32(params.mismatch_factor * noise), off[top:])
     if params.vote_window_px > 1:
-        off = vote(off, terms[..., 3] > 0, params.vote_window_px, params.vote_fraction)
+        off[top:] = vote(off[top:], terms[..., 3] > 0, params.vote_window_px, params.vote_fraction)
     return off, noise
+
+
+def _first_positive_row(plane: GroundPlane, shape: tuple[int, int]) -> int:
+    """The first row of an ``(H, W)`` image where the plane's disparity ``a x + b y + c`` may be
+    positive for some column (0 when the plane does not rise towards the bottom, ``H`` when
+    it is nowhere positive); every pixel above it has ``d <= 0``."""
+    height, width = shape
+    highest_at_row_zero = plane.c + max(0.0, plane.a * (width - 1))
+    if highest_at_row_zero > 0.0 or not plane.b > 0.0:
+        return 0
+    return min(height, int(math.floor(-highest_at_row_zero / plane.b)))
 
 
 def vote(off: np.ndarray, valid: np.ndarray, window_px: int, fraction: float) -> np.ndarray:
