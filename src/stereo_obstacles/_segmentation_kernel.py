@@ -139,6 +139,27 @@ def classify_modes_kernel(counts, veto, measurable, unknown, ground, shadow, obs
                 labels[y, x] = obstacle
 
 
+@njit(cache=True, nogil=True, inline="always")
+def component_areas(components, n_components):
+    """``int64 (n_components,)``: pixels of each label of an ``int32 (H, W)`` component map.
+
+    Counted run by run along the rows: one increment per run of equal labels instead of one
+    per pixel (consecutive increments of one counter wait for each other)."""
+    height, width = components.shape
+    area = np.zeros(n_components, dtype=np.int64)
+    if width == 0:
+        return area
+    for y in range(height):
+        row = components[y]
+        start = 0
+        for x in range(1, width):
+            if row[x] != row[start]:
+                area[row[start]] += x - start
+                start = x
+        area[row[start]] += width - start
+    return area
+
+
 @njit(cache=True, nogil=True)
 def fill_small_components_kernel(components, n_components, min_area, darker, fill, fill_darker,
                                  labels):
@@ -149,11 +170,7 @@ def fill_small_components_kernel(components, n_components, min_area, darker, fil
     ``darker`` is set and ``fill`` elsewhere.
     """
     height, width = components.shape
-    area = np.zeros(n_components, dtype=np.int32)
-    for y in range(height):
-        for x in range(width):
-            area[components[y, x]] += 1
-    small = area < min_area
+    small = component_areas(components, n_components) < min_area
     small[0] = False
     if not small.any():
         return
@@ -180,10 +197,7 @@ def fill_holes_kernel(components, n_components, min_area, max_enclosed_area, fil
     for y in range(height):
         on_border[components[y, 0]] = True
         on_border[components[y, width - 1]] = True
-    area = np.zeros(n_components, dtype=np.int64)
-    for y in range(height):
-        for x in range(width):
-            area[components[y, x]] += 1
+    area = component_areas(components, n_components)
     hole = (area < min_area) | ((area <= max_enclosed_area) & ~on_border)
     hole[0] = False
     if not hole.any():
