@@ -6,11 +6,12 @@ import cv2
 import numpy as np
 import pytest
 
+from stereo_obstacles._shadow_texture_kernel import sampled_square_means_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
 from stereo_obstacles.segmentation import SegmentationParameters, segment
-from stereo_obstacles.shadow_texture import (ShadowTextureParameters, noise_floor, smooth_pixels,
-                                             texture_variance, textureless_shadow)
+from stereo_obstacles.shadow_texture import (ShadowTextureParameters, noise_floor, relative_texture,
+                                             smooth_pixels, textureless_shadow)
 
 REFERENCE = (0, 60, 120, 80)
 
@@ -39,14 +40,31 @@ def test_noise_floor_ignores_texture_when_part_of_the_image_is_flat():
     assert 0.5 * 4.0 < noise_floor(grey) < 0.7 * 4.0
 
 
-def test_texture_variance_takes_the_noise_out_and_never_goes_negative():
+@pytest.mark.parametrize("shape", [(37, 53), (40, 64), (9, 9), (5, 30)])
+def test_sampled_window_energies_are_the_blurred_squares_at_the_sampled_pixels(shape):
+    values = np.random.default_rng(shape[0]).normal(0, 3, shape).astype(np.float32)
+    want = cv2.blur(values * values, (9, 9), borderType=cv2.BORDER_REFLECT)[::4, ::4]
+    got = np.empty(want.shape, np.float64)
+    sampled_square_means_kernel(values, 9, 4, got)
+    np.testing.assert_allclose(got, want, rtol=1e-5)
+
+
+def test_relative_texture_takes_the_noise_out_and_never_goes_negative():
     grey = np.zeros((30, 30), np.float32)
     grey[:, ::2] = 10.0           # columns of 0 and 10: a window holds 5 of one, 4 of the other
-    variance, mean = texture_variance(grey, 5.0, 9)
+    relative, variance = relative_texture(grey, 5.0, 9)
     np.testing.assert_allclose(variance[10:20, 10:20], 100.0 * 20 / 81 - 5.0, rtol=1e-4)
-    np.testing.assert_allclose(mean[10:20, 10:20], 5.0, atol=0.56)
-    variance, _ = texture_variance(grey, 100.0, 9)
-    assert variance.min() == 0.0
+    mean = cv2.blur(grey, (9, 9), borderType=cv2.BORDER_REFLECT)
+    np.testing.assert_allclose(relative, np.sqrt(variance) / np.maximum(mean, 1.0), rtol=1e-6)
+    relative, variance = relative_texture(grey, 100.0, 9)
+    assert variance.min() == 0.0 and relative.min() == 0.0
+
+
+def test_relative_texture_of_a_dark_window_is_divided_by_one_grey_level_at_least():
+    grey = np.zeros((20, 20), np.float32)
+    grey[::2, ::2] = 1.0          # window means below 1 grey level: divided by 1, not by the mean
+    relative, variance = relative_texture(grey, 0.0, 3)
+    np.testing.assert_allclose(relative[5:15, 5:15], np.sqrt(variance[5:15, 5:15]), rtol=1e-6)
 
 
 def _scene():

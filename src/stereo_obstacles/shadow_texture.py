@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from stereo_obstacles._shadow_texture_kernel import relative_texture_kernel, sampled_square_means_kernel
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.ground_check import vote
 
@@ -39,6 +40,9 @@ rounding flicker of the lit ground into texture that a smooth shadow lacks."""
 MIN_REFERENCE_TEXTURE_VARIANCE = 1.0
 """The reference area's median texture variance (noise taken out) must also reach this, grey
 levels squared (a standard deviation of 1 grey level), for the test to be made."""
+
+NOISE_SAMPLE_STEP = 4
+"""The noise floor is taken over the windows centred on every this many rows and columns."""
 
 _NOISE_MASK = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], dtype=np.float32)
 """Second differences along both axes: flat to any ramp, white noise of variance ``v`` gives
@@ -110,13 +114,15 @@ def noise_floor(grey: np.ndarray, *, window_px: int = 9, percentile: float = 5.0
         Averaging window (odd, pixels) and the percentile taken.
     """
     response = cv2.filter2D(grey, cv2.CV_32F, _NOISE_MASK, borderType=cv2.BORDER_REFLECT)
-    energy = cv2.blur(response * response, (window_px, window_px), borderType=cv2.BORDER_REFLECT)
-    noise = float(np.percentile(energy[::4, ::4], percentile)) / float(np.sum(_NOISE_MASK ** 2))
+    rows, cols = -(-grey.shape[0] // NOISE_SAMPLE_STEP), -(-grey.shape[1] // NOISE_SAMPLE_STEP)
+    energy = np.empty((rows, cols), dtype=np.float64)
+    sampled_square_means_kernel(response, window_px, NOISE_SAMPLE_STEP, energy)
+    noise = float(np.percentile(energy, percentile)) / float(np.sum(_NOISE_MASK ** 2))
     return max(noise, MIN_NOISE_VARIANCE)
 
 
-def texture_variance(grey: np.ndarray, noise: float, window_px: int) -> tuple[np.ndarray, np.ndarray]:
-    """Local texture variance without the noise, and the local mean.
+def relative_texture(grey: np.ndarray, noise: float, window_px: int) -> tuple[np.ndarray, np.ndarray]:
+    """Local texture relative to the local brightness, and the local texture variance.
 
     Parameters
     ----------
@@ -125,25 +131,30 @@ def texture_variance(grey: np.ndarray, noise: float, window_px: int) -> tuple[np
     noise
         Its noise variance (the image's units squared, e.g. :func:`noise_floor`).
     window_px
-        Side of the square windows (odd), pixels.
+        Side of the square windows (odd), pixels; mirrored at the image border.
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
-        ``float32 (H, W)`` ``max(var - noise, 0)`` and ``float32 (H, W)`` mean over each window.
+        ``float32 (H, W)`` relative texture ``sqrt(variance) / max(mean, 1)`` and ``float32
+        (H, W)`` texture variance ``max(var - noise, 0)``, with ``mean`` and ``var`` the mean and
+        variance over each window.
     """
     size = (window_px, window_px)
+    grey = np.ascontiguousarray(grey, dtype=np.float32)
     mean = cv2.blur(grey, size, borderType=cv2.BORDER_REFLECT)
     mean_square = cv2.blur(grey * grey, size, borderType=cv2.BORDER_REFLECT)
-    return np.maximum(mean_square - mean * mean - np.float32(noise), 0.0), mean
+    variance, relative = np.empty_like(mean), np.empty_like(mean)
+    relative_texture_kernel(mean, mean_square, np.float32(noise), variance, relative)
+    return relative, variance
 
 
 def smooth_pixels(grey: np.ndarray, box: tuple[int, int, int, int], *,
                   params: ShadowTextureParameters = ShadowTextureParameters()) -> np.ndarray | None:
     """``bool (H, W)``: pixels much smoother than the reference area, whatever their label.
 
-    A pixel is smooth when its relative texture (:func:`texture_variance`, noise from
-    :func:`noise_floor`, over the local mean) is below ``params.min_relative_texture`` times
+    A pixel is smooth when its relative texture (:func:`relative_texture`, noise from
+    :func:`noise_floor`) is below ``params.min_relative_texture`` times
     the reference area's median. This is the part of the test that needs no labels, so it can
     run beside the colour classification.
 
@@ -166,14 +177,13 @@ def smooth_pixels(grey: np.ndarray, box: tuple[int, int, int, int], *,
     if params.min_relative_texture <= 0.0:
         return None
     noise = noise_floor(grey, window_px=params.window_px, percentile=params.noise_percentile)
-    variance, mean = texture_variance(grey, noise, params.window_px)
+    relative, variance = relative_texture(grey, noise, params.window_px)
     x0, y0, x1, y1 = box
     needed = max(params.min_reference_snr * noise, MIN_REFERENCE_TEXTURE_VARIANCE)
     if not float(np.median(variance[y0:y1, x0:x1])) >= needed:
         logger.debug("shadow texture test skipped: the reference area's texture variance is below %.3f "
                      "(noise variance %.3f)", needed, noise)
         return None
-    relative = np.sqrt(variance) / np.maximum(mean, 1.0)
     reference = float(np.median(relative[y0:y1, x0:x1]))
     return relative < np.float32(params.min_relative_texture * reference)
 
@@ -219,4 +229,4 @@ def textureless_shadow(smooth: np.ndarray | None, shadow: np.ndarray, *,
     return flagged
 
 
-__all__ = ["ShadowTextureParameters", "noise_floor", "texture_variance", "smooth_pixels", "textureless_shadow"]
+__all__ = ["ShadowTextureParameters", "noise_floor", "relative_texture", "smooth_pixels", "textureless_shadow"]
