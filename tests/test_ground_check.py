@@ -107,6 +107,33 @@ def test_kernel_matches_a_slow_reference(seed):
     np.testing.assert_allclose(terms[..., 2], want_energy, rtol=1e-5, atol=1e-3)
 
 
+def _off_ground_over_the_whole_image(left, right, plane, params):
+    """The off-ground test (before the vote) computed on every row, as a reference for the
+    work that :func:`off_ground_mask` skips above the plane's horizon."""
+    terms = np.empty(left.shape + (TERMS,), np.float32)
+    ground_warp_terms_kernel(left, right, plane.a, plane.b, plane.c, params.misalignment_px ** 2,
+                             params.row_misalignment_px ** 2, 0, terms)
+    means = cv2.blur(terms, (params.window_px, params.window_px))
+    share = means[..., 3]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        variance = means[..., 1] / share - (means[..., 0] / share) ** 2
+    return terms[..., 3] > 0, share, variance, means[..., 2]
+
+
+@pytest.mark.parametrize("c", [-12.0, -40.0, 5.0])
+def test_off_ground_mask_skips_only_rows_without_a_valid_window(c):
+    left, right, _, _ = _pair(box_factor=0.62, shadow=True)
+    grey_left, grey_right = grey_levels(left), grey_levels(right)
+    plane = GroundPlane(a=PLANE.a, b=PLANE.b, c=c)       # horizon near row 60, 200 (in the reference area), above
+    params = GroundCheckParameters(vote_window_px=1)
+    off, noise = off_ground_mask(grey_left, grey_right, plane, REFERENCE, params=params)
+    valid, share, variance, edge = _off_ground_over_the_whole_image(grey_left, grey_right, plane, params)
+    want = valid & (share >= 0.5) & (variance > params.mismatch_factor * noise + edge)
+    np.testing.assert_array_equal(off, want)
+    horizon = max(int(np.ceil((-c - PLANE.a * (WIDTH - 1)) / PLANE.b)), 0)   # first row with d > 0 somewhere
+    assert not off[:horizon].any() and off[horizon:].any()
+
+
 def test_off_ground_kernel_matches_its_definition():
     rng = np.random.default_rng(5)
     terms = np.zeros((7, 9, TERMS), np.float32)
