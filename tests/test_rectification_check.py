@@ -48,14 +48,17 @@ def test_bad_arguments(pairs):
         check_rectification(pairs[0].left, pairs[0].right[:50])
     with pytest.raises(InvalidInputError, match="method"):
         match_features(pairs[0].left, pairs[0].right, method="surf")
+    for levels in (0, 17, 2.5, True):
+        with pytest.raises(InvalidInputError, match="orb_levels"):
+            match_features(pairs[0].left, pairs[0].right, method="orb", orb_levels=levels)
 
 
-@pytest.mark.parametrize("method", ["sift", "orb"])
-def test_feature_matches_find_a_known_shift(method):
+@pytest.mark.parametrize("method, levels", [("sift", 8), ("orb", 8), ("orb", 2), ("orb", 1)])
+def test_feature_matches_find_a_known_shift(method, levels):
     rng = np.random.default_rng(3)
     image = (rng.uniform(0, 255, (160, 200)) > 128).astype(np.uint8) * 255
     image = np.kron(image, np.ones((2, 2), np.uint8))
-    matches = match_features(image, np.roll(image, (2, -6), axis=(0, 1)), method=method)
+    matches = match_features(image, np.roll(image, (2, -6), axis=(0, 1)), method=method, orb_levels=levels)
     assert len(matches) > 20
     shift = np.median(matches.right_px - matches.left_px, axis=0)
     assert shift == pytest.approx([-6.0, 2.0], abs=0.5)

@@ -63,7 +63,7 @@ def _grey_uint8(image: np.ndarray, name: str) -> np.ndarray:
 
 
 def match_features(left: np.ndarray, right: np.ndarray, *, method: str = "sift", ratio: float = 0.75,
-                   max_features: int = 4000) -> FeatureMatches:
+                   max_features: int = 4000, orb_levels: int = 8) -> FeatureMatches:
     """Match keypoints of ``left`` and ``right`` by descriptor (ratio test and mutual check).
 
     Parameters
@@ -77,6 +77,10 @@ def match_features(left: np.ndarray, right: np.ndarray, *, method: str = "sift",
         ``ratio`` times that of the second best.
     max_features : int
         Keypoints kept per image (the strongest).
+    orb_levels : int
+        Pyramid levels of the ORB detector (OpenCV's default 8, scale factor 1.2 each; ignored
+        by SIFT). Fewer levels are faster and enough when both images show the scene at one
+        scale, as a stereo pair does.
 
     Returns
     -------
@@ -104,12 +108,14 @@ def match_features(left: np.ndarray, right: np.ndarray, *, method: str = "sift",
         raise InvalidInputError(f"ratio: expected 0 < ratio <= 1, got {ratio}")
     if int(max_features) != max_features or max_features < 8:
         raise InvalidInputError(f"max_features: expected an integer >= 8, got {max_features}")
+    if isinstance(orb_levels, bool) or int(orb_levels) != orb_levels or not 1 <= orb_levels <= 16:
+        raise InvalidInputError(f"orb_levels: expected an integer from 1 to 16, got {orb_levels}")
     grey_left, grey_right = _grey_uint8(left, "left"), _grey_uint8(right, "right")
     if method == "sift":
         detector = cv2.SIFT_create(nfeatures=int(max_features))
         norm = cv2.NORM_L2
     else:
-        detector = cv2.ORB_create(nfeatures=int(max_features))
+        detector = cv2.ORB_create(nfeatures=int(max_features), nlevels=int(orb_levels))
         norm = cv2.NORM_HAMMING
     kp_left, desc_left = detector.detectAndCompute(grey_left, None)
     kp_right, desc_right = detector.detectAndCompute(grey_right, None)

@@ -220,6 +220,12 @@ def _bottom_rows(shape: tuple[int, int], fraction: float) -> np.ndarray:
 RECTIFICATION_CHECK_SIDE_PX = 640
 """The rectification check matches features on images shrunk to at most this side (speed)."""
 
+RECTIFICATION_CHECK_FEATURES = 1000
+"""Keypoints per image of the rectification check (the descriptor matching grows with their square)."""
+
+RECTIFICATION_CHECK_ORB_LEVELS = 2
+"""ORB pyramid levels of the rectification check: a stereo pair shows the scene at one scale."""
+
 MIN_GROUND_COLOURED_FRACTION = 0.05
 """Matched ground-coloured pixels (fraction of the image) that must lie on a ground-like plane
 for the colour labels to be trusted."""
@@ -345,7 +351,9 @@ def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig,
     segmentation = segment(left, reference=config.reference, params=config.segmentation)
     timings["segmentation"] = time.perf_counter() - t
     t = time.perf_counter()
-    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX)
+    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX,
+                                         max_features=RECTIFICATION_CHECK_FEATURES,
+                                         orb_levels=RECTIFICATION_CHECK_ORB_LEVELS)
                      if config.check_rectification else None)
     timings["rectification_check"] = time.perf_counter() - t
     return segmentation, rectification

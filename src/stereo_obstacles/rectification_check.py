@@ -61,7 +61,8 @@ class RectificationCheck:
 
 
 def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: float = MAX_MEDIAN_OFFSET_PX,
-                        method: str = "sift", warn: bool = True, max_side_px: int | None = None) -> RectificationCheck:
+                        method: str = "sift", warn: bool = True, max_side_px: int | None = None,
+                        max_features: int = 4000, orb_levels: int = 8) -> RectificationCheck:
     """Measure whether ``left`` and ``right`` are rectified, warning when they are not.
 
     Parameters
@@ -77,6 +78,9 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
     max_side_px : int, optional
         Match features on copies shrunk so that their longer side is at most this (faster);
         offsets are scaled back to full-size pixels.
+    max_features, orb_levels : int
+        Keypoints kept per image and ORB pyramid levels
+        (:func:`stereo_obstacles.feature_matching.match_features`).
 
     Returns
     -------
@@ -107,11 +111,12 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
         scale = max(left.shape[:2]) / max_side_px
         size = (round(left.shape[1] / scale), round(left.shape[0] / scale))
         left, right = (cv2.resize(image, size, interpolation=cv2.INTER_AREA) for image in (left, right))
-    matches = match_features(left, right, method=method)
+    matches = match_features(left, right, method=method, max_features=max_features, orb_levels=orb_levels)
     left_px, right_px = matches.left_px * scale, matches.right_px * scale
     if len(matches) >= 8:
         # Keep the matches consistent with one epipolar geometry (an unrectified pair has one too).
-        _, mask = cv2.findFundamentalMat(left_px, right_px, cv2.USAC_MAGSAC, 1.0, 0.999)
+        # (RANSAC: the same verdicts as MAGSAC on 26 measured pairs at 1/20 of its time, docs/rectification.md)
+        _, mask = cv2.findFundamentalMat(left_px, right_px, cv2.FM_RANSAC, 1.0, 0.999)
         if mask is not None:
             keep = mask.ravel().astype(bool)
             left_px, right_px = left_px[keep], right_px[keep]
