@@ -51,8 +51,9 @@ Given the right image of a rectified pair as well (``segment(left, right=right)`
 cue is added to either colour model (:mod:`stereo_obstacles.ground_check`, beyond the paper):
 pixels that the right image does not see on the ground plane, estimated from the same
 reference area, become obstacles whatever their colour (a box of the ground's own colour, a
-dark object read as shadow), and far ground that colour calls obstacle only because of the
-haze becomes ground again (:mod:`stereo_obstacles.haze`, with the same plane). A cast shadow
+dark object read as shadow), and far ground that colour calls obstacle because its colour has
+drifted with distance becomes ground again when it has its own row's colour
+(:mod:`stereo_obstacles.far_ground`, with the same plane). A cast shadow
 lies on the ground, so both cameras see it at the plane's disparity and the check has no
 reason to flag it (measured in docs/segmentation.md: held-out shadow pixels called obstacle
 0.32 % by colour alone, 1.13 % with the check, session 6).
@@ -73,12 +74,12 @@ from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_mod
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.far_ground import FarGroundParameters, far_ground
 from stereo_obstacles.field_checks import check_types
 from stereo_obstacles.ground_check import (GroundCheck, GroundCheckParameters, check_colour_pair, check_ground,
                                            grey_levels)
 from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
                                             colour_flags)
-from stereo_obstacles.haze import HazeParameters, estimate_haze, hazy_ground
 from stereo_obstacles.hue_filter import DEFAULT_FILTER_SIZE, window_counts
 from stereo_obstacles.labels import Label
 from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
@@ -149,8 +150,8 @@ class SegmentationParameters:
         smoother than the ground become obstacles (both colour models, when ``shadow_rule``).
     ground_check
         The stereo cue's settings, used when :func:`segment` is given the right image.
-    haze
-        The far-ground haze correction (:mod:`~stereo_obstacles.haze`), made with the stereo
+    far_ground
+        The far rows' own ground colour (:mod:`~stereo_obstacles.far_ground`), with the stereo
         cue's ground plane.
     """
 
@@ -173,13 +174,13 @@ class SegmentationParameters:
     max_hole_fraction: float = 0.02
     shadow_texture: ShadowTextureParameters = field(default_factory=ShadowTextureParameters)
     ground_check: GroundCheckParameters = field(default_factory=GroundCheckParameters)
-    haze: HazeParameters = field(default_factory=HazeParameters)
+    far_ground: FarGroundParameters = field(default_factory=FarGroundParameters)
 
     def __post_init__(self) -> None:
         check_thresholds(self.min_intensity, self.min_saturation)
         check_types(self, (("ground_colour", GroundColourParameters), ("reference", ReferenceParameters),
                            ("shadow_texture", ShadowTextureParameters), ("ground_check", GroundCheckParameters),
-                           ("haze", HazeParameters)))
+                           ("far_ground", FarGroundParameters)))
         if self.colour_model not in ("log_rgb", "hsi"):
             raise InvalidInputError(f"colour_model must be 'log_rgb' or 'hsi', got {self.colour_model!r}")
         if not isinstance(self.shadow_rule, bool):
@@ -374,7 +375,8 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         labels[ground.off_ground] = Label.OBSTACLE
     _fill_holes(labels, params)
     if ground is not None:
-        _clear_haze(a, labels, ground, box, params)
+        labels[far_ground(a, labels == Label.OBSTACLE, ground.off_ground, ground.plane, box,
+                          params=params.far_ground)] = Label.GROUND
     if smooth_shadow is not None:
         smooth_shadow &= labels == Label.OBSTACLE          # what the texture test made obstacle and still is
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
@@ -393,20 +395,6 @@ def _fill_holes(labels: np.ndarray, params: SegmentationParameters) -> None:
     free = (labels != Label.OBSTACLE).view(np.uint8)
     n, components = cv2.connectedComponents(free, connectivity=4, ltype=cv2.CV_32S)
     fill_holes_kernel(components, n, params.max_hole_area_px, max_enclosed, int(Label.OBSTACLE), labels)
-
-
-def _clear_haze(a: np.ndarray, labels: np.ndarray, ground: GroundCheck, box: tuple[int, int, int, int],
-                params: SegmentationParameters) -> None:
-    """Far obstacle pixels that are ground seen through the haze become ground, in place
-    (:mod:`stereo_obstacles.haze`; needs the stereo check's plane)."""
-    estimate = estimate_haze(a, ground.plane, box, params=params.haze)
-    if estimate is None:
-        return
-    candidates = (labels == Label.OBSTACLE) & ~ground.off_ground
-    shadow_ratio = (params.shadow_min_ratio, params.shadow_max_ratio) if params.shadow_rule else None
-    labels[hazy_ground(a, candidates, estimate, box, min_intensity=params.min_intensity,
-                       ground_colour=params.ground_colour, shadow_ratio=shadow_ratio,
-                       params=params.haze)] = Label.GROUND
 
 
 def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,

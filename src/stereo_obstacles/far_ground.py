@@ -1,0 +1,188 @@
+"""Far ground takes its colour from its own rows, not from the reference area.
+
+The reference area shows the near ground. Far away the ground's colour drifts. Each pixel
+covers many texels, so the texture is averaged, and the air blends every surface with the
+horizon's colour (aerial perspective). Near the horizon the colour model of phase 1 then
+calls the ground an obstacle: a band of false alarms under the horizon. On the synthetic
+world it held 1.7-2.3 % of the ground pixels (docs/segmentation.md, session 8).
+
+With the stereo check's ground plane ``d = a x + b y + c``, the far rows are known. They are
+the rows whose plane disparity (at the middle column) is positive but at most
+``1 / min_distance_factor`` of the reference area's, so their ground is at least that many times
+as far. Such a row is mostly ground, so the median colour of its pixels is the ground's colour
+at that distance. :func:`far_ground` walks these rows from the nearest upwards:
+
+1. the row's colour is the median, per channel, of ``log(1 + c)`` over the row's pixels that
+   the stereo check does not see off the ground (``c`` the colour after a ``blur_px`` box blur);
+2. the walk stops at a row where fewer than ``min_row_fraction`` of the pixels qualify, or
+   whose colour differs from the row below by more than ``max_row_step`` in a channel (the
+   ground's colour changes gradually with distance; a jump means that something else fills
+   the row);
+3. obstacle pixels within ``colour_tolerance`` of the row's colour in every channel become
+   ground, unless their column of obstacle pixels runs on, unbroken, down to ground half as far
+   as the band's edge and they have the colour of that column just under the band (an
+   obstacle standing on nearer ground and reaching up into the far rows keeps its pixels; the
+   far ground seen above the top of a near obstacle does not).
+
+Nearer rows are never touched. Where the far ground meets the sky, the sky near the horizon
+has nearly the far ground's colour (the haze makes both the horizon's colour), so about one
+row of sky may be called ground there (0.3-0.9 % of the sky pixels of seeds 0..19). The sky is
+not an obstacle either, so nothing a user relies on changes.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from stereo_obstacles._far_ground_kernel import far_rows_kernel
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.ground_plane import GroundPlane
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class FarGroundParameters:
+    """Settings of the far-ground rows (defaults measured in docs/segmentation.md).
+
+    Attributes
+    ----------
+    enabled
+        False leaves the labels as they are.
+    min_distance_factor
+        Only rows whose ground is at least this many times as far as the reference area's
+        middle (plane disparity at most ``1 / min_distance_factor`` of that point's) are far.
+    blur_px
+        Side of the box blur applied to the colours first, pixels (odd; 1: none).
+    colour_tolerance
+        An obstacle pixel becomes ground when ``log(1 + c)`` is within this of the row's colour
+        in every channel (0.08: about 8 %).
+    max_row_step
+        The walk up the far rows stops where the row colour changes by more than this in a
+        channel from the row below (log units).
+    min_row_fraction
+        The walk stops at a row with fewer than this fraction of its pixels not off the ground.
+    """
+
+    enabled: bool = True
+    min_distance_factor: float = 10.0
+    blur_px: int = 5
+    colour_tolerance: float = 0.08
+    max_row_step: float = 0.1
+    min_row_fraction: float = 0.25
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.enabled, bool):
+            raise InvalidInputError(f"enabled must be a bool, got {self.enabled!r}")
+        check_integers(self, (("blur_px", 1, 255),), odd=True)
+        check_numbers(self, (("min_distance_factor", 1.0, 1000.0), ("colour_tolerance", 0.0, 10.0),
+                             ("max_row_step", 0.0, 10.0), ("min_row_fraction", 0.0, 1.0)))
+
+
+def far_rows(plane: GroundPlane, shape: tuple[int, int], box: tuple[int, int, int, int],
+             min_distance_factor: float) -> tuple[np.ndarray, int]:
+    """The far rows of an ``(H, W)`` image, and the first row of the near ground.
+
+    Returns
+    -------
+    (numpy.ndarray, int)
+        ``int`` indices, increasing, of the rows whose ground is at least
+        ``min_distance_factor`` times as far as the middle of the reference area ``box``
+        ``(x0, y0, x1, y1)`` (plane disparity at the middle column positive and at most the box
+        middle's divided by the factor; none when the plane does not rise towards the bottom),
+        and the first row whose ground is at most half as far as that edge of the band
+        (``H`` when there is none).
+    """
+    height, width = shape
+    row_disparity = plane.a * (width / 2.0) + plane.b * np.arange(height) + plane.c
+    edge = (plane.a * (box[0] + box[2]) / 2.0 + plane.b * (box[1] + box[3]) / 2.0 + plane.c) / min_distance_factor
+    if not plane.b > 0:
+        return np.zeros(0, dtype=np.int64), height
+    near = np.flatnonzero(row_disparity >= 2.0 * edge)
+    return np.flatnonzero((row_disparity > 0) & (row_disparity <= edge)), int(near[0]) if near.size else height
+
+
+def _standing_on_nearer_ground(obstacle: np.ndarray, rows: np.ndarray, near_row: int) -> np.ndarray:
+    """``bool (len(rows), W)``: pixels of the contiguous band ``rows`` whose column of obstacle
+    pixels runs on, unbroken, down to ``near_row`` (where the ground is at most half as far as
+    at the band's edge): part of an obstacle standing on nearer ground (a pole, a box taller than
+    the camera), not of the far ground."""
+    height, width = obstacle.shape
+    below = obstacle[near_row] if near_row < height else np.zeros(width, dtype=np.bool_)
+    for row in range(min(near_row, height) - 1, int(rows[-1]), -1):
+        below = obstacle[row] & below
+    runs = np.empty((rows.size, width), dtype=np.bool_)
+    for i in range(rows.size - 1, -1, -1):
+        below = obstacle[rows[i]] & below
+        runs[i] = below
+    return runs
+
+
+def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, plane: GroundPlane,
+               box: tuple[int, int, int, int], *,
+               params: FarGroundParameters = FarGroundParameters()) -> np.ndarray:
+    """``bool (H, W)``: obstacle pixels of the far rows that have their row's ground colour.
+
+    Parameters
+    ----------
+    rgb
+        ``(H, W, 3)`` RGB image (``uint8`` or ``uint16``).
+    obstacle
+        ``bool (H, W)``: the pixels phase 1 calls obstacle.
+    off_ground
+        ``bool (H, W)``: the pixels the stereo check sees off the ground plane (never turned
+        into ground, and left out of the row colours).
+    plane
+        The ground plane in disparity space.
+    box
+        Reference area ``(x0, y0, x1, y1)``, pixels, end exclusive: the far rows are measured
+        against its distance.
+    params
+        See :class:`FarGroundParameters`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from stereo_obstacles.ground_plane import GroundPlane
+    >>> rows = np.linspace(0.0, 1.0, 100)[:, None, None]             # towards the horizon (row 0)
+    >>> rgb = np.broadcast_to((90 + 120 * (1 - rows) ** 8) * [1.0, 1.2, 0.7], (100, 80, 3)).astype(np.uint8)
+    >>> obstacle = np.zeros((100, 80), bool)
+    >>> obstacle[1:8] = True                                         # what colour said of the far band
+    >>> plane = GroundPlane(a=0.0, b=0.2, c=0.0)                     # d = 0.2 y: horizon at row 0
+    >>> flipped = far_ground(rgb, obstacle, np.zeros_like(obstacle), plane, (0, 85, 80, 100))
+    >>> bool(flipped[1:8].all()), bool(flipped[8:].any())
+    (True, False)
+    """
+    result = np.zeros(obstacle.shape, dtype=np.bool_)
+    if not params.enabled:
+        return result
+    rows, near_row = far_rows(plane, obstacle.shape, box, params.min_distance_factor)
+    if rows.size == 0 or not obstacle[rows].any():
+        return result
+    r = params.blur_px // 2
+    below = min(int(rows[-1]) + 1, obstacle.shape[0] - 1)      # the first row under the band
+    top, bottom = max(0, int(rows[0]) - r), min(obstacle.shape[0], below + 1 + r)
+    colours = rgb[top:bottom].astype(np.float32)
+    if params.blur_px > 1:
+        colours = cv2.blur(colours, (params.blur_px, params.blur_px), borderType=cv2.BORDER_REFLECT)
+    colours = np.log1p(colours)
+    band = np.ascontiguousarray(colours[rows - top])
+    min_count = max(1, int(np.ceil(params.min_row_fraction * obstacle.shape[1])))
+    like = np.zeros((rows.size, obstacle.shape[1]), dtype=np.bool_)
+    far_rows_kernel(band, np.ascontiguousarray(off_ground[rows]), min_count, np.float32(params.colour_tolerance),
+                    np.float32(params.max_row_step), like)
+    # an obstacle standing on nearer ground that reaches up into the band with the colour it has
+    # under the band keeps its pixels (a near untextured box of the far ground's colour)
+    same_colour = np.all(np.abs(band - colours[below - top]) <= params.colour_tolerance, axis=2)
+    kept = _standing_on_nearer_ground(obstacle, rows, near_row) & same_colour
+    result[rows] = obstacle[rows] & like & ~off_ground[rows] & ~kept
+    logger.debug("far ground: %d far rows, %d obstacle pixels made ground", rows.size, np.count_nonzero(result))
+    return result
+
+
+__all__ = ["FarGroundParameters", "far_rows", "far_ground"]
