@@ -120,19 +120,35 @@ def _off_ground_over_the_whole_image(left, right, plane, params):
     return terms[..., 3] > 0, share, variance, means[..., 2]
 
 
-@pytest.mark.parametrize("c", [-12.0, -40.0, 5.0])
-def test_off_ground_mask_skips_only_rows_without_a_valid_window(c):
+@pytest.mark.parametrize("a, c, tolerant", [(PLANE.a, -12.0, False), (PLANE.a, -40.0, False), (PLANE.a, 5.0, False),
+                                             (0.0, -12.0, True), (0.0, -12.0, False)])
+def test_off_ground_mask_skips_only_rows_without_a_valid_window(a, c, tolerant):
+    """The mask and the noise level equal those of the test made on every row. Without
+    tolerances the noise alone sets many pixels off, so most changed windows show (a start 4
+    rows late fails; 1-2 rows late only changes the edge energy of rows without valid pixels,
+    which flips no pixel here); with a level plane (a = 0) the horizon is one row (row 60)."""
     left, right, _, _ = _pair(box_factor=0.62, shadow=True)
     grey_left, grey_right = grey_levels(left), grey_levels(right)
-    plane = GroundPlane(a=PLANE.a, b=PLANE.b, c=c)       # horizon near row 60, 200 (in the reference area), above
-    # no tolerance: the noise alone sets off many pixels, so any change of a window shows
-    params = GroundCheckParameters(vote_window_px=1, mismatch_factor=1.0, misalignment_px=0.0, row_misalignment_px=0.0)
+    plane = GroundPlane(a=a, b=PLANE.b, c=c)             # horizon near row 60, 200 (in the reference area), above
+    params = (GroundCheckParameters(vote_window_px=1) if tolerant else
+              GroundCheckParameters(vote_window_px=1, mismatch_factor=1.0, misalignment_px=0.0, row_misalignment_px=0.0))
     off, noise = off_ground_mask(grey_left, grey_right, plane, REFERENCE, params=params)
     valid, share, variance, edge = _off_ground_over_the_whole_image(grey_left, grey_right, plane, params)
-    want = valid & (share >= 0.5) & (variance > params.mismatch_factor * noise + edge)
+    x0, y0, x1, y1 = REFERENCE
+    box_variance = np.where(share >= 0.5, variance, -1.0)[y0:y1, x0:x1]
+    want_noise = max(float(np.median(box_variance[(box_variance >= 0) & valid[y0:y1, x0:x1]])), 0.25)
+    assert noise == pytest.approx(want_noise, rel=1e-6)
+    want = valid & (share >= 0.5) & (variance > params.mismatch_factor * want_noise + edge)
     np.testing.assert_array_equal(off, want)
-    horizon = max(int(np.ceil((-c - PLANE.a * (WIDTH - 1)) / PLANE.b)), 0)   # first row with d > 0 somewhere
+    horizon = max(int(np.ceil((-c - a * (WIDTH - 1)) / PLANE.b)), 0)   # first row with d > 0 somewhere
     assert not off[:horizon].any() and off[horizon:].any()
+
+
+def test_a_nearly_level_plane_has_no_valid_row():
+    """A plane whose disparity rises by 1e-320 px per row: its horizon is beyond any image."""
+    left, right, _, _ = _pair()
+    off, _ = off_ground_mask(grey_levels(left), grey_levels(right), GroundPlane(a=0.0, b=1e-320, c=-5.0), REFERENCE)
+    assert not off.any()
 
 
 def test_off_ground_kernel_matches_its_definition():

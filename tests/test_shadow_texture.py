@@ -40,13 +40,22 @@ def test_noise_floor_ignores_texture_when_part_of_the_image_is_flat():
     assert 0.5 * 4.0 < noise_floor(grey) < 0.7 * 4.0
 
 
-@pytest.mark.parametrize("shape", [(37, 53), (40, 64), (9, 9), (5, 30)])
-def test_sampled_window_energies_are_the_blurred_squares_at_the_sampled_pixels(shape):
+@pytest.mark.parametrize("shape, window", [((37, 53), 9), ((40, 64), 9), ((9, 9), 9), ((5, 30), 9),
+                                           ((1, 40), 9), ((2, 200), 9), ((3, 200), 9), ((6, 7), 31)])
+def test_sampled_window_energies_are_the_blurred_squares_at_the_sampled_pixels(shape, window):
+    """Also windows wider than the image, mirrored as often as needed (as OpenCV does)."""
     values = np.random.default_rng(shape[0]).normal(0, 3, shape).astype(np.float32)
-    want = cv2.blur(values * values, (9, 9), borderType=cv2.BORDER_REFLECT)[::4, ::4]
+    want = cv2.blur(values * values, (window, window), borderType=cv2.BORDER_REFLECT)[::4, ::4]
     got = np.empty(want.shape, np.float64)
-    sampled_square_means_kernel(values, 9, 4, got)
+    sampled_square_means_kernel(values, window, 4, got)
     np.testing.assert_allclose(got, want, rtol=1e-5)
+
+
+def test_noise_floor_takes_odd_windows_only():
+    grey = np.zeros((20, 20), np.float32)
+    for window in (4, 0, 2.0, True):
+        with pytest.raises(InvalidInputError, match="window_px"):
+            noise_floor(grey, window_px=window)
 
 
 def test_relative_texture_takes_the_noise_out_and_never_goes_negative():

@@ -10,12 +10,11 @@ from stereo_obstacles._similarity_kernel import CACHE
 
 @njit(cache=CACHE, nogil=True, inline="always")
 def _reflect(i, n):
-    """Index ``i`` of a sequence of ``n`` mirrored at both ends with the edge repeated (OpenCV's
-    ``BORDER_REFLECT``: ``-1 -> 0``, ``n -> n - 1``); ``i`` at most ``n`` outside."""
-    if i < 0:
-        return -i - 1
-    if i >= n:
-        return 2 * n - 1 - i
+    """Index ``i`` of a sequence of ``n >= 1`` mirrored at both ends with the edge repeated
+    (OpenCV's ``BORDER_REFLECT``: ``-1 -> 0``, ``n -> n - 1``), as often as needed when ``i``
+    lies more than ``n`` outside (a window wider than the image)."""
+    while i < 0 or i >= n:
+        i = -i - 1 if i < 0 else 2 * n - 1 - i
     return i
 
 

@@ -291,7 +291,8 @@ def _first_positive_row(plane: GroundPlane, shape: tuple[int, int]) -> int:
     highest_at_row_zero = plane.c + max(0.0, plane.a * (width - 1))
     if highest_at_row_zero > 0.0 or not plane.b > 0.0:
         return 0
-    return min(height, int(math.floor(-highest_at_row_zero / plane.b)))
+    row = -highest_at_row_zero / plane.b           # may overflow to inf for a nearly level plane
+    return int(math.floor(row)) if row < height else height
 
 
 def vote(off: np.ndarray, valid: np.ndarray, window_px: int, fraction: float) -> np.ndarray:

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._shadow_texture_kernel import relative_texture_kernel, sampled_square_means_kernel
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.ground_check import vote
 
@@ -113,6 +114,8 @@ def noise_floor(grey: np.ndarray, *, window_px: int = 9, percentile: float = 5.0
     window_px, percentile
         Averaging window (odd, pixels) and the percentile taken.
     """
+    if isinstance(window_px, bool) or not isinstance(window_px, int) or window_px < 1 or window_px % 2 == 0:
+        raise InvalidInputError(f"window_px must be an odd integer >= 1, got {window_px!r}")
     response = cv2.filter2D(grey, cv2.CV_32F, _NOISE_MASK, borderType=cv2.BORDER_REFLECT)
     rows, cols = -(-grey.shape[0] // NOISE_SAMPLE_STEP), -(-grey.shape[1] // NOISE_SAMPLE_STEP)
     energy = np.empty((rows, cols), dtype=np.float64)
