@@ -223,7 +223,7 @@ RECTIFICATION_CHECK_SIDE_PX = 640
 RECTIFICATION_CHECK_FEATURES = 1000
 """Keypoints per image of the rectification check (the descriptor matching grows with their square)."""
 
-RECTIFICATION_CHECK_ORB_LEVELS = 2
+RECTIFICATION_CHECK_ORB_LEVELS = 3
 """ORB pyramid levels of the rectification check: a stereo pair shows the scene at one scale."""
 
 MIN_GROUND_COLOURED_FRACTION = 0.05

@@ -115,7 +115,7 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
     left_px, right_px = matches.left_px * scale, matches.right_px * scale
     if len(matches) >= 8:
         # Keep the matches consistent with one epipolar geometry (an unrectified pair has one too).
-        # (RANSAC: the same verdicts as MAGSAC on 26 measured pairs at 1/20 of its time, docs/rectification.md)
+        # (RANSAC: the same verdicts as MAGSAC++ on 26 pairs at 1/20 of its time: docs/rectification.md)
         _, mask = cv2.findFundamentalMat(left_px, right_px, cv2.FM_RANSAC, 1.0, 0.999)
         if mask is not None:
             keep = mask.ravel().astype(bool)
