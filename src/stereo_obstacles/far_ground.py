@@ -123,6 +123,20 @@ def _standing_on_nearer_ground(obstacle: np.ndarray, rows: np.ndarray, near_row:
     return runs
 
 
+def _check_inputs(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray,
+                  box: tuple[int, int, int, int]) -> None:
+    """Raise :class:`InvalidInputError` unless the arrays and the box fit :func:`far_ground`."""
+    if not (isinstance(rgb, np.ndarray) and rgb.ndim == 3 and rgb.shape[2] == 3):
+        raise InvalidInputError(f"rgb must be an (H, W, 3) array, got {getattr(rgb, 'shape', type(rgb))}")
+    for name, mask in (("obstacle", obstacle), ("off_ground", off_ground)):
+        if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == rgb.shape[:2]):
+            raise InvalidInputError(f"{name} must be a bool array of the image's shape {rgb.shape[:2]}, got "
+                                    f"{getattr(mask, 'dtype', type(mask))} {getattr(mask, 'shape', '')}")
+    x0, y0, x1, y1 = box
+    if not (0 <= x0 < x1 <= rgb.shape[1] and 0 <= y0 < y1 <= rgb.shape[0]):
+        raise InvalidInputError(f"box {box} is not a non-empty rectangle inside the {rgb.shape[1]}x{rgb.shape[0]} image")
+
+
 def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, plane: GroundPlane,
                box: tuple[int, int, int, int], *,
                params: FarGroundParameters = FarGroundParameters()) -> np.ndarray:
@@ -145,6 +159,12 @@ def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, pl
     params
         See :class:`FarGroundParameters`.
 
+    Raises
+    ------
+    InvalidInputError
+        ``rgb`` is not ``(H, W, 3)``, a mask is not ``bool (H, W)``, or ``box`` is not a
+        non-empty rectangle inside the image.
+
     Examples
     --------
     >>> import numpy as np
@@ -158,6 +178,7 @@ def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, pl
     >>> bool(flipped[1:8].all()), bool(flipped[8:].any())
     (True, False)
     """
+    _check_inputs(rgb, obstacle, off_ground, box)
     result = np.zeros(obstacle.shape, dtype=np.bool_)
     if not params.enabled:
         return result
