@@ -88,7 +88,8 @@ def test_the_walk_stops_at_a_row_whose_colour_jumps():
     colours = np.zeros((6, 20, 3), np.float32)
     colours[:3] = 1.0                                              # rows 0..2: another colour
     like = np.zeros((6, 20), bool)
-    far_rows_kernel(colours, np.zeros((6, 20), bool), 5, np.float32(0.08), np.float32(0.1), like)
+    far_rows_kernel(colours, np.zeros((6, 20), bool), np.zeros(3, np.float32), 5, np.float32(0.08),
+                    np.float32(0.1), like)
     assert like[3:].all() and not like[:3].any()
 
 
@@ -97,8 +98,26 @@ def test_the_walk_stops_at_a_row_mostly_off_the_ground():
     off = np.zeros((6, 20), bool)
     off[2, :16] = True                                             # 4 of 20 pixels left: fewer than 5
     like = np.zeros((6, 20), bool)
-    far_rows_kernel(colours, off, 5, np.float32(0.08), np.float32(0.1), like)
+    far_rows_kernel(colours, off, np.zeros(3, np.float32), 5, np.float32(0.08), np.float32(0.1), like)
     assert like[3:].all() and not like[:3].any()
+
+
+def test_the_walk_starts_only_from_the_ground_under_the_band():
+    colours = np.zeros((6, 20, 3), np.float32)
+    like = np.zeros((6, 20), bool)
+    far_rows_kernel(colours, np.zeros((6, 20), bool), np.full(3, 0.5, np.float32), 5, np.float32(0.08),
+                    np.float32(0.1), like)
+    assert not like.any()                                          # the band's colour jumps from the ground's
+
+
+def test_nothing_changes_when_the_row_under_the_band_has_another_colour():
+    """A blue wall fills the rows under the far band: the band's colour does not continue the
+    wall's, so the walk does not start."""
+    rgb = _drifting_scene()
+    rgb[55:120] = (60, 60, 200)
+    obstacle = _nothing_off()
+    obstacle[41:120, :] = True                                     # the far band and the wall below it
+    assert not far_ground(rgb, obstacle, _nothing_off(), PLANE, BOX).any()
 
 
 def test_disabled_or_without_far_obstacles_nothing_changes():
