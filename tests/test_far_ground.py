@@ -84,30 +84,66 @@ def test_an_obstacle_standing_on_nearer_ground_keeps_its_far_rows_of_its_own_col
     assert not flipped[52:, 20:40].any()
 
 
+def _walk(colours, off=None, min_count=5):
+    """``like`` of the kernel for far rows ``colours[:-1]`` above the row ``colours[-1]``."""
+    off = np.zeros(colours.shape[:2], bool) if off is None else off
+    like = np.zeros((colours.shape[0] - 1, colours.shape[1]), bool)
+    far_rows_kernel(colours, off, min_count, np.float32(0.08), np.float32(0.1), like)
+    return like
+
+
+def _slow_walk(colours, off, min_count, tolerance, max_step):
+    """The walk written plainly with NumPy."""
+    like = np.zeros((colours.shape[0] - 1, colours.shape[1]), bool)
+    if np.count_nonzero(~off[-1]) < min_count:
+        return like
+    below = np.median(colours[-1][~off[-1]], axis=0)
+    for i in range(colours.shape[0] - 2, -1, -1):
+        if np.count_nonzero(~off[i]) < min_count:
+            break
+        colour = np.median(colours[i][~off[i]], axis=0)
+        if np.any(np.abs(colour - below) > max_step):
+            break
+        like[i] = np.all(np.abs(colours[i] - colour) <= tolerance, axis=1)
+        below = colour
+    return like
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_walk_matches_a_slow_reference(seed):
+    rng = np.random.default_rng(seed)
+    n_rows, width = rng.integers(2, 12), rng.integers(4, 30)
+    drift = np.cumsum(rng.normal(0, 0.04, (n_rows, 1, 3)), axis=0)[::-1]   # row colours drifting upwards
+    colours = (drift + rng.normal(0, 0.05, (n_rows, width, 3))).astype(np.float32)
+    off = rng.random((n_rows, width)) < 0.3
+    like = np.zeros((n_rows - 1, width), bool)
+    far_rows_kernel(colours, off, width // 3, np.float32(0.08), np.float32(0.1), like)
+    np.testing.assert_array_equal(like, _slow_walk(colours, off, width // 3, 0.08, 0.1))
+    assert like.any() or seed == 3                # seed 3: the nearest far row already jumps by 0.107 in blue
+
+
 def test_the_walk_stops_at_a_row_whose_colour_jumps():
-    colours = np.zeros((6, 20, 3), np.float32)
+    colours = np.zeros((7, 20, 3), np.float32)
     colours[:3] = 1.0                                              # rows 0..2: another colour
-    like = np.zeros((6, 20), bool)
-    far_rows_kernel(colours, np.zeros((6, 20), bool), np.zeros(3, np.float32), 5, np.float32(0.08),
-                    np.float32(0.1), like)
+    like = _walk(colours)
     assert like[3:].all() and not like[:3].any()
 
 
 def test_the_walk_stops_at_a_row_mostly_off_the_ground():
-    colours = np.zeros((6, 20, 3), np.float32)
-    off = np.zeros((6, 20), bool)
+    colours = np.zeros((7, 20, 3), np.float32)
+    off = np.zeros((7, 20), bool)
     off[2, :16] = True                                             # 4 of 20 pixels left: fewer than 5
-    like = np.zeros((6, 20), bool)
-    far_rows_kernel(colours, off, np.zeros(3, np.float32), 5, np.float32(0.08), np.float32(0.1), like)
+    like = _walk(colours, off)
     assert like[3:].all() and not like[:3].any()
 
 
-def test_the_walk_starts_only_from_the_ground_under_the_band():
-    colours = np.zeros((6, 20, 3), np.float32)
-    like = np.zeros((6, 20), bool)
-    far_rows_kernel(colours, np.zeros((6, 20), bool), np.full(3, 0.5, np.float32), 5, np.float32(0.08),
-                    np.float32(0.1), like)
-    assert not like.any()                                          # the band's colour jumps from the ground's
+def test_the_walk_starts_only_from_the_row_under_the_band():
+    colours = np.zeros((7, 20, 3), np.float32)
+    colours[-1] = 0.5                                              # the band does not continue it
+    assert not _walk(colours).any()
+    off = np.zeros((7, 20), bool)
+    off[-1, :16] = True                                            # too little of it to measure
+    assert not _walk(np.zeros((7, 20, 3), np.float32), off).any()
 
 
 def test_nothing_changes_when_the_row_under_the_band_has_another_colour():
@@ -118,6 +154,18 @@ def test_nothing_changes_when_the_row_under_the_band_has_another_colour():
     obstacle = _nothing_off()
     obstacle[41:120, :] = True                                     # the far band and the wall below it
     assert not far_ground(rgb, obstacle, _nothing_off(), PLANE, BOX).any()
+
+
+def test_rows_at_or_below_the_reference_area_are_never_far():
+    """A strongly tilted plane puts far ground (by the middle column) down to the image bottom;
+    the rows of the reference area and below it are never touched."""
+    rgb = np.full((HEIGHT, WIDTH, 3), 120, np.uint8)
+    obstacle = np.ones((HEIGHT, WIDTH), bool)
+    tilted = GroundPlane(a=1.0, b=0.01, c=-80.0)
+    rows, _ = far_rows(tilted, (HEIGHT, WIDTH), (150, 170, 160, HEIGHT), 10.0)
+    assert rows.size and rows[-1] < 170
+    flipped = far_ground(rgb, obstacle, _nothing_off(), tilted, (150, 170, 160, HEIGHT))
+    assert not flipped[170:].any()
 
 
 def test_disabled_or_without_far_obstacles_nothing_changes():
@@ -148,6 +196,10 @@ def test_inputs_are_validated():
         far_ground(rgb, mask, mask.astype(np.uint8), PLANE, BOX)
     with pytest.raises(InvalidInputError, match="box"):
         far_ground(rgb, mask, mask, PLANE, (0, 170, WIDTH + 1, HEIGHT))
+    with pytest.raises(InvalidInputError, match="box"):
+        far_ground(rgb, mask, mask, PLANE, (0, 170, WIDTH))
+    with pytest.raises(InvalidInputError, match="rgb"):
+        far_ground(rgb.astype(np.float32) / 255, mask, mask, PLANE, BOX)
 
 
 @pytest.mark.parametrize("kwargs, match", [

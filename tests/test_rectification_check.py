@@ -53,7 +53,7 @@ def test_bad_arguments(pairs):
             match_features(pairs[0].left, pairs[0].right, method="orb", orb_levels=levels)
 
 
-@pytest.mark.parametrize("method, levels", [("sift", 8), ("orb", 8), ("orb", 2), ("orb", 1)])
+@pytest.mark.parametrize("method, levels", [("sift", 8), ("orb", 8), ("orb", 3), ("orb", 2), ("orb", 1)])
 def test_feature_matches_find_a_known_shift(method, levels):
     rng = np.random.default_rng(3)
     image = (rng.uniform(0, 255, (160, 200)) > 128).astype(np.uint8) * 255

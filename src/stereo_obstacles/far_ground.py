@@ -7,17 +7,19 @@ calls the ground an obstacle: a band of false alarms under the horizon. On the s
 world it held 1.7-2.3 % of the ground pixels (docs/segmentation.md, session 8).
 
 With the stereo check's ground plane ``d = a x + b y + c``, the far rows are known. They are
-the rows whose plane disparity (at the middle column) is positive but at most
-``1 / min_distance_factor`` of the reference area's, so their ground is at least that many times
-as far. Such a row is mostly ground, so the median colour of its pixels is the ground's colour
+the rows above the reference area whose plane disparity (at the middle column) is positive but
+at most ``1 / min_distance_factor`` of the reference area's, so their ground is at least that
+many times as far. Such a row is mostly ground, so the median colour of its pixels is the ground's colour
 at that distance. :func:`far_ground` walks these rows from the nearest upwards:
 
 1. the row's colour is the median, per channel, of ``log(1 + c)`` over the row's pixels that
    the stereo check does not see off the ground (``c`` the colour after a ``blur_px`` box blur);
-2. the walk starts from the row just under the band, whose colour is taken the same way. It
+2. the walk starts from the row just under the band, whose colour is taken the same way
+   (nothing is done when fewer than ``min_row_fraction`` of that row's pixels qualify). It
    stops at a row where fewer than ``min_row_fraction`` of the pixels qualify, or whose colour
    differs from the row below by more than ``max_row_step`` in a channel (the ground's colour
-   changes gradually with distance; a jump means that something else fills the row);
+   changes gradually with distance; a jump means that something else fills the row: the sky
+   above a dark building that hides the far ground);
 3. obstacle pixels within ``colour_tolerance`` of the row's colour in every channel become
    ground, unless their column of obstacle pixels runs on, unbroken, down to ground half as far
    as the band's edge and they have the colour of that column just under the band (an
@@ -62,8 +64,9 @@ class FarGroundParameters:
     enabled
         False leaves the labels as they are.
     min_distance_factor
-        Only rows whose ground is at least this many times as far as the reference area's
-        middle (plane disparity at most ``1 / min_distance_factor`` of that point's) are far.
+        Only rows above the reference area whose ground is at least this many times as far as
+        the reference area's middle are far: plane disparity at the image's middle column
+        positive and at most ``1 / min_distance_factor`` of the disparity at the area's middle.
     blur_px
         Side of the box blur applied to the colours first, pixels (odd; 1: none).
     colour_tolerance
@@ -98,9 +101,9 @@ def far_rows(plane: GroundPlane, shape: tuple[int, int], box: tuple[int, int, in
     Returns
     -------
     (numpy.ndarray, int)
-        ``int`` indices, increasing, of the rows whose ground is at least
-        ``min_distance_factor`` times as far as the middle of the reference area ``box``
-        ``(x0, y0, x1, y1)`` (plane disparity at the middle column positive and at most the box
+        ``int`` indices, increasing, of the rows above the reference area ``box``
+        ``(x0, y0, x1, y1)`` whose ground is at least ``min_distance_factor`` times as far as the
+        box's middle (plane disparity at the middle column positive and at most the box
         middle's divided by the factor; none when the plane does not rise towards the bottom),
         and the first row whose ground is at most half as far as that edge of the band
         (``H`` when there is none).
@@ -111,7 +114,8 @@ def far_rows(plane: GroundPlane, shape: tuple[int, int], box: tuple[int, int, in
     if not plane.b > 0:
         return np.zeros(0, dtype=np.int64), height
     near = np.flatnonzero(row_disparity >= 2.0 * edge)
-    return np.flatnonzero((row_disparity > 0) & (row_disparity <= edge)), int(near[0]) if near.size else height
+    far = (row_disparity > 0) & (row_disparity <= edge) & (np.arange(height) < box[1])
+    return np.flatnonzero(far), int(near[0]) if near.size else height
 
 
 def _standing_on_nearer_ground(obstacle: np.ndarray, rows: np.ndarray, near_row: int) -> np.ndarray:
@@ -133,12 +137,16 @@ def _standing_on_nearer_ground(obstacle: np.ndarray, rows: np.ndarray, near_row:
 def _check_inputs(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray,
                   box: tuple[int, int, int, int]) -> None:
     """Raise :class:`InvalidInputError` unless the arrays and the box fit :func:`far_ground`."""
-    if not (isinstance(rgb, np.ndarray) and rgb.ndim == 3 and rgb.shape[2] == 3):
-        raise InvalidInputError(f"rgb must be an (H, W, 3) array, got {getattr(rgb, 'shape', type(rgb))}")
+    if not (isinstance(rgb, np.ndarray) and rgb.ndim == 3 and rgb.shape[2] == 3
+            and rgb.dtype in (np.uint8, np.uint16)):
+        raise InvalidInputError(f"rgb must be a uint8 or uint16 (H, W, 3) array, got "
+                                f"{getattr(rgb, 'dtype', type(rgb))} {getattr(rgb, 'shape', '')}")
     for name, mask in (("obstacle", obstacle), ("off_ground", off_ground)):
         if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == rgb.shape[:2]):
             raise InvalidInputError(f"{name} must be a bool array of the image's shape {rgb.shape[:2]}, got "
                                     f"{getattr(mask, 'dtype', type(mask))} {getattr(mask, 'shape', '')}")
+    if not (isinstance(box, tuple) and len(box) == 4 and all(isinstance(v, (int, np.integer)) for v in box)):
+        raise InvalidInputError(f"box must be a tuple of four integers (x0, y0, x1, y1), got {box!r}")
     x0, y0, x1, y1 = box
     if not (0 <= x0 < x1 <= rgb.shape[1] and 0 <= y0 < y1 <= rgb.shape[0]):
         raise InvalidInputError(f"box {box} is not a non-empty rectangle inside the {rgb.shape[1]}x{rgb.shape[0]} image")
@@ -169,8 +177,8 @@ def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, pl
     Raises
     ------
     InvalidInputError
-        ``rgb`` is not ``(H, W, 3)``, a mask is not ``bool (H, W)``, or ``box`` is not a
-        non-empty rectangle inside the image.
+        ``rgb`` is not ``uint8``/``uint16 (H, W, 3)``, a mask is not ``bool (H, W)``, or
+        ``box`` is not four integers of a non-empty rectangle inside the image.
 
     Examples
     --------
@@ -179,10 +187,10 @@ def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, pl
     >>> rows = np.linspace(0.0, 1.0, 100)[:, None, None]             # towards the horizon (row 0)
     >>> rgb = np.broadcast_to((90 + 120 * (1 - rows) ** 8) * [1.0, 1.2, 0.7], (100, 80, 3)).astype(np.uint8)
     >>> obstacle = np.zeros((100, 80), bool)
-    >>> obstacle[1:8] = True                                         # what colour said of the far band
+    >>> obstacle[1:10] = obstacle[60:70, 10:20] = True               # the far band, and a near box
     >>> plane = GroundPlane(a=0.0, b=0.2, c=0.0)                     # d = 0.2 y: horizon at row 0
     >>> flipped = far_ground(rgb, obstacle, np.zeros_like(obstacle), plane, (0, 85, 80, 100))
-    >>> bool(flipped[1:8].all()), bool(flipped[8:].any())
+    >>> bool(flipped[1:10].all()), bool(flipped[10:].any())          # far: d <= 18.5 / 10, rows 1..9
     (True, False)
     """
     _check_inputs(rgb, obstacle, off_ground, box)
@@ -193,24 +201,21 @@ def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, pl
     if rows.size == 0 or not obstacle[rows].any():
         return result
     r = params.blur_px // 2
-    below = min(int(rows[-1]) + 1, obstacle.shape[0] - 1)      # the first row under the band
+    below = int(rows[-1]) + 1                               # the first row under the band
     top, bottom = max(0, int(rows[0]) - r), min(obstacle.shape[0], below + 1 + r)
     colours = rgb[top:bottom].astype(np.float32)
     if params.blur_px > 1:
         colours = cv2.blur(colours, (params.blur_px, params.blur_px), borderType=cv2.BORDER_REFLECT)
     colours = np.log1p(colours)
-    band = np.ascontiguousarray(colours[rows - top])
+    walked = np.append(rows, below)                         # the far rows and the row under them
+    band = np.ascontiguousarray(colours[walked - top])
     min_count = max(1, int(np.ceil(params.min_row_fraction * obstacle.shape[1])))
-    # the walk starts from the colour of the row just under the band
-    if np.count_nonzero(~off_ground[below]) < min_count:
-        return result
-    anchor = np.median(colours[below - top][~off_ground[below]], axis=0).astype(np.float32)
     like = np.zeros((rows.size, obstacle.shape[1]), dtype=np.bool_)
-    far_rows_kernel(band, np.ascontiguousarray(off_ground[rows]), anchor, min_count,
-                    np.float32(params.colour_tolerance), np.float32(params.max_row_step), like)
+    far_rows_kernel(band, np.ascontiguousarray(off_ground[walked]), min_count, np.float32(params.colour_tolerance),
+                    np.float32(params.max_row_step), like)
     # an obstacle standing on nearer ground that reaches up into the band with the colour it has
     # under the band keeps its pixels (a near untextured box of the far ground's colour)
-    same_colour = np.all(np.abs(band - colours[below - top]) <= params.colour_tolerance, axis=2)
+    same_colour = np.all(np.abs(band[:-1] - band[-1]) <= params.colour_tolerance, axis=2)
     kept = _standing_on_nearer_ground(obstacle, rows, near_row) & same_colour
     result[rows] = obstacle[rows] & like & ~off_ground[rows] & ~kept
     logger.debug("far ground: %d far rows, %d obstacle pixels made ground", rows.size, np.count_nonzero(result))
