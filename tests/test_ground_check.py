@@ -131,7 +131,8 @@ def test_off_ground_mask_skips_only_rows_without_a_valid_window(a, c, tolerant):
     grey_left, grey_right = grey_levels(left), grey_levels(right)
     plane = GroundPlane(a=a, b=PLANE.b, c=c)             # horizon near row 60, 200 (in the reference area), above
     params = (GroundCheckParameters(vote_window_px=1) if tolerant else
-              GroundCheckParameters(vote_window_px=1, mismatch_factor=1.0, misalignment_px=0.0, row_misalignment_px=0.0))
+              GroundCheckParameters(vote_window_px=1, mismatch_factor=1.0, misalignment_px=0.0,
+                                    row_misalignment_px=0.0))
     off, noise = off_ground_mask(grey_left, grey_right, plane, REFERENCE, params=params)
     valid, share, variance, edge = _off_ground_over_the_whole_image(grey_left, grey_right, plane, params)
     x0, y0, x1, y1 = REFERENCE

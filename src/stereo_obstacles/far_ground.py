@@ -149,7 +149,8 @@ def _check_inputs(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray,
         raise InvalidInputError(f"box must be a tuple of four integers (x0, y0, x1, y1), got {box!r}")
     x0, y0, x1, y1 = box
     if not (0 <= x0 < x1 <= rgb.shape[1] and 0 <= y0 < y1 <= rgb.shape[0]):
-        raise InvalidInputError(f"box {box} is not a non-empty rectangle inside the {rgb.shape[1]}x{rgb.shape[0]} image")
+        raise InvalidInputError(f"box {box} is not a non-empty rectangle inside the "
+                                f"{rgb.shape[1]}x{rgb.shape[0]} image")
 
 
 def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, plane: GroundPlane,
