@@ -29,7 +29,8 @@ def ground_warp_terms_kernel(left, right, a, b, c, weight_x, weight_y, first_row
     column lies inside the image), else 0 with a zero difference.
 
     Each row is swept in separate passes without divisions or index clamping in the inner
-    loops, so that the compiler can vectorise them (about 2x faster than a per-pixel loop).
+    loops, so that the compiler can vectorise them (1.78 -> 1.34 ms for every row of the default
+    640x480 scene against the per-pixel loop before, a scratch measurement).
     """
     h, w = left.shape
     half = np.float32(0.5)
