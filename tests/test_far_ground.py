@@ -8,7 +8,8 @@ import pytest
 
 from stereo_obstacles._far_ground_kernel import far_rows_kernel
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.far_ground import FarGroundParameters, far_ground, far_rows
+from stereo_obstacles.far_ground import (FarGroundParameters, far_ground, far_ground_pixels, far_ground_rows,
+                                         far_rows)
 from stereo_obstacles.ground_plane import GroundPlane
 
 HEIGHT, WIDTH, HORIZON = 200, 160, 40
@@ -53,6 +54,24 @@ def test_the_far_band_becomes_ground_but_not_a_far_red_box_nor_near_pixels():
     assert not flipped[45:52, 103:117].any()                      # the box but its blurred rim
     assert not flipped[55:].any()
     assert not flipped[~obstacle].any()
+
+
+def test_the_rows_found_before_the_labels_give_the_same_pixels_for_any_labels():
+    rgb = _drifting_scene(3)
+    off = _nothing_off()
+    off[44:50, 60:70] = True
+    found = far_ground_rows(rgb, off, PLANE, BOX)              # what phase 1 computes beside the labels
+    np.testing.assert_array_equal(found.rows, np.arange(41, 55))
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        obstacle = rng.random((HEIGHT, WIDTH)) < 0.6
+        obstacle[41:60, 20:40] = True                          # a column running down to near ground
+        np.testing.assert_array_equal(far_ground_pixels(found, obstacle),
+                                      far_ground(rgb, obstacle, off, PLANE, BOX))
+    disabled = far_ground_rows(rgb, off, PLANE, BOX, params=FarGroundParameters(enabled=False))
+    assert disabled is None and not far_ground_pixels(disabled, off).any()
+    with pytest.raises(InvalidInputError, match="obstacle"):
+        far_ground_pixels(found, off[:, :10])
 
 
 def test_pixels_the_stereo_check_sees_off_the_ground_stay_obstacles():

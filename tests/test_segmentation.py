@@ -123,7 +123,7 @@ def test_unusable_reference_is_an_error(caplog):
     with pytest.raises(InvalidInputError, match="reference area .* unusable"):
         segment(rgb)
     with pytest.raises(InvalidInputError, match="reference area .* unusable"):
-        segment(rgb, right=rgb)                          # before any stereo work, no warning of it
+        segment(rgb, right=rgb)                          # no warning of the stereo check before the error
     assert "stereo ground check" not in caplog.text
 
 

@@ -26,6 +26,10 @@ at that distance. :func:`far_ground` walks these rows from the nearest upwards:
    obstacle standing on nearer ground and reaching up into the far rows keeps its pixels; the
    far ground seen above the top of a near obstacle does not).
 
+Steps 1 and 2 need only the image and the stereo check (:func:`far_ground_rows`, which
+phase 1 runs beside its colour labels); step 3 needs the labels (:func:`far_ground_pixels`).
+:func:`far_ground` does both.
+
 Nearer rows are never touched. The sky can be called ground, which changes nothing a user
 relies on (the sky is no obstacle either), but shows in the labels:
 
@@ -134,23 +138,111 @@ def _standing_on_nearer_ground(obstacle: np.ndarray, rows: np.ndarray, near_row:
     return runs
 
 
-def _check_inputs(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray,
-                  box: tuple[int, int, int, int]) -> None:
-    """Raise :class:`InvalidInputError` unless the arrays and the box fit :func:`far_ground`."""
+def _check_image_and_box(rgb: np.ndarray, off_ground: np.ndarray, box: tuple[int, int, int, int]) -> None:
+    """Raise :class:`InvalidInputError` unless the image, the off-ground mask and the box fit
+    :func:`far_ground_rows`."""
     if not (isinstance(rgb, np.ndarray) and rgb.ndim == 3 and rgb.shape[2] == 3
             and rgb.dtype in (np.uint8, np.uint16)):
         raise InvalidInputError(f"rgb must be a uint8 or uint16 (H, W, 3) array, got "
                                 f"{getattr(rgb, 'dtype', type(rgb))} {getattr(rgb, 'shape', '')}")
-    for name, mask in (("obstacle", obstacle), ("off_ground", off_ground)):
-        if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == rgb.shape[:2]):
-            raise InvalidInputError(f"{name} must be a bool array of the image's shape {rgb.shape[:2]}, got "
-                                    f"{getattr(mask, 'dtype', type(mask))} {getattr(mask, 'shape', '')}")
+    _check_mask("off_ground", off_ground, rgb.shape[:2])
     if not (isinstance(box, tuple) and len(box) == 4 and all(isinstance(v, (int, np.integer)) for v in box)):
         raise InvalidInputError(f"box must be a tuple of four integers (x0, y0, x1, y1), got {box!r}")
     x0, y0, x1, y1 = box
     if not (0 <= x0 < x1 <= rgb.shape[1] and 0 <= y0 < y1 <= rgb.shape[0]):
         raise InvalidInputError(f"box {box} is not a non-empty rectangle inside the "
                                 f"{rgb.shape[1]}x{rgb.shape[0]} image")
+
+
+def _check_mask(name: str, mask: np.ndarray, shape: tuple[int, ...]) -> None:
+    """Raise :class:`InvalidInputError` unless ``mask`` is a ``bool`` array of ``shape``."""
+    if not (isinstance(mask, np.ndarray) and mask.dtype == np.bool_ and mask.shape == shape):
+        raise InvalidInputError(f"{name} must be a bool array of the image's shape {shape}, got "
+                                f"{getattr(mask, 'dtype', type(mask))} {getattr(mask, 'shape', '')}")
+
+
+@dataclass(frozen=True, eq=False)
+class FarGroundRows:
+    """What :func:`far_ground_rows` finds in the far rows before the labels are known.
+
+    Attributes
+    ----------
+    shape
+        ``(H, W)`` of the image.
+    rows
+        ``int (n,)`` indices, increasing, of the far rows (:func:`far_rows`).
+    near_row
+        The first row of ground at most half as far as the band's edge (``H`` when none).
+    ground_coloured
+        ``bool (n, W)``: pixels of the far rows within the tolerance of their row's ground colour
+        and not off the ground.
+    colour_under_band
+        ``bool (n, W)``: pixels of the far rows with the colour of their column just under the band.
+    """
+
+    shape: tuple[int, int]
+    rows: np.ndarray
+    near_row: int
+    ground_coloured: np.ndarray
+    colour_under_band: np.ndarray
+
+
+def far_ground_rows(rgb: np.ndarray, off_ground: np.ndarray, plane: GroundPlane, box: tuple[int, int, int, int], *,
+                    params: FarGroundParameters = FarGroundParameters()) -> FarGroundRows | None:
+    """The far rows' ground-coloured pixels: the part of :func:`far_ground` that does not need
+    phase 1's labels (phase 1 computes it beside the colour labels). Arguments as for
+    :func:`far_ground`; None when ``params.enabled`` is False or there is no far row.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`far_ground`.
+    """
+    _check_image_and_box(rgb, off_ground, box)
+    if not params.enabled:
+        return None
+    shape = off_ground.shape
+    rows, near_row = far_rows(plane, shape, box, params.min_distance_factor)
+    if rows.size == 0:
+        return None
+    r = params.blur_px // 2
+    below = int(rows[-1]) + 1                               # the first row under the band
+    top, bottom = max(0, int(rows[0]) - r), min(shape[0], below + 1 + r)
+    colours = rgb[top:bottom].astype(np.float32)
+    if params.blur_px > 1:
+        colours = cv2.blur(colours, (params.blur_px, params.blur_px), borderType=cv2.BORDER_REFLECT)
+    colours = np.log1p(colours)
+    walked = np.append(rows, below)                         # the far rows and the row under them
+    band = np.ascontiguousarray(colours[walked - top])
+    min_count = max(1, int(np.ceil(params.min_row_fraction * shape[1])))
+    like = np.zeros((rows.size, shape[1]), dtype=np.bool_)
+    far_rows_kernel(band, np.ascontiguousarray(off_ground[walked]), min_count, np.float32(params.colour_tolerance),
+                    np.float32(params.max_row_step), like)
+    return FarGroundRows(shape=shape, rows=rows, near_row=near_row, ground_coloured=like & ~off_ground[rows],
+                         colour_under_band=np.all(np.abs(band[:-1] - band[-1]) <= params.colour_tolerance, axis=2))
+
+
+def far_ground_pixels(found: FarGroundRows | None, obstacle: np.ndarray) -> np.ndarray:
+    """``bool (H, W)``: the obstacle pixels that ``found`` (:func:`far_ground_rows`) makes ground.
+
+    An obstacle standing on nearer ground that reaches up into the band with the colour it has
+    under the band keeps its pixels (a near untextured box of the far ground's colour).
+
+    Raises
+    ------
+    InvalidInputError
+        ``obstacle`` is not ``bool`` of the image's shape.
+    """
+    shape = found.shape if found is not None else np.shape(obstacle)
+    _check_mask("obstacle", obstacle, shape)
+    result = np.zeros(shape, dtype=np.bool_)
+    if found is None:
+        return result
+    rows = found.rows
+    kept = _standing_on_nearer_ground(obstacle, rows, found.near_row) & found.colour_under_band
+    result[rows] = obstacle[rows] & found.ground_coloured & ~kept
+    logger.debug("far ground: %d far rows, %d obstacle pixels made ground", rows.size, np.count_nonzero(result))
+    return result
 
 
 def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, plane: GroundPlane,
@@ -194,33 +286,10 @@ def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, pl
     >>> bool(flipped[1:10].all()), bool(flipped[10:].any())          # far: d <= 18.5 / 10, rows 1..9
     (True, False)
     """
-    _check_inputs(rgb, obstacle, off_ground, box)
-    result = np.zeros(obstacle.shape, dtype=np.bool_)
-    if not params.enabled:
-        return result
-    rows, near_row = far_rows(plane, obstacle.shape, box, params.min_distance_factor)
-    if rows.size == 0 or not obstacle[rows].any():
-        return result
-    r = params.blur_px // 2
-    below = int(rows[-1]) + 1                               # the first row under the band
-    top, bottom = max(0, int(rows[0]) - r), min(obstacle.shape[0], below + 1 + r)
-    colours = rgb[top:bottom].astype(np.float32)
-    if params.blur_px > 1:
-        colours = cv2.blur(colours, (params.blur_px, params.blur_px), borderType=cv2.BORDER_REFLECT)
-    colours = np.log1p(colours)
-    walked = np.append(rows, below)                         # the far rows and the row under them
-    band = np.ascontiguousarray(colours[walked - top])
-    min_count = max(1, int(np.ceil(params.min_row_fraction * obstacle.shape[1])))
-    like = np.zeros((rows.size, obstacle.shape[1]), dtype=np.bool_)
-    far_rows_kernel(band, np.ascontiguousarray(off_ground[walked]), min_count, np.float32(params.colour_tolerance),
-                    np.float32(params.max_row_step), like)
-    # an obstacle standing on nearer ground that reaches up into the band with the colour it has
-    # under the band keeps its pixels (a near untextured box of the far ground's colour)
-    same_colour = np.all(np.abs(band[:-1] - band[-1]) <= params.colour_tolerance, axis=2)
-    kept = _standing_on_nearer_ground(obstacle, rows, near_row) & same_colour
-    result[rows] = obstacle[rows] & like & ~off_ground[rows] & ~kept
-    logger.debug("far ground: %d far rows, %d obstacle pixels made ground", rows.size, np.count_nonzero(result))
-    return result
+    _check_image_and_box(rgb, off_ground, box)
+    _check_mask("obstacle", obstacle, off_ground.shape)
+    return far_ground_pixels(far_ground_rows(rgb, off_ground, plane, box, params=params), obstacle)
 
 
-__all__ = ["FarGroundParameters", "far_rows", "far_ground"]
+__all__ = ["FarGroundParameters", "FarGroundRows", "far_rows", "far_ground_rows", "far_ground_pixels",
+           "far_ground"]

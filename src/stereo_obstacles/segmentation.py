@@ -74,7 +74,7 @@ from stereo_obstacles._segmentation_kernel import (classify_kernel, classify_mod
 from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATION, check_rgb,
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.far_ground import FarGroundParameters, far_ground
+from stereo_obstacles.far_ground import FarGroundParameters, FarGroundRows, far_ground_pixels, far_ground_rows
 from stereo_obstacles.field_checks import check_types
 from stereo_obstacles.ground_check import (GroundCheck, GroundCheckParameters, check_colour_pair, check_ground,
                                            grey_levels)
@@ -352,31 +352,26 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         raise InvalidInputError(f"reference must be a ReferenceArea, got {type(reference).__name__}")
     if not isinstance(params, SegmentationParameters):
         raise InvalidInputError(f"params must be SegmentationParameters, got {type(params).__name__}")
-    x0, y0, x1, y1 = box = reference.to_pixels(a.shape[0], a.shape[1])
-    step = params.reference.sample_step(y1 - y0, x1 - x0)
-    area = a[y0:y1:step, x0:x1:step]
-    area_hsi = rgb_to_hsi(area, min_intensity=params.min_intensity, min_saturation=params.min_saturation)
-    ref = reference_statistics(area, area_hsi, box, params=params.reference)
+    box = reference.to_pixels(a.shape[0], a.shape[1])
     # two tasks at once on the two cores (the kernels and OpenCV release the GIL): the colour
-    # labels beside the texture map, or (longer) both beside the stereo cue
+    # labels beside the texture map, or (longer) the colour labels and the texture test beside
+    # the stereo cue and the far rows' colours
     if b is None:
-        labels, smooth = run_each_in_threads([(_colour_labels, a, inv_full_scale, ref, box, params),
-                                              (_smooth_pixels, a, box, params)])
-        ground = None
+        (ref, labels), smooth = run_each_in_threads([(_reference_and_colour_labels, a, inv_full_scale, box, params),
+                                                     (_smooth_pixels, a, box, params)])
+        smooth_shadow = _mark_textureless_shadow(labels, smooth, params)
+        ground = far = None
     else:
-        (labels, smooth), ground = run_each_in_threads([
-            (_colour_labels_and_texture, a, inv_full_scale, ref, box, params),
-            (_stereo_cue, a, b, box, params.ground_check)])
-    smooth_shadow = None
-    if smooth is not None:
-        smooth_shadow = textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)
-        labels[smooth_shadow] = Label.OBSTACLE
+        (ref, labels, smooth_shadow), (ground, far, skipped) = run_each_in_threads([
+            (_colour_cues, a, inv_full_scale, box, params),
+            (_stereo_cues, a, b, box, params)])
+        if skipped is not None:    # logged only now: an unusable reference area raised above
+            logger.warning("stereo ground check skipped, colour labels only: %s", skipped)
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
     _fill_holes(labels, params)
     if ground is not None:
-        labels[far_ground(a, labels == Label.OBSTACLE, ground.off_ground, ground.plane, box,
-                          params=params.far_ground)] = Label.GROUND
+        labels[far_ground_pixels(far, labels == Label.OBSTACLE)] = Label.GROUND
     if smooth_shadow is not None:
         smooth_shadow &= labels == Label.OBSTACLE          # what the texture test made obstacle and still is
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
@@ -405,11 +400,39 @@ def _colour_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistic
     return _log_rgb_labels(a, box, params)
 
 
-def _colour_labels_and_texture(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
-                               box: tuple[int, int, int, int],
-                               params: SegmentationParameters) -> tuple[np.ndarray, np.ndarray | None]:
-    """:func:`_colour_labels` and :func:`_smooth_pixels`, one after the other."""
-    return _colour_labels(a, inv_full_scale, ref, box, params), _smooth_pixels(a, box, params)
+def _reference(a: np.ndarray, box: tuple[int, int, int, int], params: SegmentationParameters) -> ReferenceStatistics:
+    """The reference area's statistics, from a sample of its pixels (raises when it is unusable)."""
+    x0, y0, x1, y1 = box
+    step = params.reference.sample_step(y1 - y0, x1 - x0)
+    area = a[y0:y1:step, x0:x1:step]
+    area_hsi = rgb_to_hsi(area, min_intensity=params.min_intensity, min_saturation=params.min_saturation)
+    return reference_statistics(area, area_hsi, box, params=params.reference)
+
+
+def _reference_and_colour_labels(a: np.ndarray, inv_full_scale: float, box: tuple[int, int, int, int],
+                                 params: SegmentationParameters) -> tuple[ReferenceStatistics, np.ndarray]:
+    """:func:`_reference`, then :func:`_colour_labels` with it."""
+    ref = _reference(a, box, params)
+    return ref, _colour_labels(a, inv_full_scale, ref, box, params)
+
+
+def _colour_cues(a: np.ndarray, inv_full_scale: float, box: tuple[int, int, int, int],
+                 params: SegmentationParameters) -> tuple[ReferenceStatistics, np.ndarray, np.ndarray | None]:
+    """:func:`_reference_and_colour_labels`, then the texture test on those labels: the reference
+    statistics, the labels (textureless shadow made obstacle) and the textureless shadow mask."""
+    ref, labels = _reference_and_colour_labels(a, inv_full_scale, box, params)
+    return ref, labels, _mark_textureless_shadow(labels, _smooth_pixels(a, box, params), params)
+
+
+def _mark_textureless_shadow(labels: np.ndarray, smooth: np.ndarray | None,
+                             params: SegmentationParameters) -> np.ndarray | None:
+    """Shadow pixels too smooth to be ground in shadow become obstacle, in place; returns them
+    (``bool (H, W)``), or None when the texture test is not made (``smooth`` None)."""
+    if smooth is None:
+        return None
+    flagged = textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)
+    labels[flagged] = Label.OBSTACLE
+    return flagged
 
 
 def _smooth_pixels(a: np.ndarray, box: tuple[int, int, int, int], params: SegmentationParameters) -> np.ndarray | None:
@@ -419,15 +442,16 @@ def _smooth_pixels(a: np.ndarray, box: tuple[int, int, int, int], params: Segmen
     return smooth_pixels(grey_levels(a), box, params=params.shadow_texture)
 
 
-def _stereo_cue(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int],
-                params: GroundCheckParameters) -> GroundCheck | None:
-    """The stereo ground check, or None (with a logged warning) when the plane cannot be
-    estimated from the reference area ``box``; the images were validated by the caller."""
+def _stereo_cues(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int],
+                 params: SegmentationParameters) -> tuple[GroundCheck | None, FarGroundRows | None, str | None]:
+    """The stereo ground check and the far rows' ground-coloured pixels, or (None, None, why)
+    when the plane cannot be estimated from the reference area ``box`` (the caller logs why);
+    the images were validated by the caller."""
     try:
-        return check_ground(left, right, box, params=params)
+        ground = check_ground(left, right, box, params=params.ground_check)
     except InvalidInputError as error:
-        logger.warning("stereo ground check skipped, colour labels only: %s", error)
-        return None
+        return None, None, str(error)
+    return ground, far_ground_rows(left, ground.off_ground, ground.plane, box, params=params.far_ground), None
 
 
 def _hsi_labels(a: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
