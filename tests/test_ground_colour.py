@@ -7,6 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
+from stereo_obstacles._ground_colour_kernel import NEAR_BIT, fill_table_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_colour import (GROUND_BIT, SHADOW_BIT, SUNLIT_BIT, GroundColourParameters,
                                             build_ground_colour_model, colour_flags, shadow_shifts)
@@ -212,3 +213,27 @@ def test_weakly_darkened_obstacle_of_ground_colour_with_min_shadow_chroma():
     assert np.mean(labels[90:] == Label.GROUND) > 0.95
     default = segment(_u8(image)).labels                 # the whole family calls it a shadow
     assert np.mean(default[obstacle] == Label.SHADOW) > 0.9
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_colour_table_matches_its_definition(seed):
+    """Every ground cell moved by every shift gets that shift's bits; every cell within one bin
+    of a set cell (the 3 x 3 x 3 cube, clipped at the table's edges) gets ``NEAR_BIT``."""
+    rng = np.random.default_rng(seed)
+    n_bins = 12
+    ground = rng.choice(n_bins ** 3, size=15, replace=False).astype(np.int64)
+    shifts = np.column_stack([rng.integers(-3, 4, (20, 3)), rng.choice([0, GROUND_BIT, SHADOW_BIT, SUNLIT_BIT], 20)])
+    table = np.zeros((n_bins,) * 3, dtype=np.uint8)
+    fill_table_kernel(ground, n_bins, shifts.astype(np.int32), table)   # the dtype of shadow_shifts
+    want = np.zeros((n_bins,) * 3, dtype=np.uint8)
+    for r, g, b in zip(*np.unravel_index(ground, want.shape)):
+        for dr, dg, db, bits in shifts:
+            if all(0 <= v < n_bins for v in (r + dr, g + dg, b + db)):
+                want[r + dr, g + dg, b + db] |= bits
+    padded = np.pad(want != 0, 1)
+    near = np.zeros(want.shape, dtype=bool)
+    for dr, dg, db in itertools.product(range(3), repeat=3):
+        near |= padded[dr:dr + n_bins, dg:dg + n_bins, db:db + n_bins]
+    want[near] |= NEAR_BIT
+    np.testing.assert_array_equal(table, want)
+    assert (table & NEAR_BIT).any() and not (table & NEAR_BIT).all()

@@ -87,7 +87,10 @@ def shift_support_kernel(ground_cells, hist, n_bins, shifts):
 def fill_table_kernel(ground_cells, n_bins, shifts, table):
     """Fill ``table`` (``uint8 (n, n, n)``, zeroed): every ground cell sets ``shifts[k, 3]``
     at itself plus ``shifts[k, :3]`` (bins) for every row ``k``; then ``NEAR_BIT`` marks every
-    cell within one bin (Chebyshev) of a set cell."""
+    cell within one bin (Chebyshev) of a set cell. Only the set cells are visited, not the
+    whole table (2 846 of 357 911 cells on the default scene)."""
+    set_cells = np.empty((ground_cells.shape[0] * shifts.shape[0], 3), dtype=np.int64)
+    n_set = 0
     for j in range(ground_cells.shape[0]):
         flat = ground_cells[j]
         r = flat // (n_bins * n_bins)
@@ -97,22 +100,17 @@ def fill_table_kernel(ground_cells, n_bins, shifts, table):
             rr = r + shifts[k, 0]
             gg = g + shifts[k, 1]
             bb = b + shifts[k, 2]
-            if 0 <= rr < n_bins and 0 <= gg < n_bins and 0 <= bb < n_bins:
+            if 0 <= rr < n_bins and 0 <= gg < n_bins and 0 <= bb < n_bins and shifts[k, 3] != 0:
+                if table[rr, gg, bb] == 0:
+                    set_cells[n_set, 0], set_cells[n_set, 1], set_cells[n_set, 2] = rr, gg, bb
+                    n_set += 1
                 table[rr, gg, bb] |= shifts[k, 3]
-    near = np.zeros((n_bins, n_bins, n_bins), dtype=np.bool_)
-    for r in range(n_bins):
-        for g in range(n_bins):
-            for b in range(n_bins):
-                if table[r, g, b] != 0:
-                    for rr in range(max(r - 1, 0), min(r + 2, n_bins)):
-                        for gg in range(max(g - 1, 0), min(g + 2, n_bins)):
-                            for bb in range(max(b - 1, 0), min(b + 2, n_bins)):
-                                near[rr, gg, bb] = True
-    for r in range(n_bins):
-        for g in range(n_bins):
-            for b in range(n_bins):
-                if near[r, g, b]:
-                    table[r, g, b] |= NEAR_BIT
+    for i in range(n_set):
+        r, g, b = set_cells[i, 0], set_cells[i, 1], set_cells[i, 2]
+        for rr in range(max(r - 1, 0), min(r + 2, n_bins)):
+            for gg in range(max(g - 1, 0), min(g + 2, n_bins)):
+                for bb in range(max(b - 1, 0), min(b + 2, n_bins)):
+                    table[rr, gg, bb] |= NEAR_BIT
 
 
 @njit(cache=True, nogil=True)
