@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from stereo_obstacles._ground_colour_kernel import NEAR_BIT, fill_table_kernel
+from stereo_obstacles._ground_colour_kernel import NEAR_BIT, fill_table_kernel, ground_cells_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_colour import (GROUND_BIT, SHADOW_BIT, SUNLIT_BIT, GroundColourParameters,
                                             build_ground_colour_model, colour_flags, shadow_shifts)
@@ -237,3 +237,22 @@ def test_colour_table_matches_its_definition(seed):
     want[near] |= NEAR_BIT
     np.testing.assert_array_equal(table, want)
     assert (table & NEAR_BIT).any() and not (table & NEAR_BIT).all()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_ground_cells_match_their_definition(seed):
+    """A cell is ground when at least ``quorum`` strips hold at least ``min_count`` samples in it,
+    whatever the texture scale of the samples."""
+    rng = np.random.default_rng(seed)
+    n_bins, n_strips, quorum, min_count = 4, 5, 3, 2
+    lut = rng.integers(0, n_bins, 256).astype(np.int32)              # the dtype of the model's lookup table
+    samples = rng.integers(0, 256, (2, 6, 20, 3)).astype(np.uint8)
+    samples[:, :, :, 0] = rng.choice([10, 200], samples.shape[:3])   # few red cells: some cells repeat
+    column_strip = np.repeat(np.arange(n_strips, dtype=np.int32), 4)
+    cells = ground_cells_kernel(samples, lut, column_strip, n_strips, quorum, min_count, n_bins)
+    flat = (lut[samples[..., 0]] * n_bins + lut[samples[..., 1]]) * n_bins + lut[samples[..., 2]]
+    counts = np.zeros((n_bins ** 3, n_strips), dtype=int)
+    np.add.at(counts, (flat, np.broadcast_to(column_strip, flat.shape)), 1)
+    want = np.flatnonzero((counts >= min_count).sum(axis=1) >= quorum)
+    np.testing.assert_array_equal(np.sort(cells), want)
+    assert 0 < want.size < np.unique(flat).size

@@ -20,31 +20,40 @@ def ground_cells_kernel(samples, lut, column_strip, n_strips, quorum, min_count,
     least ``quorum`` strips fall in it.
     """
     n_cells = n_bins * n_bins * n_bins
-    counts = np.zeros((n_strips, n_cells), dtype=np.uint8)
     seen = np.zeros(n_cells, dtype=np.bool_)
-    cells = np.empty(samples.shape[0] * samples.shape[1] * samples.shape[2], dtype=np.int64)
+    compact = np.empty(n_cells, dtype=np.int32)     # read only where seen: no need to clear it
+    n_samples = samples.shape[0] * samples.shape[1] * samples.shape[2]
+    cells = np.empty(n_samples, dtype=np.int64)
+    ids = np.empty(n_samples, dtype=np.int32)
     n_seen = 0
+    i = 0
     for k in range(samples.shape[0]):
         for y in range(samples.shape[1]):
             for x in range(samples.shape[2]):
                 flat = ((lut[samples[k, y, x, 0]] * n_bins + lut[samples[k, y, x, 1]]) * n_bins
                         + lut[samples[k, y, x, 2]])
-                s = column_strip[x]
-                if counts[s, flat] < 255:
-                    counts[s, flat] += 1
                 if not seen[flat]:
                     seen[flat] = True
+                    compact[flat] = n_seen
                     cells[n_seen] = flat
                     n_seen += 1
+                ids[i] = compact[flat]
+                i += 1
+    counts = np.zeros((n_seen, n_strips), dtype=np.int64)   # only the cells that occur
+    i = 0
+    for k in range(samples.shape[0]):
+        for y in range(samples.shape[1]):
+            for x in range(samples.shape[2]):
+                counts[ids[i], column_strip[x]] += 1
+                i += 1
     n_ground = 0
     for j in range(n_seen):
-        flat = cells[j]
         agree = 0
         for s in range(n_strips):
-            if counts[s, flat] >= min_count:
+            if counts[j, s] >= min_count:
                 agree += 1
         if agree >= quorum:
-            cells[n_ground] = flat
+            cells[n_ground] = cells[j]
             n_ground += 1
     return cells[:n_ground].copy()
 
