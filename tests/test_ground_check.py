@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 
 import cv2
@@ -9,8 +10,10 @@ import numpy as np
 import pytest
 
 from stereo_obstacles._ground_check_kernel import TERMS, ground_warp_terms_kernel, off_ground_kernel
+from stereo_obstacles.cli import main
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
-from stereo_obstacles.ground_check import (GroundCheckParameters, check_ground, estimate_ground_plane,
+from stereo_obstacles.fileio import write_image
+from stereo_obstacles.ground_check import (GroundCheckParameters, above_horizon, check_ground, estimate_ground_plane,
                                            grey_levels, off_ground_mask, vote)
 from stereo_obstacles.ground_plane import GroundPlane
 from stereo_obstacles.labels import Label
@@ -290,6 +293,56 @@ def test_textureless_reference_warns_and_keeps_the_colour_labels(caplog):
     np.testing.assert_array_equal(result.labels, segment(flat).labels)
 
 
+def test_a_reference_area_without_texture_takes_the_plane_from_a_taller_band(caplog):
+    left, right, _, _ = _pair()
+    left[180:], right[180:] = PAVER.astype(np.uint8), PAVER.astype(np.uint8)   # smooth ground in the area
+    with caplog.at_level(logging.WARNING, logger="stereo_obstacles.ground_check"):
+        check = check_ground(left, right, REFERENCE)
+    assert check.plane_box == (0, 120, WIDTH, HEIGHT)                 # twice as tall, same bottom
+    assert check.plane.b == pytest.approx(PLANE.b, abs=0.01) and check.plane.c == pytest.approx(PLANE.c, abs=1.5)
+    assert "taller band (0, 120, 320, 240)" in caplog.text
+    assert check_ground(*_pair()[:2], REFERENCE).plane_box == REFERENCE   # no retry when the area gives a plane
+    with pytest.raises(InvalidInputError, match="too flat"):
+        check_ground(left, right, REFERENCE, params=GroundCheckParameters(fallback_band_factor=1.0))
+    left[100:], right[100:] = PAVER.astype(np.uint8), PAVER.astype(np.uint8)   # the taller band smooth too
+    with pytest.raises(InvalidInputError, match=r"too flat.*; and from the taller band \(0, 120, 320, 240\).*too flat"):
+        check_ground(left, right, REFERENCE)
+
+
+@pytest.mark.parametrize("plane", [PLANE, GroundPlane(a=-0.05, b=0.2, c=-2.0), GroundPlane(a=0.0, b=0.0, c=-1.0),
+                                   GroundPlane(a=0.0, b=1e-320, c=-5.0)])
+def test_above_horizon_is_where_the_plane_disparity_is_below_the_margin(plane):
+    ys, xs = np.mgrid[0:HEIGHT, 0:WIDTH]
+    want = plane.a * xs + plane.b * ys + plane.c < -0.5
+    np.testing.assert_array_equal(above_horizon(plane, (HEIGHT, WIDTH), 0.5), want)
+
+
+def test_nothing_above_the_horizon_is_ground():
+    """The constructed ground goes on above its horizon (row 60; no real scene shows that), so
+    colour calls those rows ground; with the rule they are obstacles."""
+    left, right, _, _ = _pair()
+    result = segment(left, right=right)
+    above = result.ground_check.above_horizon
+    assert above[:50].all() and not above[65:].any()      # the estimated plane (c -12.7, tilted) moves rows 50..64
+    ground_like = (result.labels == Label.GROUND) | (result.labels == Label.SHADOW)
+    assert not ground_like[above].any() and ground_like[70:].mean() > 0.95
+    off = SegmentationParameters(ground_check=GroundCheckParameters(horizon_margin_px=None))
+    without = segment(left, right=right, params=off)
+    assert not without.ground_check.above_horizon.any() and (without.labels[:50] == Label.GROUND).mean() > 0.9
+
+
+def test_segment_command_records_the_stereo_check(tmp_path):
+    left, right, _, _ = _pair()
+    write_image(tmp_path / "left.png", left)
+    write_image(tmp_path / "right.png", right)
+    assert main(["segment", str(tmp_path / "left.png"), "--right", str(tmp_path / "right.png"),
+                 "-o", str(tmp_path / "labels.png")]) == 0
+    check = json.loads((tmp_path / "labels.png.json").read_text())["ground_check"]
+    assert check["plane_box_px"] == [0, 204, WIDTH, HEIGHT] and check["plane_inliers"] >= 10   # the bottom 15 %
+    assert check["plane_disparity_px"]["b"] == pytest.approx(PLANE.b, abs=0.01)
+    assert 0.2 < check["above_horizon_fraction"] < 0.25                  # rows 0..about 60 of 240
+
+
 def test_a_wall_in_the_reference_area_is_not_taken_for_the_ground():
     left, right, _, _ = _pair()
     wall = (PAVER * _texture(7)[..., None]).astype(np.float32)
@@ -322,6 +375,8 @@ def test_mismatched_images_are_rejected():
     ({"mismatch_factor": 0.5}, "mismatch_factor"), ({"misalignment_px": float("nan")}, "misalignment_px"),
     ({"row_misalignment_px": -1.0}, "row_misalignment_px"), ({"max_disparity_fraction": 0.0}, "max_disparity"),
     ({"min_patch_correlation": 1.5}, "min_patch_correlation"), ({"plane_fit": None}, "plane_fit"),
+    ({"fallback_band_factor": 0.5}, "fallback_band_factor"), ({"fallback_band_factor": float("inf")}, "fallback_band_factor"),
+    ({"horizon_margin_px": -1.0}, "horizon_margin_px"), ({"horizon_margin_px": "1"}, "horizon_margin_px"),
 ])
 def test_parameters_are_validated(kwargs, match):
     with pytest.raises(InvalidInputError, match=match):

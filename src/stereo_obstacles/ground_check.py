@@ -22,7 +22,12 @@ through the plane shows something else there. This module
    pairs are rectified to a fraction of a pixel, and lane markings have strong edges): a
    pixel is **off the ground** when ``D > mismatch_factor * D_ref + E``;
 3. smooths that mask by a vote (:func:`vote`): off where more than ``vote_fraction`` of the
-   ``vote_window_px`` square around the pixel is.
+   ``vote_window_px`` square around the pixel is;
+4. marks the pixels above the plane's horizon (:func:`above_horizon`), where no ground can be
+   seen.
+
+When the reference area gives no plane, step 1 is tried once more on a taller band
+(``fallback_band_factor``).
 
 Textureless surfaces give no evidence either way (``D`` stays at the noise level), so the
 check only ever adds obstacles to the colour labels; it never turns a colour obstacle into
@@ -35,7 +40,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -99,6 +104,18 @@ class GroundCheckParameters:
         60 rows a wall's noisy disparities can pass for a slope of 0.01; a ground seen by a
         rig of baseline ``B`` at height ``h`` has ``B / h`` (0.075 for 6 cm at 0.8 m, 0.33 on
         KITTI).
+    fallback_band_factor
+        When the reference area gives no plane (an obstacle covers part of it and the rest of
+        the ground has too little texture), the plane is estimated once more from a band this
+        many times as tall, with the same bottom edge and this many times as many rows of
+        patches (the plane fit is robust to what stands in it; ground further up, shadow edges
+        and the feet of obstacles add texture). 1 turns the retry off. The ground's own
+        difference level is still measured in the reference area.
+    horizon_margin_px
+        Pixels where the plane's disparity is below ``-horizon_margin_px`` lie above the
+        ground's horizon, where no ground can be seen (:func:`above_horizon`); phase 1 calls
+        none of them ground. The margin covers the plane's error near the horizon. None turns
+        the rule off.
     """
 
     window_px: int = 9
@@ -114,6 +131,8 @@ class GroundCheckParameters:
     min_patch_correlation: float = 0.7
     max_disparity_fraction: float = 0.25
     min_inlier_fraction: float = 0.5
+    fallback_band_factor: float = 2.0
+    horizon_margin_px: float | None = 0.5
     plane_fit: PlaneFitParameters = field(
         default_factory=lambda: PlaneFitParameters(inlier_threshold_px=0.5, min_inliers=10, min_slope_y=0.03))
 
@@ -127,7 +146,10 @@ class GroundCheckParameters:
         check_numbers(self, (("mismatch_factor", 1.0, 100.0), ("misalignment_px", 0.0, 10.0),
                              ("row_misalignment_px", 0.0, 10.0), ("vote_fraction", 0.0, 0.99),
                              ("min_patch_std", 0.0, 255.0), ("min_patch_correlation", 0.0, 1.0),
-                             ("max_disparity_fraction", 0.01, 1.0), ("min_inlier_fraction", 0.0, 1.0)))
+                             ("max_disparity_fraction", 0.01, 1.0), ("min_inlier_fraction", 0.0, 1.0),
+                             ("fallback_band_factor", 1.0, 100.0)))
+        if self.horizon_margin_px is not None:
+            check_numbers(self, (("horizon_margin_px", 0.0, 1000.0),))
         if not isinstance(self.plane_fit, PlaneFitParameters):
             raise InvalidInputError(f"plane_fit must be PlaneFitParameters, got {type(self.plane_fit).__name__}")
 
@@ -145,13 +167,21 @@ class GroundCheck:
     noise_variance
         ``D_ref``, the ground's difference variance (grey levels squared, 0..255 scale).
     n_patches
-        Reference-area patches whose disparity entered the plane fit.
+        Patches whose disparity entered the plane fit.
+    plane_box
+        ``(x0, y0, x1, y1)`` the plane was estimated from: the reference area, or the taller band
+        of ``fallback_band_factor`` when the reference area gave no plane.
+    above_horizon
+        ``bool (H, W)``: the pixels above the plane's horizon by more than ``horizon_margin_px``
+        (:func:`above_horizon`; none when the margin is None).
     """
 
     plane: GroundPlane
     off_ground: np.ndarray
     noise_variance: float
     n_patches: int
+    plane_box: tuple[int, int, int, int]
+    above_horizon: np.ndarray
 
 
 def grey_levels(rgb: np.ndarray) -> np.ndarray:
@@ -367,12 +397,68 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
     if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
         raise InvalidInputError(f"reference area {box} is not a non-empty rectangle inside the {w}x{h} image")
     left, right = grey_levels(left_rgb), grey_levels(right_rgb)
-    plane, n_patches = estimate_ground_plane(left, right, box, params=params)
+    plane, n_patches, plane_box = _plane_with_fallback(left, right, box, params)
     off_ground, noise = off_ground_mask(left, right, plane, box, params=params)
-    logger.debug("ground check: plane %s from %d patches, noise variance %.2f, %.1f %% off the ground",
-                 plane, n_patches, noise, 100.0 * np.count_nonzero(off_ground) / off_ground.size)
-    return GroundCheck(plane=plane, off_ground=off_ground, noise_variance=noise, n_patches=n_patches)
+    logger.debug("ground check: plane %s from %d patches of %s, noise variance %.2f, %.1f %% off the ground",
+                 plane, n_patches, plane_box, noise, 100.0 * np.count_nonzero(off_ground) / off_ground.size)
+    above = (above_horizon(plane, off_ground.shape, params.horizon_margin_px) if params.horizon_margin_px is not None
+             else np.zeros(off_ground.shape, dtype=np.bool_))
+    return GroundCheck(plane=plane, off_ground=off_ground, noise_variance=noise, n_patches=n_patches,
+                       plane_box=plane_box, above_horizon=above)
+
+
+def above_horizon(plane: GroundPlane, shape: tuple[int, int], margin_px: float) -> np.ndarray:
+    """``bool (H, W)``: pixels of an ``(H, W)`` image where the plane's disparity ``a x + b y + c``
+    is below ``-margin_px``.
+
+    A ground plane's disparity falls to 0 at its horizon and is negative above it: no point
+    of the ground is seen there, only what stands up from it and the sky. ``margin_px``
+    (pixels of disparity) covers the plane's error near the horizon.
+
+    Examples
+    --------
+    >>> from stereo_obstacles.ground_plane import GroundPlane
+    >>> mask = above_horizon(GroundPlane(a=0.0, b=0.1, c=-5.0), (100, 4), 0.5)   # horizon at row 50
+    >>> int(mask[:, 0].sum()), bool(mask[44, 0]), bool(mask[45, 0])               # d < -0.5: rows 0..44
+    (45, True, False)
+    """
+    height, width = shape
+    column_terms = plane.a * np.arange(width, dtype=np.float64)
+    row_terms = plane.b * np.arange(height, dtype=np.float64) + plane.c
+    mask = np.zeros(shape, dtype=np.bool_)
+    rows = np.flatnonzero(row_terms + column_terms.min(initial=0.0) < -margin_px)
+    mask[rows] = row_terms[rows, None] + column_terms[None, :] < -margin_px
+    return mask
+
+
+def _plane_with_fallback(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int],
+                         params: GroundCheckParameters) -> tuple[GroundPlane, int, tuple[int, int, int, int]]:
+    """The plane from the reference area ``box``, or else from the taller band of
+    ``params.fallback_band_factor`` (logged as a warning); with the patch count and the box used.
+
+    Raises
+    ------
+    InvalidInputError
+        Neither gives a plane (the message gives both reasons).
+    """
+    try:
+        return (*estimate_ground_plane(left, right, box, params=params), box)
+    except InvalidInputError as error:
+        x0, y0, x1, y1 = box
+        taller = (x0, max(0, y1 - int(round(params.fallback_band_factor * (y1 - y0)))), x1, y1)
+        if taller[1] == y0:
+            raise
+        reason = str(error)
+    rows = int(round(params.patch_grid[0] * (y1 - taller[1]) / (y1 - y0)))
+    try:
+        plane, n_patches = estimate_ground_plane(left, right, taller,
+                                                 params=replace(params, patch_grid=(rows, params.patch_grid[1])))
+    except InvalidInputError as second:
+        raise InvalidInputError(f"{reason}; and from the taller band {taller}: {second}") from None
+    logger.warning("no ground plane from the reference area (%s); estimated from the taller band %s instead",
+                   reason, taller)
+    return plane, n_patches, taller
 
 
 __all__ = ["GroundCheckParameters", "GroundCheck", "grey_levels", "estimate_ground_plane", "off_ground_mask",
-           "vote", "check_colour_pair", "check_ground"]
+           "above_horizon", "vote", "check_colour_pair", "check_ground"]

@@ -53,7 +53,8 @@ pixels that the right image does not see on the ground plane, estimated from the
 reference area, become obstacles whatever their colour (a box of the ground's own colour, a
 dark object read as shadow), and far ground that colour calls obstacle because its colour has
 drifted with distance becomes ground again when it has its own row's colour
-(:mod:`stereo_obstacles.far_ground`, with the same plane). A cast shadow
+(:mod:`stereo_obstacles.far_ground`, with the same plane). Nothing above the plane's horizon
+is ground: what colour took for ground there (a brick wall over tiles) becomes obstacle. A cast shadow
 lies on the ground, so both cameras see it at the plane's disparity and the check has no
 reason to flag it (measured in docs/segmentation.md: held-out shadow pixels called obstacle
 0.32 % by colour alone, 1.13 % with the check, session 6).
@@ -369,6 +370,8 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
             logger.warning("stereo ground check skipped, colour labels only: %s", skipped)
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
+        # no ground is seen above the horizon: what colour took for ground there stands up from it
+        labels[ground.above_horizon & ((labels == Label.GROUND) | (labels == Label.SHADOW))] = Label.OBSTACLE
     _fill_holes(labels, params)
     if ground is not None:
         labels[far_ground_pixels(far, labels == Label.OBSTACLE)] = Label.GROUND
