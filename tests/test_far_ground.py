@@ -8,8 +8,8 @@ import pytest
 
 from stereo_obstacles._far_ground_kernel import far_rows_kernel
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.far_ground import (FarGroundParameters, far_ground, far_ground_pixels, far_ground_rows,
-                                         far_rows)
+from stereo_obstacles.far_ground import (FarGroundParameters, FarGroundRows, far_ground, far_ground_pixels,
+                                         far_ground_rows, far_rows)
 from stereo_obstacles.ground_plane import GroundPlane
 
 HEIGHT, WIDTH, HORIZON = 200, 160, 40
@@ -56,22 +56,59 @@ def test_the_far_band_becomes_ground_but_not_a_far_red_box_nor_near_pixels():
     assert not flipped[~obstacle].any()
 
 
-def test_the_rows_found_before_the_labels_give_the_same_pixels_for_any_labels():
+def _standing_slowly(obstacle, rows, near_row):
+    """Per far-row pixel: its column of obstacle pixels runs unbroken down to ``near_row``."""
+    runs = np.zeros((rows.size, obstacle.shape[1]), dtype=bool)
+    if near_row >= obstacle.shape[0]:
+        return runs
+    for i, row in enumerate(rows):
+        for x in range(obstacle.shape[1]):
+            runs[i, x] = obstacle[row:near_row + 1, x].all()
+    return runs
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_far_ground_pixels_follow_their_definition(seed):
+    """Obstacle pixels of the far rows that are ground-coloured become ground, unless their column
+    runs down to the near ground and they have the colour under the band."""
+    rng = np.random.default_rng(seed)
+    rows = np.arange(41, 55)
+    found = FarGroundRows(shape=(HEIGHT, WIDTH), rows=rows, near_row=69,
+                          ground_coloured=rng.random((rows.size, WIDTH)) < 0.7,
+                          colour_under_band=rng.random((rows.size, WIDTH)) < 0.5)
+    obstacle = rng.random((HEIGHT, WIDTH)) < 0.7
+    obstacle[41:70, 20:60] = True                              # columns standing on nearer ground
+    want = np.zeros((HEIGHT, WIDTH), dtype=bool)
+    kept = _standing_slowly(obstacle, rows, 69) & found.colour_under_band
+    want[rows] = obstacle[rows] & found.ground_coloured & ~kept
+    got = far_ground_pixels(found, obstacle)
+    np.testing.assert_array_equal(got, want)
+    assert kept.any() and got.any()
+    assert not far_ground_pixels(None, obstacle).any()
+    with pytest.raises(InvalidInputError, match="obstacle"):
+        far_ground_pixels(found, obstacle[:, :10])
+    with pytest.raises(InvalidInputError, match="found"):
+        far_ground_pixels(rows, obstacle)
+    with pytest.raises(InvalidInputError, match="obstacle"):
+        far_ground_pixels(None, obstacle[0])
+
+
+def test_far_ground_rows_ground_colour_and_colour_under_the_band():
     rgb = _drifting_scene(3)
+    colour, green_off = (150, 90, 60), (150, 120, 60)
+    rgb[43:58, 0:20] = colour                                  # the band's colour = the colour under it
+    rgb[43:53, 20:40] = green_off                              # differs from it in green only
+    rgb[53:58, 20:40] = colour
     off = _nothing_off()
     off[44:50, 60:70] = True
-    found = far_ground_rows(rgb, off, PLANE, BOX)              # what phase 1 computes beside the labels
+    found = far_ground_rows(rgb, off, PLANE, BOX)
     np.testing.assert_array_equal(found.rows, np.arange(41, 55))
-    rng = np.random.default_rng(4)
-    for _ in range(3):
-        obstacle = rng.random((HEIGHT, WIDTH)) < 0.6
-        obstacle[41:60, 20:40] = True                          # a column running down to near ground
-        np.testing.assert_array_equal(far_ground_pixels(found, obstacle),
-                                      far_ground(rgb, obstacle, off, PLANE, BOX))
-    disabled = far_ground_rows(rgb, off, PLANE, BOX, params=FarGroundParameters(enabled=False))
-    assert disabled is None and not far_ground_pixels(disabled, off).any()
-    with pytest.raises(InvalidInputError, match="obstacle"):
-        far_ground_pixels(found, off[:, :10])
+    assert found.near_row == 69 and found.shape == (HEIGHT, WIDTH)
+    row = 45 - 41
+    assert found.colour_under_band[row, 3:17].all() and not found.colour_under_band[row, 23:37].any()
+    assert found.ground_coloured[row, 80:150].mean() > 0.9     # plain drifting ground
+    assert not found.ground_coloured[44 - 41:50 - 41, 60:70].any()   # off the ground: never ground-coloured
+    assert far_ground_rows(rgb, off, PLANE, BOX, params=FarGroundParameters(enabled=False)) is None
 
 
 def test_pixels_the_stereo_check_sees_off_the_ground_stay_obstacles():

@@ -296,12 +296,15 @@ def test_textureless_reference_warns_and_keeps_the_colour_labels(caplog):
 def test_a_reference_area_without_texture_takes_the_plane_from_a_taller_band(caplog):
     left, right, _, _ = _pair()
     left[180:], right[180:] = PAVER.astype(np.uint8), PAVER.astype(np.uint8)   # smooth ground in the area
-    with caplog.at_level(logging.WARNING, logger="stereo_obstacles.ground_check"):
-        check = check_ground(left, right, REFERENCE)
+    check = check_ground(left, right, REFERENCE)
     assert check.plane_box == (0, 120, WIDTH, HEIGHT)                 # twice as tall, same bottom
     assert check.plane.b == pytest.approx(PLANE.b, abs=0.01) and check.plane.c == pytest.approx(PLANE.c, abs=1.5)
+    assert "39 too flat" in check.fallback_reason
+    with caplog.at_level(logging.WARNING, logger="stereo_obstacles.segmentation"):
+        segment(left, right=right, reference=ReferenceArea(*REFERENCE, unit="px"))
     assert "taller band (0, 120, 320, 240)" in caplog.text
-    assert check_ground(*_pair()[:2], REFERENCE).plane_box == REFERENCE   # no retry when the area gives a plane
+    usual = check_ground(*_pair()[:2], REFERENCE)                     # no retry when the area gives a plane
+    assert usual.plane_box == REFERENCE and usual.fallback_reason is None
     with pytest.raises(InvalidInputError, match="too flat"):
         check_ground(left, right, REFERENCE, params=GroundCheckParameters(fallback_band_factor=1.0))
     left[100:], right[100:] = PAVER.astype(np.uint8), PAVER.astype(np.uint8)   # the taller band smooth too
@@ -341,6 +344,15 @@ def test_segment_command_records_the_stereo_check(tmp_path):
     assert check["plane_box_px"] == [0, 204, WIDTH, HEIGHT] and check["plane_inliers"] >= 10   # the bottom 15 %
     assert check["plane_disparity_px"]["b"] == pytest.approx(PLANE.b, abs=0.01)
     assert 0.2 < check["above_horizon_fraction"] < 0.25                  # rows 0..about 60 of 240
+
+
+def test_an_unusable_reference_area_raises_without_the_taller_band_warning(caplog):
+    left, right, _, _ = _pair()
+    left[180:], right[180:] = 3, 3                     # too dark to measure; the taller band finds the plane
+    assert check_ground(left, right, REFERENCE).plane_box == (0, 120, WIDTH, HEIGHT)
+    with pytest.raises(InvalidInputError, match="unusable"):
+        segment(left, right=right, reference=ReferenceArea(*REFERENCE, unit="px"))
+    assert "taller band" not in caplog.text
 
 
 def test_a_wall_in_the_reference_area_is_not_taken_for_the_ground():

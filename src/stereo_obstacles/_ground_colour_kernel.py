@@ -39,7 +39,7 @@ def ground_cells_kernel(samples, lut, column_strip, n_strips, quorum, min_count,
                     n_seen += 1
                 ids[i] = compact[flat]
                 i += 1
-    counts = np.zeros((n_seen, n_strips), dtype=np.int64)   # only the cells that occur
+    counts = np.zeros((n_seen, n_strips), dtype=np.int32)   # only the cells that occur
     i = 0
     for k in range(samples.shape[0]):
         for y in range(samples.shape[1]):
@@ -98,7 +98,7 @@ def fill_table_kernel(ground_cells, n_bins, shifts, table):
     at itself plus ``shifts[k, :3]`` (bins) for every row ``k``; then ``NEAR_BIT`` marks every
     cell within one bin (Chebyshev) of a set cell. Only the set cells are visited, not the
     whole table (2 846 of 357 911 cells on the default scene)."""
-    set_cells = np.empty((ground_cells.shape[0] * shifts.shape[0], 3), dtype=np.int64)
+    set_cells = np.empty((min(ground_cells.shape[0] * shifts.shape[0], n_bins ** 3), 3), dtype=np.int64)  # each once
     n_set = 0
     for j in range(ground_cells.shape[0]):
         flat = ground_cells[j]

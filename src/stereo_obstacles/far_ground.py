@@ -234,7 +234,11 @@ def far_ground_pixels(found: FarGroundRows | None, obstacle: np.ndarray) -> np.n
     InvalidInputError
         ``obstacle`` is not ``bool`` of the image's shape.
     """
+    if found is not None and not isinstance(found, FarGroundRows):
+        raise InvalidInputError(f"found must be FarGroundRows or None, got {type(found).__name__}")
     shape = found.shape if found is not None else np.shape(obstacle)
+    if len(shape) != 2:
+        raise InvalidInputError(f"obstacle must be a bool (H, W) array, got shape {shape}")
     _check_mask("obstacle", obstacle, shape)
     result = np.zeros(shape, dtype=np.bool_)
     if found is None:
@@ -287,9 +291,9 @@ def far_ground(rgb: np.ndarray, obstacle: np.ndarray, off_ground: np.ndarray, pl
     >>> bool(flipped[1:10].all()), bool(flipped[10:].any())          # far: d <= 18.5 / 10, rows 1..9
     (True, False)
     """
-    _check_image_and_box(rgb, off_ground, box)
+    found = far_ground_rows(rgb, off_ground, plane, box, params=params)    # checks the image, mask and box
     _check_mask("obstacle", obstacle, off_ground.shape)
-    return far_ground_pixels(far_ground_rows(rgb, off_ground, plane, box, params=params), obstacle)
+    return far_ground_pixels(found, obstacle)
 
 
 __all__ = ["FarGroundParameters", "FarGroundRows", "far_rows", "far_ground_rows", "far_ground_pixels",

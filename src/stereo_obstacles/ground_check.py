@@ -171,6 +171,10 @@ class GroundCheck:
     plane_box
         ``(x0, y0, x1, y1)`` the plane was estimated from: the reference area, or the taller band
         of ``fallback_band_factor`` when the reference area gave no plane.
+    fallback_reason
+        Why the reference area gave no plane when the taller band was used (None otherwise).
+        Not logged here: the caller decides (phase 1 logs it as a warning once its colour
+        work has succeeded).
     above_horizon
         ``bool (H, W)``: the pixels above the plane's horizon by more than ``horizon_margin_px``
         (:func:`above_horizon`; none when the margin is None).
@@ -181,6 +185,7 @@ class GroundCheck:
     noise_variance: float
     n_patches: int
     plane_box: tuple[int, int, int, int]
+    fallback_reason: str | None
     above_horizon: np.ndarray
 
 
@@ -397,14 +402,14 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
     if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
         raise InvalidInputError(f"reference area {box} is not a non-empty rectangle inside the {w}x{h} image")
     left, right = grey_levels(left_rgb), grey_levels(right_rgb)
-    plane, n_patches, plane_box = _plane_with_fallback(left, right, box, params)
+    plane, n_patches, plane_box, fallback_reason = _plane_with_fallback(left, right, box, params)
     off_ground, noise = off_ground_mask(left, right, plane, box, params=params)
     logger.debug("ground check: plane %s from %d patches of %s, noise variance %.2f, %.1f %% off the ground",
                  plane, n_patches, plane_box, noise, 100.0 * np.count_nonzero(off_ground) / off_ground.size)
     above = (above_horizon(plane, off_ground.shape, params.horizon_margin_px) if params.horizon_margin_px is not None
              else np.zeros(off_ground.shape, dtype=np.bool_))
     return GroundCheck(plane=plane, off_ground=off_ground, noise_variance=noise, n_patches=n_patches,
-                       plane_box=plane_box, above_horizon=above)
+                       plane_box=plane_box, fallback_reason=fallback_reason, above_horizon=above)
 
 
 def above_horizon(plane: GroundPlane, shape: tuple[int, int], margin_px: float) -> np.ndarray:
@@ -432,9 +437,11 @@ def above_horizon(plane: GroundPlane, shape: tuple[int, int], margin_px: float) 
 
 
 def _plane_with_fallback(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int],
-                         params: GroundCheckParameters) -> tuple[GroundPlane, int, tuple[int, int, int, int]]:
+                         params: GroundCheckParameters
+                         ) -> tuple[GroundPlane, int, tuple[int, int, int, int], str | None]:
     """The plane from the reference area ``box``, or else from the taller band of
-    ``params.fallback_band_factor`` (logged as a warning); with the patch count and the box used.
+    ``params.fallback_band_factor``; with the patch count, the box used and why the reference
+    area failed (None when it did not).
 
     Raises
     ------
@@ -442,7 +449,7 @@ def _plane_with_fallback(left: np.ndarray, right: np.ndarray, box: tuple[int, in
         Neither gives a plane (the message gives both reasons).
     """
     try:
-        return (*estimate_ground_plane(left, right, box, params=params), box)
+        return (*estimate_ground_plane(left, right, box, params=params), box, None)
     except InvalidInputError as error:
         x0, y0, x1, y1 = box
         taller = (x0, max(0, y1 - int(round(params.fallback_band_factor * (y1 - y0)))), x1, y1)
@@ -455,9 +462,7 @@ def _plane_with_fallback(left: np.ndarray, right: np.ndarray, box: tuple[int, in
                                                  params=replace(params, patch_grid=(rows, params.patch_grid[1])))
     except InvalidInputError as second:
         raise InvalidInputError(f"{reason}; and from the taller band {taller}: {second}") from None
-    logger.warning("no ground plane from the reference area (%s); estimated from the taller band %s instead",
-                   reason, taller)
-    return plane, n_patches, taller
+    return plane, n_patches, taller, reason
 
 
 __all__ = ["GroundCheckParameters", "GroundCheck", "grey_levels", "estimate_ground_plane", "off_ground_mask",

@@ -366,8 +366,12 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         (ref, labels, smooth_shadow), (ground, far, skipped) = run_each_in_threads([
             (_colour_cues, a, inv_full_scale, box, params),
             (_stereo_cues, a, b, box, params)])
-        if skipped is not None:    # logged only now: an unusable reference area raised above
+        # logged only now: an unusable reference area raised above, without these warnings
+        if skipped is not None:
             logger.warning("stereo ground check skipped, colour labels only: %s", skipped)
+        elif ground.fallback_reason is not None:
+            logger.warning("no ground plane from the reference area (%s); estimated from the taller band %s "
+                           "instead", ground.fallback_reason, ground.plane_box)
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
         # no ground is seen above the horizon: what colour took for ground there stands up from it

@@ -52,6 +52,7 @@ def _ground_check_record(check: GroundCheck | None) -> dict | None:
     return {"plane_disparity_px": {"a": plane.a, "b": plane.b, "c": plane.c,
                                    "meaning": "d = a x + b y + c, x column and y row in pixels"},
             "patches": check.n_patches, "plane_inliers": plane.n_inliers, "plane_box_px": list(check.plane_box),
+            "plane_fallback_reason": check.fallback_reason,
             "noise_variance_grey_levels_sq": check.noise_variance,
             "off_ground_fraction": float(check.off_ground.mean()),
             "above_horizon_fraction": float(check.above_horizon.mean())}
