@@ -42,8 +42,8 @@ def _sample(world: np.ndarray, columns: np.ndarray) -> np.ndarray:
     return cv2.remap(world, columns.astype(np.float32), ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
 
 
-def _pair(*, box_factor=None, box_disparity=30.0, shadow=False, noise=2.0, seed=0):
-    """A rectified pair of a textured ground on ``PLANE``, with an optional box and shadow.
+def _pair(*, box_factor=None, box_disparity=30.0, shadow=False, noise=2.0, seed=0, plane=PLANE):
+    """A rectified pair of a textured ground on ``plane``, with an optional box and shadow.
 
     The ground's texture lives in world columns ``x + 100`` of the left image; the right image
     sees left column ``x`` at ``x - d(x, y)``, i.e. right column ``r`` shows left column
@@ -57,7 +57,7 @@ def _pair(*, box_factor=None, box_disparity=30.0, shadow=False, noise=2.0, seed=
     if shadow:
         ground[140:176, 120:210] *= SKYLIGHT  # world columns of left columns 20..110
     ys, xs = np.mgrid[0:HEIGHT, 0:WIDTH].astype(np.float32)
-    disparity = np.maximum((PLANE.a * xs + PLANE.b * ys + PLANE.c) / (1.0 - PLANE.a), 0.0)  # at right columns
+    disparity = np.maximum((plane.a * xs + plane.b * ys + plane.c) / (1.0 - plane.a), 0.0)  # at right columns
     images = [_sample(ground.astype(np.float32), xs + 100.0),
               _sample(ground.astype(np.float32), xs + disparity + 100.0)]  # right pixel xr sees xr + d
     box = np.s_[70:130, 120:190]
@@ -305,19 +305,51 @@ def test_a_reference_area_without_texture_takes_the_plane_from_a_taller_band(cap
     assert "taller band (0, 120, 320, 240)" in caplog.text
     usual = check_ground(*_pair()[:2], REFERENCE)                     # no retry when the area gives a plane
     assert usual.plane_box == REFERENCE and usual.fallback_reason is None
-    with pytest.raises(InvalidInputError, match="too flat"):
+    with pytest.raises(InvalidInputError, match="too flat") as no_retry:
         check_ground(left, right, REFERENCE, params=GroundCheckParameters(fallback_band_factor=1.0))
+    assert "taller band" not in str(no_retry.value)
+    # the ground's difference level is measured where the plane was found, not in the failed area
+    grey_left, grey_right = grey_levels(left), grey_levels(right)
+    three = check_ground(left, right, REFERENCE, params=GroundCheckParameters(fallback_band_factor=3.0))
+    assert three.plane_box == (0, 60, WIDTH, HEIGHT)
+    assert three.noise_variance == off_ground_mask(grey_left, grey_right, three.plane, three.plane_box)[1]
+    assert three.noise_variance > 2.0 * off_ground_mask(grey_left, grey_right, three.plane, REFERENCE)[1]
     left[100:], right[100:] = PAVER.astype(np.uint8), PAVER.astype(np.uint8)   # the taller band smooth too
     with pytest.raises(InvalidInputError, match=r"too flat.*; and from the taller band \(0, 120, 320, 240\).*too flat"):
         check_ground(left, right, REFERENCE)
 
 
-@pytest.mark.parametrize("plane", [PLANE, GroundPlane(a=-0.05, b=0.2, c=-2.0), GroundPlane(a=0.0, b=0.0, c=-1.0),
-                                   GroundPlane(a=0.0, b=1e-320, c=-5.0)])
+@pytest.mark.parametrize("plane", [PLANE, GroundPlane(a=-0.05, b=0.2, c=-2.0), GroundPlane(a=0.0, b=1e-320, c=-5.0),
+                                   GroundPlane(a=0.0, b=0.0, c=-1.0), GroundPlane(a=0.0, b=-0.2, c=30.0)])
 def test_above_horizon_is_where_the_plane_disparity_is_below_the_margin(plane):
+    """Only for a plane rising towards the bottom (b > 0): no horizon otherwise."""
     ys, xs = np.mgrid[0:HEIGHT, 0:WIDTH]
-    want = plane.a * xs + plane.b * ys + plane.c < -0.5
+    want = (plane.a * xs + plane.b * ys + plane.c < -0.5) & (plane.b > 0)
     np.testing.assert_array_equal(above_horizon(plane, (HEIGHT, WIDTH), 0.5), want)
+    with pytest.raises(InvalidInputError, match="margin_px"):
+        above_horizon(plane, (HEIGHT, WIDTH), float("nan"))
+    with pytest.raises(InvalidInputError, match="shape"):
+        above_horizon(plane, (HEIGHT, WIDTH, 3), 0.5)
+
+
+@pytest.mark.parametrize("a", [0.02, -0.04])
+def test_nothing_above_a_tilted_horizon_is_ground(a):
+    """With roll, far rows (chosen at the middle column) reach above the horizon at one end: the
+    far-ground step must not make ground there either."""
+    left, right, _, _ = _pair(plane=GroundPlane(a=a, b=0.2, c=-12.0 - 160.0 * a))
+    result = segment(left, right=right)
+    above = result.ground_check.above_horizon
+    ground_like = (result.labels == Label.GROUND) | (result.labels == Label.SHADOW)
+    assert above.sum() > 15000 and not ground_like[above].any()
+
+
+def test_a_shadow_above_the_horizon_is_an_obstacle():
+    left, right, _, _ = _pair()
+    left[10:40, 100:160] = (left[10:40, 100:160] * SKYLIGHT).astype(np.uint8)    # ground-coloured, in shadow
+    right[10:40, 90:150] = (right[10:40, 90:150] * SKYLIGHT).astype(np.uint8)
+    off = SegmentationParameters(ground_check=GroundCheckParameters(horizon_margin_px=None))
+    assert (segment(left, right=right, params=off).labels[15:35, 110:150] == Label.SHADOW).mean() > 0.9
+    assert (segment(left, right=right).labels[15:35, 110:150] == Label.OBSTACLE).all()
 
 
 def test_nothing_above_the_horizon_is_ground():
@@ -344,6 +376,18 @@ def test_segment_command_records_the_stereo_check(tmp_path):
     assert check["plane_box_px"] == [0, 204, WIDTH, HEIGHT] and check["plane_inliers"] >= 10   # the bottom 15 %
     assert check["plane_disparity_px"]["b"] == pytest.approx(PLANE.b, abs=0.01)
     assert 0.2 < check["above_horizon_fraction"] < 0.25                  # rows 0..about 60 of 240
+    assert check["plane_fallback_reason"] is None
+
+
+def test_segment_command_records_the_taller_band(tmp_path):
+    left, right, _, _ = _pair()
+    left[180:], right[180:] = PAVER.astype(np.uint8), PAVER.astype(np.uint8)   # smooth ground in the area
+    write_image(tmp_path / "left.png", left)
+    write_image(tmp_path / "right.png", right)
+    assert main(["segment", str(tmp_path / "left.png"), "--right", str(tmp_path / "right.png"),
+                 "--reference", "0,0.75,1,1", "-o", str(tmp_path / "labels.png")]) == 0
+    check = json.loads((tmp_path / "labels.png.json").read_text())["ground_check"]
+    assert check["plane_box_px"] == [0, 120, WIDTH, HEIGHT] and "too flat" in check["plane_fallback_reason"]
 
 
 def test_an_unusable_reference_area_raises_without_the_taller_band_warning(caplog):

@@ -107,10 +107,11 @@ class GroundCheckParameters:
     fallback_band_factor
         When the reference area gives no plane (an obstacle covers part of it and the rest of
         the ground has too little texture), the plane is estimated once more from a band this
-        many times as tall, with the same bottom edge and this many times as many rows of
-        patches (the plane fit is robust to what stands in it; ground further up, shadow edges
-        and the feet of obstacles add texture). 1 turns the retry off. The ground's own
-        difference level is still measured in the reference area.
+        many times as tall (cut at the image's top), with the same bottom edge and as many more
+        rows of patches as the band has more rows, rounded (the plane fit is robust to what
+        stands in it; ground further up, shadow edges and the feet of obstacles add texture).
+        The ground's own difference level is then measured over that band too: the obstacle
+        that made the reference area fail would raise it. 1 turns the retry off.
     horizon_margin_px
         Pixels where the plane's disparity is below ``-horizon_margin_px`` lie above the
         ground's horizon, where no ground can be seen (:func:`above_horizon`); phase 1 calls
@@ -403,7 +404,7 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
         raise InvalidInputError(f"reference area {box} is not a non-empty rectangle inside the {w}x{h} image")
     left, right = grey_levels(left_rgb), grey_levels(right_rgb)
     plane, n_patches, plane_box, fallback_reason = _plane_with_fallback(left, right, box, params)
-    off_ground, noise = off_ground_mask(left, right, plane, box, params=params)
+    off_ground, noise = off_ground_mask(left, right, plane, plane_box, params=params)
     logger.debug("ground check: plane %s from %d patches of %s, noise variance %.2f, %.1f %% off the ground",
                  plane, n_patches, plane_box, noise, 100.0 * np.count_nonzero(off_ground) / off_ground.size)
     above = (above_horizon(plane, off_ground.shape, params.horizon_margin_px) if params.horizon_margin_px is not None
@@ -414,7 +415,8 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
 
 def above_horizon(plane: GroundPlane, shape: tuple[int, int], margin_px: float) -> np.ndarray:
     """``bool (H, W)``: pixels of an ``(H, W)`` image where the plane's disparity ``a x + b y + c``
-    is below ``-margin_px``.
+    is below ``-margin_px`` (none when ``b <= 0``: the plane does not rise towards the bottom of the
+    image as a ground seen from above does).
 
     A ground plane's disparity falls to 0 at its horizon and is negative above it: no point
     of the ground is seen there, only what stands up from it and the sky. ``margin_px``
@@ -427,10 +429,16 @@ def above_horizon(plane: GroundPlane, shape: tuple[int, int], margin_px: float) 
     >>> int(mask[:, 0].sum()), bool(mask[44, 0]), bool(mask[45, 0])               # d < -0.5: rows 0..44
     (45, True, False)
     """
+    if not (isinstance(shape, tuple) and len(shape) == 2):
+        raise InvalidInputError(f"shape must be (H, W), got {shape!r}")
+    if not (isinstance(margin_px, (int, float)) and math.isfinite(margin_px) and margin_px >= 0.0):
+        raise InvalidInputError(f"margin_px must be a finite number >= 0, got {margin_px!r}")
     height, width = shape
+    mask = np.zeros(shape, dtype=np.bool_)
+    if not plane.b > 0.0:
+        return mask                                  # not a ground seen from above: no horizon to speak of
     column_terms = plane.a * np.arange(width, dtype=np.float64)
     row_terms = plane.b * np.arange(height, dtype=np.float64) + plane.c
-    mask = np.zeros(shape, dtype=np.bool_)
     rows = np.flatnonzero(row_terms + column_terms.min(initial=0.0) < -margin_px)
     mask[rows] = row_terms[rows, None] + column_terms[None, :] < -margin_px
     return mask
@@ -455,7 +463,7 @@ def _plane_with_fallback(left: np.ndarray, right: np.ndarray, box: tuple[int, in
         taller = (x0, max(0, y1 - int(round(params.fallback_band_factor * (y1 - y0)))), x1, y1)
         if taller[1] == y0:
             raise
-        reason = str(error)
+        reason = str(error) if str(error).startswith("reference area") else f"reference area {box}: {error}"
     rows = int(round(params.patch_grid[0] * (y1 - taller[1]) / (y1 - y0)))
     try:
         plane, n_patches = estimate_ground_plane(left, right, taller,

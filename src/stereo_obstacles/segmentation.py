@@ -314,8 +314,10 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     right
         Optional right image of the rectified pair, same size and dtype: adds the stereo cue
         (pixels off the ground plane become obstacles, :mod:`~stereo_obstacles.ground_check`).
-        When the plane cannot be estimated from the reference area, a warning is logged and
-        the colour labels are returned (``ground_check`` None).
+        Nothing above the plane's horizon is ground. When the plane cannot be estimated from
+        the reference area, it is estimated from a taller band (a warning is logged); when that
+        fails too, a warning is logged and the colour labels are returned (``ground_check``
+        None).
     reference
         The rectangle assumed to be ground (default: the full-width bottom 15 %,
         :data:`~stereo_obstacles.reference_area.DEFAULT_REFERENCE_AREA`).
@@ -378,7 +380,7 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         labels[ground.above_horizon & ((labels == Label.GROUND) | (labels == Label.SHADOW))] = Label.OBSTACLE
     _fill_holes(labels, params)
     if ground is not None:
-        labels[far_ground_pixels(far, labels == Label.OBSTACLE)] = Label.GROUND
+        labels[far_ground_pixels(far, labels == Label.OBSTACLE) & ~ground.above_horizon] = Label.GROUND
     if smooth_shadow is not None:
         smooth_shadow &= labels == Label.OBSTACLE          # what the texture test made obstacle and still is
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
