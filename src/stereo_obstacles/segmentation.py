@@ -372,8 +372,8 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         if skipped is not None:
             logger.warning("stereo ground check skipped, colour labels only: %s", skipped)
         elif ground.fallback_reason is not None:
-            logger.warning("no ground plane from the reference area (%s); estimated from the taller band %s "
-                           "instead", ground.fallback_reason, ground.plane_box)
+            logger.warning("stereo ground check: %s; the plane was estimated from the taller band %s instead",
+                           ground.fallback_reason, ground.plane_box)
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
         # no ground is seen above the horizon: what colour took for ground there stands up from it
