@@ -232,7 +232,8 @@ def far_ground_pixels(found: FarGroundRows | None, obstacle: np.ndarray) -> np.n
     Raises
     ------
     InvalidInputError
-        ``obstacle`` is not ``bool`` of the image's shape.
+        ``found`` is neither :class:`FarGroundRows` nor None, or ``obstacle`` is not ``bool``
+        of the image's shape (``(H, W)``).
     """
     if found is not None and not isinstance(found, FarGroundRows):
         raise InvalidInputError(f"found must be FarGroundRows or None, got {type(found).__name__}")

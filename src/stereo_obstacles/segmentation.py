@@ -54,8 +54,8 @@ reference area, become obstacles whatever their colour (a box of the ground's ow
 dark object read as shadow), and far ground that colour calls obstacle because its colour has
 drifted with distance becomes ground again when it has its own row's colour
 (:mod:`stereo_obstacles.far_ground`, with the same plane). Nothing above the plane's horizon
-is ground: what colour took for ground there (a brick wall over tiles) becomes obstacle. A cast shadow
-lies on the ground, so both cameras see it at the plane's disparity and the check has no
+is ground: what colour took for ground there (a brick wall over tiles) becomes obstacle. A
+cast shadow lies on the ground, so both cameras see it at the plane's disparity and the check has no
 reason to flag it (measured in docs/segmentation.md: held-out shadow pixels called obstacle
 0.32 % by colour alone, 1.13 % with the check, session 6).
 """
@@ -368,7 +368,7 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
         (ref, labels, smooth_shadow), (ground, far, skipped) = run_each_in_threads([
             (_colour_cues, a, inv_full_scale, box, params),
             (_stereo_cues, a, b, box, params)])
-        # logged only now: an unusable reference area raised above, without these warnings
+        # logged only now, so that an unusable reference area (raised above) comes without them
         if skipped is not None:
             logger.warning("stereo ground check skipped, colour labels only: %s", skipped)
         elif ground.fallback_reason is not None:
