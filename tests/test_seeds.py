@@ -113,11 +113,3 @@ def test_scanned_pixels_are_recorded_for_visit_counting():
     expected[5, 20] = 8
     expected[3, 2] = 2
     np.testing.assert_array_equal(seeds.scanned_hi, expected)
-
-
-@pytest.mark.parametrize("n", [1, 2, 7, 1000])
-def test_percentile_equals_numpy(n):
-    from stereo_obstacles.seeds import _percentile
-    values = np.random.default_rng(n).uniform(0, 50, n).astype(np.float32)
-    for q in (0.0, 37.5, 80.0, 100.0):
-        assert _percentile(values, q) == pytest.approx(float(np.percentile(values, q)), rel=1e-6)

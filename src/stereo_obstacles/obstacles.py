@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stereo_obstacles import quantiles
 from stereo_obstacles._obstacles_kernel import patch_medians_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
@@ -177,7 +178,7 @@ def _box(xs: np.ndarray, ys: np.ndarray) -> tuple[int, int, int, int]:
     return int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1
 
 
-def _confidence(pixel_count: int, quartiles: np.ndarray) -> float:
+def _confidence(pixel_count: int, quartiles: tuple[float, float, float]) -> float:
     """More pixels and a tighter disparity spread (``quartiles``: 25th, 50th, 75th percentile
     of the disparities) give more confidence (0..1)."""
     size_term = 1.0 - math.exp(-pixel_count / 300.0)
@@ -233,7 +234,7 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     group_to_id = np.zeros(len(bounds), dtype=np.int32)
     for i, (_, group) in enumerate(kept):
         group_to_id[group] = i + 1
-    id_map = group_to_id[np.clip(groups, 0, len(bounds) - 1)]
+    id_map = np.take(group_to_id, groups, mode="clip")     # one pass; out-of-range numbers clipped as before
     corridor = corridor_summary(numbered, params.corridor_width_m) if calibration is not None else None
     return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected), corridor=corridor)
 
@@ -257,9 +258,9 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
             above_px = disparities - ground.disparity_at(xs, ys)
             standing = above_px >= params.flat_tolerance_px
             if standing.mean() < params.min_standing_fraction:
-                return _flat(box, count, float(np.percentile(above_px, EXTENT_PERCENTILES[1])), "px")
+                return _flat(box, count, quantiles.percentile(above_px, EXTENT_PERCENTILES[1]), "px")
             disparities = disparities[standing]
-        quartiles = np.percentile(disparities, QUARTILES)
+        quartiles = _quartiles(disparities)
         return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(quartiles[1]), 3),
                         confidence=_confidence(count, quartiles))
     positive = disparities + calibration.doffs_px > 0
@@ -273,20 +274,24 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
     if ground is not None:
         heights = height_above_ground_m(ground, points, calibration)
         standing = heights >= params.flat_tolerance_m
+        high = quantiles.percentile(heights, EXTENT_PERCENTILES[1])
         if standing.mean() < params.min_standing_fraction:
-            return _flat(box, count, float(np.percentile(heights, EXTENT_PERCENTILES[1])), "m")
-        height_above = round(float(np.percentile(heights, EXTENT_PERCENTILES[1])), 3)
+            return _flat(box, count, high, "m")
+        height_above = round(high, 3)
         points, disparities = points[standing], disparities[standing]
     distance = _near_face_depth(xs[standing] if ground is not None else xs,
                                 ys[standing] if ground is not None else ys, points[:, 2], params.distance_percentile,
                                 params.distance_min_patch_pixels)
     if distance > params.max_distance_m:
         return RejectedGroup(box, count, f"farther than {params.max_distance_m:g} m ({distance:.1f} m)")
-    (x_lo, y_lo), (x_hi, y_hi) = np.percentile(points[:, :2], EXTENT_PERCENTILES, axis=0)
-    quartiles = np.percentile(disparities, QUARTILES)
+    # each coordinate sorted once for its extent and median (np.percentile costs 0.1-0.2 ms a call)
+    along = [np.sort(points[:, k]) for k in range(3)]
+    x_lo, x_hi = (quantiles.percentile_of_sorted(along[0], q) for q in EXTENT_PERCENTILES)
+    y_lo, y_hi = (quantiles.percentile_of_sorted(along[1], q) for q in EXTENT_PERCENTILES)
+    quartiles = _quartiles(disparities)
     return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(quartiles[1]), 3),
                     confidence=_confidence(count, quartiles), distance_m=round(distance, 3),
-                    centre_m=tuple(round(float(v), 3) for v in np.median(points, axis=0)),
+                    centre_m=tuple(round(quantiles.median_of_sorted(v), 3) for v in along),
                     lateral_extent_m=(round(float(x_lo), 3), round(float(x_hi), 3)),
                     width_m=round(float(x_hi - x_lo), 3), height_m=round(float(y_hi - y_lo), 3),
                     height_above_ground_m=height_above)
@@ -299,7 +304,13 @@ def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, percentile: 
     medians, counts = patch_medians_kernel(np.asarray(xs, np.int64), np.asarray(ys, np.int64),
                                            np.asarray(z, np.float64), DISTANCE_PATCH_PX)
     full = counts >= min_patch_pixels
-    return float(np.percentile(medians[full] if full.any() else medians, percentile))
+    return quantiles.percentile(medians[full] if full.any() else medians, percentile)
+
+
+def _quartiles(disparities: np.ndarray) -> tuple[float, float, float]:
+    """The :data:`QUARTILES` of a group's disparities (``float64``), as ``np.percentile`` gives them."""
+    ordered = np.sort(disparities)
+    return tuple(quantiles.percentile_of_sorted(ordered, q) for q in QUARTILES)
 
 
 def corridor_summary(obstacles: tuple[Obstacle, ...], width_m: float) -> CorridorSummary:

@@ -17,6 +17,7 @@ import numpy as np
 
 from stereo_obstacles._similarity_kernel import _scan_best
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.quantiles import percentile
 from stereo_obstacles.similarity import SimilarityInputs, similarity_at
 from stereo_obstacles.thread_pool import run_in_threads
 
@@ -73,16 +74,6 @@ def _gradient_magnitude(grey: np.ndarray) -> np.ndarray:
     return np.sqrt(gx * gx + gy * gy)
 
 
-def _percentile(values: np.ndarray, q: float) -> float:
-    """``np.percentile(values, q)`` (linear interpolation) by one partial sort: 8x faster on 170 k values."""
-    pos = q / 100.0 * (values.size - 1)
-    lo = int(np.floor(pos))
-    hi = min(lo + 1, values.size - 1)
-    part = np.partition(values, (lo, hi))
-    a, b = float(part[lo]), float(part[hi])
-    return a + (b - a) * (pos - lo)
-
-
 def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Rows and columns of the edge pixels of a grey image.
 
@@ -108,7 +99,7 @@ def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tu
     textured = mag[mag > 1e-3 * max(float(mag.max()), 1e-12)]
     if textured.size == 0:
         return np.empty(0, np.int32), np.empty(0, np.int32)
-    high = _percentile(textured, EDGE_PERCENTILE)
+    high = percentile(textured, EDGE_PERCENTILE)   # one partial sort: 8x faster than np.percentile on 170 k values
     if method == "canny":
         lo, hi = float(grey.min()), float(grey.max())
         scale = 255.0 / (hi - lo)

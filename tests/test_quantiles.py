@@ -1,0 +1,45 @@
+"""The quick percentiles equal NumPy's to the bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from stereo_obstacles.quantiles import median_of_sorted, percentile, percentile_of_sorted
+
+VALUES = hnp.arrays(np.float64, st.integers(1, 60),
+                    elements=st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False))
+
+
+@settings(max_examples=300, deadline=None)
+@given(VALUES, st.floats(0.0, 100.0))
+@example(np.array([1.0, 2.0]), 50.0)                  # t = 0.5: NumPy's second interpolation formula
+@example(np.array([0.1, 0.7, 0.3, 0.9]), 99.0)
+@example(np.array([5.0]), 0.0)
+def test_equal_to_numpy(values, q):
+    ordered = np.sort(values)
+    want = np.percentile(values, q)
+    assert percentile_of_sorted(ordered, q) == want
+    assert percentile(values, q) == want
+    assert median_of_sorted(ordered) == np.median(values)
+
+
+@pytest.mark.parametrize("q", [0.0, 1.0, 10.0, 25.0, 50.0, 75.0, 99.0, 100.0])
+def test_equal_to_numpy_on_many_values_with_repeats(q):
+    rng = np.random.default_rng(int(q))
+    values = np.round(rng.normal(5.0, 2.0, 4001), 1)      # many ties, as depths in a patch
+    assert percentile(values, q) == np.percentile(values, q)
+    assert percentile_of_sorted(np.sort(values), q) == np.percentile(values, q)
+    assert median_of_sorted(np.sort(values[:-1])) == np.median(values[:-1])   # an even count
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 1000])
+def test_float32_values_within_their_rounding(n):
+    """NumPy takes the difference of two float32 values in float32, this module in double (the
+    edge threshold of the seeds is such a percentile)."""
+    values = np.random.default_rng(n).uniform(0, 50, n).astype(np.float32)
+    for q in (0.0, 37.5, 80.0, 100.0):
+        assert percentile(values, q) == pytest.approx(float(np.percentile(values, q)), rel=1e-6)
