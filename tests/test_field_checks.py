@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
 import pytest
 
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, check_types
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 
 
 @dataclass
@@ -34,6 +35,14 @@ def test_valid_fields_pass():
     check_numbers(_Fields(), (("share", 0.0, 1.0),))
     check_integers(_Fields(), (("size", 1, 9),), odd=True)
     check_integers(_Fields(size=4), (("size", 1, 9),))
+    check_integers(_Fields(size=np.int32(7)), (("size", 1, 9),), odd=True)     # NumPy integers too
+    check_positive(_Fields(share=1e-9), ("share",))
+
+
+@pytest.mark.parametrize("share", [0.0, -1.0, float("nan"), float("inf"), True, "1", None])
+def test_positive_numbers_only(share):
+    with pytest.raises(InvalidInputError, match="share must be a finite number > 0, got"):
+        check_positive(_Fields(share=share), ("share",))
 
 
 def test_a_nested_field_of_the_wrong_type_fails():

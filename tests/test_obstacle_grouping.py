@@ -106,7 +106,22 @@ def test_split_parameters_are_checked():
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.obstacle_grouping import GroupingParameters
 
-    with pytest.raises(InvalidInputError, match="split_tolerance_px must be >= 0"):
+    with pytest.raises(InvalidInputError, match=r"split_tolerance_px must be in \[0.0, "):
         GroupingParameters(split_tolerance_px=-0.1)
-    with pytest.raises(InvalidInputError, match="split_min_gap_px must be >= 0"):
+    with pytest.raises(InvalidInputError, match=r"split_min_gap_px must be in \[0.0, "):
         GroupingParameters(split_min_gap_px=-1.0)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    ({"cell_px": "8"}, "cell_px"), ({"cell_px": 8.0}, "cell_px"), ({"min_cell_pixels": 65}, "min_cell_pixels"),
+    ({"abs_tolerance_px": 0.0}, "abs_tolerance_px"), ({"abs_tolerance_px": float("inf")}, "abs_tolerance_px"),
+    ({"rel_tolerance": float("nan")}, "rel_tolerance"), ({"min_pure_fraction": 1.5}, "min_pure_fraction"),
+    ({"min_object_pixels": 0}, "min_object_pixels"), ({"split_min_gap_px": None}, "split_min_gap_px"),
+])
+def test_every_grouping_parameter_is_checked_with_one_clear_line(kwargs, name):
+    from stereo_obstacles.errors import InvalidInputError
+    from stereo_obstacles.obstacle_grouping import GroupingParameters
+
+    with pytest.raises(InvalidInputError, match=name):
+        GroupingParameters(**kwargs)
+    assert GroupingParameters(cell_px=np.int64(8)).cell_px == 8          # NumPy integers are integers

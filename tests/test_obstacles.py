@@ -99,6 +99,10 @@ def test_bad_arguments():
         GroupingParameters(cell_px=1)
     with pytest.raises(InvalidInputError, match="max_distance_m"):
         ObstacleParameters(max_distance_m=float("nan"))
+    for field, bad in (("corridor_width_m", "1"), ("flat_tolerance_m", 0.0), ("distance_percentile", None),
+                       ("min_standing_fraction", -0.1)):
+        with pytest.raises(InvalidInputError, match=field):
+            ObstacleParameters(**{field: bad})
 
 
 def test_near_face_depth_equals_the_percentile_of_patch_medians():

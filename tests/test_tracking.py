@@ -141,3 +141,7 @@ def test_errors():
         TrackingParameters(alpha=0.0)
     with pytest.raises(InvalidInputError, match="max_missed_frames"):
         TrackingParameters(max_missed_frames=-1)
+    for field, bad in (("min_iou", 1.5), ("min_iou", 0.0), ("beta", "0.1"), ("max_centre_jump_m", float("inf")),
+                       ("min_closing_speed_mps", -1.0), ("min_age_frames", 2.0)):
+        with pytest.raises(InvalidInputError, match=field):
+            TrackingParameters(**{field: bad})

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable
 
 from stereo_obstacles.errors import InvalidInputError
@@ -24,9 +25,23 @@ def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> 
             raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
 
 
+def check_positive(owner: object, names: Iterable[str]) -> None:
+    """Each ``owner.name`` must be a finite real number (not a bool) above 0.
+
+    Raises
+    ------
+    InvalidInputError
+        ``"<name> must be a finite number > 0, got <value>"`` for the first field that is not.
+    """
+    for name in names:
+        value = getattr(owner, name)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+            raise InvalidInputError(f"{name} must be a finite number > 0, got {value!r}")
+
+
 def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd: bool = False) -> None:
-    """Each ``(name, low, high)``: ``owner.name`` must be an integer (not a bool) in
-    ``[low, high]``, and odd when ``odd`` (a window side).
+    """Each ``(name, low, high)``: ``owner.name`` must be an integer (Python's or NumPy's, not a
+    bool) in ``[low, high]``, and odd when ``odd`` (a window side).
 
     Raises
     ------
@@ -36,7 +51,7 @@ def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd
     """
     for name, low, high in ranges:
         value = getattr(owner, name)
-        if (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high
+        if (isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high
                 or (odd and value % 2 == 0)):
             kind = "an odd integer" if odd else "an integer"
             raise InvalidInputError(f"{name} must be {kind} in [{low}, {high}], got {value!r}")
@@ -57,4 +72,4 @@ def check_types(owner: object, kinds: Iterable[tuple[str, type]]) -> None:
             raise InvalidInputError(f"{name} must be {kind.__name__}, got {type(value).__name__}")
 
 
-__all__ = ["check_numbers", "check_integers", "check_types"]
+__all__ = ["check_numbers", "check_positive", "check_integers", "check_types"]

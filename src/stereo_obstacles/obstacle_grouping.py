@@ -28,6 +28,7 @@ import numpy as np
 
 from stereo_obstacles._obstacle_grouping_kernel import assign_pixels_kernel, cell_medians_kernel
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
 
 
 @dataclass(frozen=True)
@@ -65,20 +66,11 @@ class GroupingParameters:
     split_min_gap_px: float = 0.5
 
     def __post_init__(self) -> None:
-        if self.cell_px < 2:
-            raise InvalidInputError(f"cell_px must be >= 2, got {self.cell_px}")
-        if not 1 <= self.min_cell_pixels <= self.cell_px ** 2:
-            raise InvalidInputError(f"min_cell_pixels must be in [1, {self.cell_px ** 2}], got {self.min_cell_pixels}")
-        if self.abs_tolerance_px <= 0 or self.rel_tolerance < 0:
-            raise InvalidInputError("abs_tolerance_px must be > 0 and rel_tolerance >= 0")
-        if not 0.0 <= self.min_pure_fraction <= 1.0:
-            raise InvalidInputError(f"min_pure_fraction must be in [0, 1], got {self.min_pure_fraction}")
-        if self.min_object_pixels < 1:
-            raise InvalidInputError(f"min_object_pixels must be >= 1, got {self.min_object_pixels}")
-        if self.split_tolerance_px < 0:
-            raise InvalidInputError(f"split_tolerance_px must be >= 0, got {self.split_tolerance_px}")
-        if self.split_min_gap_px < 0:
-            raise InvalidInputError(f"split_min_gap_px must be >= 0, got {self.split_min_gap_px}")
+        check_integers(self, (("cell_px", 2, 1024), ("min_object_pixels", 1, 10 ** 9)))
+        check_integers(self, (("min_cell_pixels", 1, self.cell_px ** 2),))
+        check_positive(self, ("abs_tolerance_px",))
+        check_numbers(self, (("rel_tolerance", 0.0, 1e6), ("min_pure_fraction", 0.0, 1.0),
+                             ("split_tolerance_px", 0.0, 1e6), ("split_min_gap_px", 0.0, 1e6)))
 
 
 def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:

@@ -21,7 +21,6 @@ as flat (markings, puddles), and the rejection is reported with its reason.
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,6 +29,7 @@ from stereo_obstacles import quantiles
 from stereo_obstacles._obstacles_kernel import patch_medians_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
 
 QUARTILES = (25.0, 50.0, 75.0)
@@ -76,19 +76,9 @@ class ObstacleParameters:
     distance_min_patch_pixels: int = 16
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.distance_percentile <= 100.0:
-            raise InvalidInputError(f"distance_percentile must be in [0, 100], got {self.distance_percentile}")
-        if not (isinstance(self.distance_min_patch_pixels, numbers.Integral)
-                and not isinstance(self.distance_min_patch_pixels, bool)
-                and 1 <= self.distance_min_patch_pixels <= DISTANCE_PATCH_PX ** 2):
-            raise InvalidInputError(f"distance_min_patch_pixels must be in [1, {DISTANCE_PATCH_PX ** 2}], got "
-                                    f"{self.distance_min_patch_pixels}")
-        if not 0.0 <= self.min_standing_fraction <= 1.0:
-            raise InvalidInputError(f"min_standing_fraction must be in [0, 1], got {self.min_standing_fraction}")
-        for name in ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"):
-            value = getattr(self, name)
-            if not math.isfinite(value) or value <= 0:
-                raise InvalidInputError(f"{name} must be a positive number, got {value}")
+        check_numbers(self, (("distance_percentile", 0.0, 100.0), ("min_standing_fraction", 0.0, 1.0)))
+        check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),))
+        check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"))
 
 
 @dataclass(frozen=True)

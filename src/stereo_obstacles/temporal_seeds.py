@@ -25,7 +25,6 @@ grown frames in between bring in what comes into view (measured in ``docs/stream
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import cv2
@@ -33,6 +32,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers
 
 __all__ = ["TemporalSeedParameters", "TemporalSeeder", "temporal_estimate", "temporal_seed_points"]
 
@@ -69,13 +69,9 @@ class TemporalSeedParameters:
     refine_frames: int = 1
 
     def __post_init__(self) -> None:
-        for name, lowest in (("step_px", 1), ("refresh_every", 0), ("min_seeds", 0), ("refine_frames", 0)):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < lowest:
-                raise InvalidInputError(f"{name} must be an integer >= {lowest}, got {value!r}")
-        if not math.isfinite(self.forward_m_per_frame) or abs(self.forward_m_per_frame) > 5.0:
-            raise InvalidInputError(f"forward_m_per_frame must be within [-5, 5] metres, "
-                                    f"got {self.forward_m_per_frame}")
+        check_integers(self, (("step_px", 1, 10 ** 6), ("refresh_every", 0, 10 ** 9), ("min_seeds", 0, 10 ** 9),
+                              ("refine_frames", 0, 10 ** 9)))
+        check_numbers(self, (("forward_m_per_frame", -5.0, 5.0),))
 
 
 def temporal_seed_points(disparity: np.ndarray, *, d_min: int, d_max: int, step_px: int = 8,

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
 from stereo_obstacles.obstacles import Obstacle
 
 __all__ = ["ObstacleTracker", "Track", "TrackingParameters", "box_iou_matrix"]
@@ -69,17 +70,10 @@ class TrackingParameters:
     min_closing_speed_mps: float = 0.2
 
     def __post_init__(self) -> None:
-        checks = (("max_centre_jump_m", self.max_centre_jump_m > 0), ("min_iou", 0 < self.min_iou <= 1),
-                  ("alpha", 0 < self.alpha <= 1), ("beta", 0 <= self.beta <= 2),
-                  ("min_closing_speed_mps", self.min_closing_speed_mps >= 0))
-        for name, ok in checks:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and ok):
-                raise InvalidInputError(f"{name} is out of range: {value}")
-        for name in ("max_missed_frames", "min_age_frames"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-                raise InvalidInputError(f"{name} must be an integer >= 0, got {value!r}")
+        check_positive(self, ("max_centre_jump_m", "min_iou", "alpha"))
+        check_numbers(self, (("min_iou", 0.0, 1.0), ("alpha", 0.0, 1.0), ("beta", 0.0, 2.0),
+                             ("min_closing_speed_mps", 0.0, 1e6)))
+        check_integers(self, (("max_missed_frames", 0, 10 ** 9), ("min_age_frames", 0, 10 ** 9)))
 
 
 @dataclass(frozen=True)
