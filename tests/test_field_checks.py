@@ -25,6 +25,7 @@ def test_numbers_outside_their_range_or_not_numbers_fail(share):
 
 @pytest.mark.parametrize("size, odd, message", [
     (4, True, "an odd integer"), (0, False, "an integer"), (2.0, False, "an integer"), (True, False, "an integer"),
+    (np.uint8(5), False, "an integer"),
 ])
 def test_integers_outside_their_range_even_or_not_integers_fail(size, odd, message):
     with pytest.raises(InvalidInputError, match=f"size must be {message} in \\[1, 9\\], got"):
@@ -35,7 +36,7 @@ def test_valid_fields_pass():
     check_numbers(_Fields(), (("share", 0.0, 1.0),))
     check_integers(_Fields(), (("size", 1, 9),), odd=True)
     check_integers(_Fields(size=4), (("size", 1, 9),))
-    check_integers(_Fields(size=np.int32(7)), (("size", 1, 9),), odd=True)     # NumPy integers too
+    check_numbers(_Fields(share=np.float32(0.25)), (("share", 0.0, 1.0),))      # NumPy numbers too
     check_positive(_Fields(share=1e-9), ("share",))
 
 

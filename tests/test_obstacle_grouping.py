@@ -117,6 +117,7 @@ def test_split_parameters_are_checked():
     ({"abs_tolerance_px": 0.0}, "abs_tolerance_px"), ({"abs_tolerance_px": float("inf")}, "abs_tolerance_px"),
     ({"rel_tolerance": float("nan")}, "rel_tolerance"), ({"min_pure_fraction": 1.5}, "min_pure_fraction"),
     ({"min_object_pixels": 0}, "min_object_pixels"), ({"split_min_gap_px": None}, "split_min_gap_px"),
+    ({"cell_px": np.uint8(16)}, "cell_px"),          # a narrow NumPy integer would overflow cell_px ** 2
 ])
 def test_every_grouping_parameter_is_checked_with_one_clear_line(kwargs, name):
     from stereo_obstacles.errors import InvalidInputError
@@ -124,4 +125,4 @@ def test_every_grouping_parameter_is_checked_with_one_clear_line(kwargs, name):
 
     with pytest.raises(InvalidInputError, match=name):
         GroupingParameters(**kwargs)
-    assert GroupingParameters(cell_px=np.int64(8)).cell_px == 8          # NumPy integers are integers
+    assert GroupingParameters(rel_tolerance=np.float32(0.1), split_tolerance_px=1).split_tolerance_px == 1

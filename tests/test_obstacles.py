@@ -84,6 +84,31 @@ def test_group_numbers_need_not_be_contiguous():
     assert [o.distance_m for o in result.obstacles] == [o.distance_m for o in scene.calibrated.obstacles]
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_measurements_equal_numpy_percentiles_on_noisy_disparities(seed):
+    """A box of noisy, tied disparities (no ground plane: every pixel is measured): the reported
+    disparity, confidence, centre and extent are NumPy's percentiles and medians, rounded."""
+    rng = np.random.default_rng(seed)
+    d = np.full((RIG.height_px, RIG.width_px), np.nan, np.float32)
+    d[60:150, 90:200] = np.round(rng.normal(20.0, 1.5, (90, 110)), 1).astype(np.float32)
+    groups = np.zeros(d.shape, np.int32)
+    groups[60:150, 90:200] = 1
+    groups[0, 0] = -3                                             # a negative number reads as no group
+    (obstacle,) = measure_obstacles(groups, d, RIG, None).obstacles
+    ys, xs = np.nonzero(groups == 1)
+    disparities = d[ys, xs].astype(np.float64)
+    z = RIG.focal_baseline_px_m / (disparities + RIG.doffs_px)
+    points = np.stack([(xs - RIG.cx_px) * z / RIG.focal_px, (ys - RIG.cy_px) * z / RIG.focal_px, z], axis=-1)
+    quartiles = np.percentile(disparities, (25.0, 50.0, 75.0))
+    (x_lo, _), (x_hi, _) = np.percentile(points[:, :2], (1.0, 99.0), axis=0)
+    assert obstacle.disparity_px == round(float(quartiles[1]), 3)
+    assert obstacle.centre_m == tuple(round(float(v), 3) for v in np.median(points, axis=0))
+    assert obstacle.lateral_extent_m == (round(float(x_lo), 3), round(float(x_hi), 3))
+    spread = float(quartiles[2] - quartiles[0])
+    size_term = 1.0 - np.exp(-ys.size / 300.0)
+    assert obstacle.confidence == round(size_term / (1.0 + spread / max(1.0, 0.1 * float(quartiles[1]))), 3)
+
+
 def test_small_groups_are_noise():
     d = np.full((50, 50), 20.0, np.float32)
     mask = np.zeros((50, 50), bool)
@@ -100,9 +125,10 @@ def test_bad_arguments():
     with pytest.raises(InvalidInputError, match="max_distance_m"):
         ObstacleParameters(max_distance_m=float("nan"))
     for field, bad in (("corridor_width_m", "1"), ("flat_tolerance_m", 0.0), ("distance_percentile", None),
-                       ("min_standing_fraction", -0.1)):
+                       ("min_standing_fraction", -0.1), ("distance_min_patch_pixels", np.int64(16))):
         with pytest.raises(InvalidInputError, match=field):
             ObstacleParameters(**{field: bad})
+    assert ObstacleParameters(max_distance_m=np.float32(12.5), corridor_width_m=2).max_distance_m == 12.5
 
 
 def test_near_face_depth_equals_the_percentile_of_patch_medians():

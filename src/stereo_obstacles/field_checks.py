@@ -10,8 +10,8 @@ from stereo_obstacles.errors import InvalidInputError
 
 
 def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> None:
-    """Each ``(name, low, high)``: ``owner.name`` must be a finite real number (not a bool) in
-    ``[low, high]``.
+    """Each ``(name, low, high)``: ``owner.name`` must be a finite real number (Python's or NumPy's,
+    not a bool) in ``[low, high]``.
 
     Raises
     ------
@@ -20,13 +20,13 @@ def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> 
     """
     for name, low, high in ranges:
         value = getattr(owner, name)
-        if (isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+        if (isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value)
                 or not low <= value <= high):
             raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
 
 
 def check_positive(owner: object, names: Iterable[str]) -> None:
-    """Each ``owner.name`` must be a finite real number (not a bool) above 0.
+    """Each ``owner.name`` must be a finite real number (Python's or NumPy's, not a bool) above 0.
 
     Raises
     ------
@@ -35,13 +35,14 @@ def check_positive(owner: object, names: Iterable[str]) -> None:
     """
     for name in names:
         value = getattr(owner, name)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (math.isfinite(value) and value > 0):
             raise InvalidInputError(f"{name} must be a finite number > 0, got {value!r}")
 
 
 def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd: bool = False) -> None:
-    """Each ``(name, low, high)``: ``owner.name`` must be an integer (Python's or NumPy's, not a
-    bool) in ``[low, high]``, and odd when ``odd`` (a window side).
+    """Each ``(name, low, high)``: ``owner.name`` must be a Python integer (not a bool; a narrow
+    NumPy integer would overflow in the sizes computed from it) in ``[low, high]``, and odd when
+    ``odd`` (a window side).
 
     Raises
     ------
@@ -51,7 +52,7 @@ def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd
     """
     for name, low, high in ranges:
         value = getattr(owner, name)
-        if (isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high
+        if (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high
                 or (odd and value % 2 == 0)):
             kind = "an odd integer" if odd else "an integer"
             raise InvalidInputError(f"{name} must be {kind} in [{low}, {high}], got {value!r}")

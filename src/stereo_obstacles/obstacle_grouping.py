@@ -21,6 +21,7 @@ too small to report (measured in ``docs/pipeline.md``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import cv2
@@ -66,11 +67,11 @@ class GroupingParameters:
     split_min_gap_px: float = 0.5
 
     def __post_init__(self) -> None:
-        check_integers(self, (("cell_px", 2, 1024), ("min_object_pixels", 1, 10 ** 9)))
+        check_integers(self, (("cell_px", 2, math.inf), ("min_object_pixels", 1, math.inf)))
         check_integers(self, (("min_cell_pixels", 1, self.cell_px ** 2),))
         check_positive(self, ("abs_tolerance_px",))
-        check_numbers(self, (("rel_tolerance", 0.0, 1e6), ("min_pure_fraction", 0.0, 1.0),
-                             ("split_tolerance_px", 0.0, 1e6), ("split_min_gap_px", 0.0, 1e6)))
+        check_numbers(self, (("rel_tolerance", 0.0, math.inf), ("min_pure_fraction", 0.0, 1.0),
+                             ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf)))
 
 
 def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""NumPy's default percentile and median of 1-D float arrays, to the bit, at a fraction of the cost.
+"""NumPy's default percentile and median of finite 1-D float arrays, to the bit, at a fraction of the cost.
 
 ``np.percentile`` and ``np.median`` cost about 0.1-0.2 ms per call on a few thousand values,
 mostly in argument handling. Phase 3 takes several percentiles of every obstacle (its distance,
@@ -6,7 +6,9 @@ extent, disparity quartiles and centre), so it sorts each quantity once and read
 The arithmetic is NumPy's ``"linear"`` method (NumPy 2): the virtual index ``(n - 1) * q / 100``
 and the interpolation ``a + (b - a) t``, or ``b - (b - a) (1 - t)`` when ``t >= 0.5``; the
 median of an even count is ``(a + b) / 2``. Python floats are IEEE doubles, so the results
-equal NumPy's exactly for ``float64`` input (tested). For ``float32`` input NumPy takes ``b - a``
+equal NumPy's exactly for finite ``float64`` input (tested). NaN, infinite values and -0.0
+are not handled as NumPy handles them (it returns NaN for NaN input, for instance); callers
+pass finite values only. For ``float32`` input NumPy takes ``b - a``
 in ``float32``; the results then agree within ``float32`` rounding (the seeds' edge threshold).
 """
 
@@ -37,7 +39,7 @@ def percentile_of_sorted(ordered: np.ndarray, q: float) -> float:
 
 
 def median_of_sorted(ordered: np.ndarray) -> float:
-    """``np.median(values)`` from ``ordered``, the values sorted ascending (1-D, not empty)."""
+    """``np.median(values)`` from ``ordered``, the values sorted ascending (1-D, not empty, no NaN)."""
     half = ordered.size // 2
     if ordered.size % 2:
         return float(ordered[half])

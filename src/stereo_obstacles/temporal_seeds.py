@@ -25,6 +25,7 @@ grown frames in between bring in what comes into view (measured in ``docs/stream
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -69,9 +70,9 @@ class TemporalSeedParameters:
     refine_frames: int = 1
 
     def __post_init__(self) -> None:
-        check_integers(self, (("step_px", 1, 10 ** 6), ("refresh_every", 0, 10 ** 9), ("min_seeds", 0, 10 ** 9),
-                              ("refine_frames", 0, 10 ** 9)))
-        check_numbers(self, (("forward_m_per_frame", -5.0, 5.0),))
+        check_integers(self, (("step_px", 1, math.inf), ("refresh_every", 0, math.inf), ("min_seeds", 0, math.inf),
+                              ("refine_frames", 0, math.inf)))
+        check_numbers(self, (("forward_m_per_frame", -5.0, 5.0),))   # metres
 
 
 def temporal_seed_points(disparity: np.ndarray, *, d_min: int, d_max: int, step_px: int = 8,

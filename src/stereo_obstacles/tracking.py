@@ -72,8 +72,8 @@ class TrackingParameters:
     def __post_init__(self) -> None:
         check_positive(self, ("max_centre_jump_m", "min_iou", "alpha"))
         check_numbers(self, (("min_iou", 0.0, 1.0), ("alpha", 0.0, 1.0), ("beta", 0.0, 2.0),
-                             ("min_closing_speed_mps", 0.0, 1e6)))
-        check_integers(self, (("max_missed_frames", 0, 10 ** 9), ("min_age_frames", 0, 10 ** 9)))
+                             ("min_closing_speed_mps", 0.0, math.inf)))
+        check_integers(self, (("max_missed_frames", 0, math.inf), ("min_age_frames", 0, math.inf)))
 
 
 @dataclass(frozen=True)
