@@ -97,6 +97,10 @@ def test_parameters_are_validated():
         ReferenceParameters(min_hue_threshold_deg=50.0, max_hue_threshold_deg=10.0)
     with pytest.raises(InvalidInputError, match="max_samples"):
         ReferenceParameters(max_samples=0)
+    for field, bad in (("outlier_mads", "3"), ("spread_percentile", 50.0), ("min_outlier_hue_deg", None),
+                       ("min_pixels", 10.0), ("warn_kept_fraction", float("nan"))):
+        with pytest.raises(InvalidInputError, match=field):
+            ReferenceParameters(**{field: bad})
 
 
 def test_grey_ground_rejects_a_coloured_object_inside():

@@ -135,6 +135,8 @@ def test_unusable_reference_is_an_error(caplog):
     ({"min_obstacle_area_px": -1}, "min_obstacle_area_px"),
     ({"max_hole_fraction": 1.5}, "max_hole_fraction"), ({"max_hole_fraction": float("nan")}, "max_hole_fraction"),
     ({"max_hole_fraction": True}, "max_hole_fraction"),
+    ({"veto_factor": "3"}, "veto_factor"), ({"shadow_min_ratio": None}, "shadow_min_ratio"),
+    ({"filter_size": 7.0}, "filter_size"), ({"ground_intensity_margin": float("inf")}, "ground_intensity_margin"),
 ])
 def test_parameters_are_validated(kwargs, match):
     with pytest.raises(InvalidInputError, match=match):

@@ -139,3 +139,12 @@ def test_segment_command_colour_model_option(tmp_path):
         labels = read_labels(out)
         assert labels[15, 35] == Label.OBSTACLE and labels[50, 10] == Label.GROUND
         assert json.loads((tmp_path / f"{model}.png.json").read_text())["colour_model"] == model
+
+
+@pytest.mark.parametrize("field, bad", [("fit_rows_from", 1.0), ("fit_rows_from", "0.5"),
+                                        ("ground_tolerance_px", -1.0), ("obstacle_margin_fraction", None)])
+def test_kitti_truth_parameters_are_checked(field, bad):
+    from stereo_obstacles.segmentation_evaluation import KittiTruthParameters
+
+    with pytest.raises(InvalidInputError, match=field):
+        KittiTruthParameters(**{field: bad})

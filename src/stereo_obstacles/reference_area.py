@@ -30,6 +30,7 @@ import numpy as np
 
 from stereo_obstacles.colour import HSI, hue_difference
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
 
 logger = logging.getLogger(__name__)
 
@@ -160,29 +161,18 @@ class ReferenceParameters:
     max_samples: int = 12000
 
     def __post_init__(self) -> None:
-        fractions = ("min_valid_fraction", "min_hue_fraction", "warn_kept_fraction",
-                     "saturation_margin", "min_outlier_intensity", "min_outlier_saturation")
-        for name in fractions:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and 0.0 <= value <= 1.0):
-                raise InvalidInputError(f"ReferenceParameters.{name} must be in [0, 1], got {value!r}")
-        positives = ("outlier_mads", "hue_threshold_factor", "warn_hue_spread_deg",
-                     "warn_intensity_spread")
-        for name in positives:
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise InvalidInputError(f"ReferenceParameters.{name} must be > 0, got {value!r}")
-        if not 0.0 <= self.spread_percentile < 50.0:
-            raise InvalidInputError(f"spread_percentile must be in [0, 50), got {self.spread_percentile!r}")
-        if not 0.0 <= self.min_outlier_hue_deg <= 180.0:
-            raise InvalidInputError(f"min_outlier_hue_deg must be in [0, 180], got {self.min_outlier_hue_deg!r}")
-        if not 0.0 <= self.min_hue_threshold_deg <= self.max_hue_threshold_deg <= 180.0:
-            raise InvalidInputError("need 0 <= min_hue_threshold_deg <= max_hue_threshold_deg <= 180, got "
+        check_numbers(self, tuple((name, 0.0, 1.0) for name in (
+            "min_valid_fraction", "min_hue_fraction", "warn_kept_fraction", "saturation_margin",
+            "min_outlier_intensity", "min_outlier_saturation")))
+        check_positive(self, ("outlier_mads", "hue_threshold_factor", "warn_hue_spread_deg", "warn_intensity_spread"))
+        check_numbers(self, (("spread_percentile", 0.0, 50.0), ("min_outlier_hue_deg", 0.0, 180.0),
+                             ("min_hue_threshold_deg", 0.0, 180.0), ("max_hue_threshold_deg", 0.0, 180.0)))
+        if self.spread_percentile == 50.0:
+            raise InvalidInputError("spread_percentile must be below 50 (the spread would be 0), got 50.0")
+        if self.min_hue_threshold_deg > self.max_hue_threshold_deg:
+            raise InvalidInputError("need min_hue_threshold_deg <= max_hue_threshold_deg, got "
                                     f"{self.min_hue_threshold_deg!r} and {self.max_hue_threshold_deg!r}")
-        for name in ("min_pixels", "max_samples"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise InvalidInputError(f"{name} must be a positive integer, got {value!r}")
+        check_integers(self, (("min_pixels", 1, math.inf), ("max_samples", 1, math.inf)))
 
     def sample_step(self, height: int, width: int) -> int:
         """Smallest row and column step leaving at most ``max_samples`` pixels of an area.

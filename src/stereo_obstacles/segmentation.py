@@ -76,7 +76,7 @@ from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATI
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.far_ground import FarGroundParameters, FarGroundRows, far_ground_pixels, far_ground_rows
-from stereo_obstacles.field_checks import check_types
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_types
 from stereo_obstacles.ground_check import (GroundCheck, GroundCheckParameters, check_colour_pair, check_ground,
                                            grey_levels)
 from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
@@ -186,29 +186,16 @@ class SegmentationParameters:
             raise InvalidInputError(f"colour_model must be 'log_rgb' or 'hsi', got {self.colour_model!r}")
         if not isinstance(self.shadow_rule, bool):
             raise InvalidInputError(f"shadow_rule must be a bool, got {self.shadow_rule!r}")
+        check_numbers(self, (("shadow_min_ratio", 0.0, 1.0), ("shadow_max_ratio", 0.0, 1.0)))
         if not 0.0 < self.shadow_min_ratio < self.shadow_max_ratio < 1.0:
             raise InvalidInputError("need 0 < shadow_min_ratio < shadow_max_ratio < 1, got "
                                     f"{self.shadow_min_ratio!r} and {self.shadow_max_ratio!r}")
-        if not (math.isfinite(self.shadow_blue_shift) and self.shadow_blue_shift >= 0.0):
-            raise InvalidInputError(f"shadow_blue_shift must be >= 0, got {self.shadow_blue_shift!r}")
-        if not (math.isfinite(self.veto_factor) and self.veto_factor >= 1.0):
-            raise InvalidInputError(f"veto_factor must be >= 1, got {self.veto_factor!r}")
-        if not (math.isfinite(self.shadow_chroma_band) and self.shadow_chroma_band >= 1.0):
-            raise InvalidInputError(f"shadow_chroma_band must be >= 1, got {self.shadow_chroma_band!r}")
-        if (isinstance(self.max_hole_fraction, bool) or not isinstance(self.max_hole_fraction, (int, float))
-                or not 0.0 <= self.max_hole_fraction <= 1.0):
-            raise InvalidInputError(f"max_hole_fraction must be in [0, 1], got {self.max_hole_fraction!r}")
-        for name in ("ground_intensity_margin",):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise InvalidInputError(f"{name} must be >= 0, got {value!r}")
-        for name in ("filter_size", "min_obstacle_area_px", "max_hole_area_px",
-                     "intensity_smoothing_px"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise InvalidInputError(f"{name} must be a non-negative integer, got {value!r}")
-        if self.filter_size % 2 == 0:
-            raise InvalidInputError(f"filter_size must be odd, got {self.filter_size}")
+        check_numbers(self, (("shadow_blue_shift", 0.0, math.inf), ("veto_factor", 1.0, math.inf),
+                             ("shadow_chroma_band", 1.0, math.inf), ("max_hole_fraction", 0.0, 1.0),
+                             ("ground_intensity_margin", 0.0, math.inf)))
+        check_integers(self, (("min_obstacle_area_px", 0, math.inf), ("max_hole_area_px", 0, math.inf),
+                              ("intensity_smoothing_px", 0, math.inf)))
+        check_integers(self, (("filter_size", 1, math.inf),), odd=True)
 
 
 @dataclass(frozen=True, eq=False)

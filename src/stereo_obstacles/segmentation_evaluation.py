@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, replace
 import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.field_checks import check_numbers
 from stereo_obstacles.ground_plane import GroundPlane, PlaneFitParameters, fit_ground_plane
 from stereo_obstacles.labels import Label
 from stereo_obstacles.segmentation import SegmentationParameters, segment
@@ -188,13 +189,11 @@ class KittiTruthParameters:
     plane: PlaneFitParameters = PlaneFitParameters(inlier_threshold_px=1.0, min_slope_y=0.1)
 
     def __post_init__(self) -> None:
-        for name in ("ground_tolerance_px", "ground_tolerance_fraction", "obstacle_margin_px",
-                     "obstacle_margin_fraction"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise InvalidInputError(f"{name} must be >= 0, got {value!r}")
-        if not 0.0 <= self.fit_rows_from < 1.0:
-            raise InvalidInputError(f"fit_rows_from must be in [0, 1), got {self.fit_rows_from!r}")
+        check_numbers(self, tuple((name, 0.0, math.inf) for name in (
+            "ground_tolerance_px", "ground_tolerance_fraction", "obstacle_margin_px", "obstacle_margin_fraction")))
+        check_numbers(self, (("fit_rows_from", 0.0, 1.0),))
+        if self.fit_rows_from == 1.0:
+            raise InvalidInputError("fit_rows_from must be below 1 (no row would be fitted), got 1.0")
 
 
 def kitti_truth(disparity: np.ndarray, *, params: KittiTruthParameters = KittiTruthParameters()
