@@ -139,3 +139,32 @@ def test_seed_spacing_is_validated():
     a = np.zeros((20, 30), np.uint8)
     with pytest.raises(InvalidInputError, match="seed_spacing"):
         match(a, a, seed_spacing=0)
+
+
+def test_speckles_removed_from_the_result_and_counted():
+    left, right = _shifted_pair(shape=(60, 90), shift=5, seed=6)
+    left[20:34, 40:54] = right[20:34, 28:42]      # a 14 x 14 island at disparity 12 in a surface at 5
+    kept = match(left, right, max_disparity=14, speckle_size=0)
+    cleaned = match(left, right, max_disparity=14, speckle_size=196, speckle_range=1.0)
+    assert kept.stats.n_speckle_removed == 0
+    assert np.count_nonzero(np.abs(kept.disparity[20:34, 40:54] - 12) < 0.5) > 80
+    assert 80 < cleaned.stats.n_speckle_removed <= 196
+    assert not (np.abs(cleaned.disparity - 12) < 0.5).any()
+    removed = np.isfinite(kept.disparity) & ~np.isfinite(cleaned.disparity)
+    assert cleaned.stats.n_speckle_removed == np.count_nonzero(removed)
+    assert not (np.isfinite(cleaned.disparity) & ~np.isfinite(kept.disparity)).any()
+    assert np.array_equal(np.isfinite(cleaned.similarity), np.isfinite(cleaned.disparity))
+    assert cleaned.stats.density * left.size == pytest.approx(np.count_nonzero(np.isfinite(cleaned.disparity)))
+    # what is left has no speckle in it any more
+    from stereo_obstacles.speckles import speckle_mask
+    assert not speckle_mask(cleaned.disparity, max_size_px=196, max_difference_px=1.0).any()
+
+
+@pytest.mark.parametrize("kwargs, message", [(dict(speckle_size=-1), "speckle_size"),
+                                             (dict(speckle_size=1.5), "speckle_size"),
+                                             (dict(speckle_range=-1.0), "speckle_range"),
+                                             (dict(speckle_range=float("inf")), "speckle_range")])
+def test_speckle_options_are_validated(kwargs, message):
+    a = np.zeros((20, 30), np.uint8)
+    with pytest.raises(InvalidInputError, match=message):
+        match(a, a, **kwargs)

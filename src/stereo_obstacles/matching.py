@@ -4,7 +4,9 @@ Stages (each timed): *prepare* (grey conversion, window statistics), *seeds* (ed
 random pixels matched along their scanline, or a user list), *growth* (best-first growth
 of the candidate table, :mod:`stereo_obstacles.growing`), *final* (confidently stable
 matching, :mod:`stereo_obstacles.stable_matching`; skipped by the greedy variant) and
-*subpixel* (:mod:`stereo_obstacles.subpixel`). See ``docs/matching.md``.
+*subpixel* (:mod:`stereo_obstacles.subpixel`), then two checks that are not part of the
+published method: the shifted-window check (:mod:`stereo_obstacles.shifted_windows`) and
+speckle removal (:mod:`stereo_obstacles.speckles`). See ``docs/matching.md``.
 """
 
 from __future__ import annotations
@@ -22,10 +24,11 @@ from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
 from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.shifted_windows import shifted_window_check
+from stereo_obstacles.speckles import speckle_mask
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 
-__all__ = ["BANDS", "DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "VARIANTS", "MatchResult",
-           "MatchStats", "disparity_range", "match", "warm_up"]
+__all__ = ["BANDS", "DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "SPECKLE_RANGE", "SPECKLE_SIZE",
+           "VARIANTS", "MatchResult", "MatchStats", "disparity_range", "match", "warm_up"]
 
 logger = logging.getLogger(__name__)
 
@@ -43,6 +46,12 @@ DEFAULT_MAX_DISPARITY_FRACTION = 1.0 / 3.0
 
 BANDS = 2
 """Default number of row bands grown in parallel threads (``docs/matching.md``, "Both cores")."""
+
+SPECKLE_SIZE = 200
+"""Default largest region of matches (pixels) removed as a speckle (``docs/matching.md``, "Speckle removal")."""
+
+SPECKLE_RANGE = 1.0
+"""Default largest disparity step (pixels) between neighbours of one speckle region."""
 
 
 @dataclass(frozen=True)
@@ -75,7 +84,8 @@ class MatchStats:
     prepare_seconds, seeds_seconds, growth_seconds, final_seconds, subpixel_seconds : float
         Wall time of each stage.
     match_seconds : float
-        ``seeds + growth + final + edge_check`` (the matching proper, as in the benchmark targets).
+        ``seeds + growth + final + edge_check + speckle`` (the matching proper, as in the benchmark
+        targets).
     total_seconds : float
         Every stage.
     n_edge_checked, n_edge_rejected : int
@@ -83,6 +93,10 @@ class MatchStats:
         (0 without ``shifted_windows``).
     edge_check_seconds : float
         Wall time of the shifted-window check (0 without it).
+    n_speckle_removed : int
+        Matches removed as speckles (0 with ``speckle_size=0``).
+    speckle_seconds : float
+        Wall time of the speckle removal.
     """
 
     n_seeds: int
@@ -105,6 +119,8 @@ class MatchStats:
     n_edge_checked: int = 0
     n_edge_rejected: int = 0
     edge_check_seconds: float = 0.0
+    n_speckle_removed: int = 0
+    speckle_seconds: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.density <= 1.0:
@@ -140,7 +156,8 @@ class MatchResult:
 
 
 def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity,
-                   max_disparity, margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands) -> None:
+                   max_disparity, margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands,
+                   speckle_size, speckle_range) -> None:
     if not 0.0 < tau < 1.0:
         raise InvalidInputError(f"tau: expected 0 < tau < 1, got {tau}")
     if not mu >= 0.0:
@@ -169,6 +186,10 @@ def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, m
         raise InvalidInputError(f"rng_seed: expected an integer >= 0, got {rng_seed}")
     if int(bands) != bands or bands < 1:
         raise InvalidInputError(f"bands: expected an integer >= 1, got {bands}")
+    if int(speckle_size) != speckle_size or speckle_size < 0:
+        raise InvalidInputError(f"speckle_size: expected an integer >= 0, got {speckle_size}")
+    if not 0.0 <= speckle_range < np.inf:
+        raise InvalidInputError(f"speckle_range: expected a finite number >= 0, got {speckle_range}")
 
 
 LOW_DENSITY = 0.01
@@ -215,11 +236,12 @@ def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | Non
 
 
 def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disparity: int | None = None,
-          min_disparity: int = 0, tau: float = 0.55, mu: float = 0.1, max_candidates: int = 10,
+          min_disparity: int = 0, tau: float = 0.55, mu: float = 0.05, max_candidates: int = 10,
           final_margin: float = 0.1, similarity: str = "ncc", variant: str = "stable", rng_seed: int = 0,
           seed_points: np.ndarray | None = None, margin_reference: str = "max", min_std: float = 1.0,
           seed_margin: float = 0.1, seed_spacing: int = SEED_SPACING, bands: int = BANDS,
-          shifted_windows: bool = True) -> MatchResult:
+          shifted_windows: bool = True, speckle_size: int = SPECKLE_SIZE,
+          speckle_range: float = SPECKLE_RANGE) -> MatchResult:
     """Match a rectified stereo pair by Growing Correspondence Seeds.
 
     Parameters
@@ -270,7 +292,14 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         of the windows containing the pixel (:mod:`stereo_obstacles.shifted_windows`; not part
         of the published method): fewer foreground-fattening errors, slightly lower density.
         On by default since, with ``tau = 0.55``, it lowers bad-1 on all four Middlebury pairs
-        (docs/matching.md, "Defaults"); ``shifted_windows=False, tau=0.6`` is the published method.
+        (docs/matching.md, "Defaults"); ``shifted_windows=False, tau=0.6, mu=0.1, speckle_size=0``
+        is the published method.
+    speckle_size : int
+        Regions of at most this many matched pixels whose disparities agree within
+        ``speckle_range`` but not with their surroundings are removed
+        (:mod:`stereo_obstacles.speckles`; not part of the published method); 0 keeps them.
+    speckle_range : float
+        Largest disparity step between 4-neighbours of one region, pixels.
 
     Returns
     -------
@@ -301,7 +330,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     """
     t0 = time.perf_counter()
     _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity, max_disparity,
-                   margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands)
+                   margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands, speckle_size, speckle_range)
     left_grey = to_grey(left, "left")
     right_grey = to_grey(right, "right")
     check_same_size(left_grey, right_grey)
@@ -337,6 +366,14 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     sim = np.full((h, w), np.nan, np.float32)
     disparity[my, mx] = md + offset
     sim[my, mx] = mc
+    t_filled = time.perf_counter()
+    speckles = speckle_mask(disparity, max_size_px=int(speckle_size), max_difference_px=float(speckle_range))
+    n_speckle = int(np.count_nonzero(speckles))
+    if n_speckle:
+        disparity[speckles] = np.nan
+        sim[speckles] = np.nan
+        keep = ~speckles[my, mx]
+        my, md = my[keep], md[keep]
     t5 = time.perf_counter()
 
     n_visited = found.n_evaluated + banded.n_computed - banded.n_rescanned
@@ -348,9 +385,10 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         density=float(my.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
         prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=banded.growth_seconds,
         final_seconds=banded.matched_seconds - banded.growth_seconds,
-        subpixel_seconds=t4 - t2 - banded.matched_seconds + t5 - t_checked,
-        match_seconds=t2 - t1 + banded.matched_seconds + t_checked - t4, total_seconds=t5 - t0,
-        n_edge_checked=n_checked, n_edge_rejected=n_rejected, edge_check_seconds=t_checked - t4)
+        subpixel_seconds=t4 - t2 - banded.matched_seconds + t_filled - t_checked,
+        match_seconds=t2 - t1 + banded.matched_seconds + t_checked - t4 + t5 - t_filled, total_seconds=t5 - t0,
+        n_edge_checked=n_checked, n_edge_rejected=n_rejected, edge_check_seconds=t_checked - t4,
+        n_speckle_removed=n_speckle, speckle_seconds=t5 - t_filled)
     _warn_if_doubtful(stats.density, stats.n_seed_pixels, stats.n_seeds,
                       float(np.mean(md == 0)) if md.size else 0.0, d_min, tau, seed_points is not None)
     logger.info("GCS: %d seeds, %d candidates, density %.1f %%, match %.1f ms", stats.n_seeds,

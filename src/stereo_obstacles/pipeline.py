@@ -65,14 +65,23 @@ logger = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class MatchingOptions:
-    """Options passed to :func:`stereo_obstacles.matching.match`; ``None`` keeps its default."""
+    """Options passed to :func:`stereo_obstacles.matching.match`; ``None`` keeps its default.
+
+    Two defaults are the pipeline's own: ``mu = 0.1`` and ``speckle_size = 0`` (no speckle
+    removal), the matcher's defaults before session 10, with which every detection figure in
+    ``docs/pipeline.md`` was measured. With the matcher's newer defaults (``mu`` 0.05, speckles
+    of up to 200 px removed from the half-size match) a 3 613 px box of scene 1 was lost
+    (``docs/matching.md``, "Speckle removal").
+    """
 
     seeds: str | None = None
     max_disparity: int | None = None
     tau: float | None = None
-    mu: float | None = None
+    mu: float | None = 0.1
     max_candidates: int | None = None
     variant: str | None = None
+    speckle_size: int | None = 0
+    speckle_range: float | None = None
 
     def to_kwargs(self) -> dict:
         """Keyword arguments for ``match`` with the unset options left out."""

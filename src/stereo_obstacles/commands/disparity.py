@@ -24,7 +24,8 @@ def register(subparsers) -> None:
                    help="smallest disparity, px (default 0)")
     p.add_argument("--tau", type=float, default=0.55, metavar="C",
                    help="similarity threshold (default 0.55; the published method uses 0.6)")
-    p.add_argument("--mu", type=float, default=0.1, metavar="C", help="growth margin (default 0.1)")
+    p.add_argument("--mu", type=float, default=0.05, metavar="C",
+                   help="growth margin (default 0.05; the published method uses 0.1)")
     p.add_argument("--max-candidates", type=int, default=10, metavar="K", help="candidates per pixel, K (default 10)")
     p.add_argument("--final-margin", type=float, default=0.1, metavar="C", help="stable matching margin (default 0.1)")
     p.add_argument("--variant", choices=("stable", "greedy"), default="stable")
@@ -35,6 +36,11 @@ def register(subparsers) -> None:
     p.add_argument("--shifted-windows", action=argparse.BooleanOptionalAction, default=True,
                    help="reject fattened matches next to depth edges (an extension, on by default; "
                         "--no-shifted-windows --tau 0.6 is the published method)")
+    p.add_argument("--speckle-size", type=int, default=200, metavar="PX",
+                   help="remove regions of at most PX matches whose disparity stands apart from their "
+                        "surroundings (an extension, default 200; 0 keeps them, as the published method)")
+    p.add_argument("--speckle-range", type=float, default=1.0, metavar="PX",
+                   help="largest disparity step inside one such region (default 1.0 px)")
     p.add_argument("--picture", default=None, metavar="PICTURE.png", help="also write a turbo picture of the disparity (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON line of statistics on stdout")
     add_rectification_options(p, with_calib_file=True)
@@ -80,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
                    max_disparity=args.max_disparity, min_disparity=args.min_disparity, tau=args.tau, mu=args.mu,
                    max_candidates=args.max_candidates, final_margin=args.final_margin, similarity=args.similarity,
                    variant=args.variant, rng_seed=args.rng_seed, bands=args.bands,
-                   shifted_windows=args.shifted_windows)
+                   shifted_windows=args.shifted_windows, speckle_size=args.speckle_size,
+                   speckle_range=args.speckle_range)
     write_disparity(args.output, result.disparity)
     if args.picture:
         write_image(args.picture, colorize_disparity(result.disparity, 0, result.stats.d_max))
