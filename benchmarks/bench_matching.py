@@ -41,7 +41,7 @@ from stereo_obstacles.datasets import StereoPair, load_pair
 from stereo_obstacles.disparity_metrics import evaluate_disparity
 from stereo_obstacles.evaluation import (METHODS, available_methods, evaluate_pair,
                                          machine_info, resolve_methods)
-from stereo_obstacles.pipeline import MatchingOptions
+from stereo_obstacles.pipeline import MatchingOptions, pipeline_match_kwargs
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = Path(os.environ.get("STEREO_OBSTACLES_SHARED_DATA", REPO.parent / "shared" / "data"))
@@ -49,14 +49,15 @@ MIDDLEBURY = ("middlebury2001_tsukuba", "middlebury2001_venus", "middlebury2003_
               "middlebury2003_cones", "opencv_aloe")
 TARGET_PAIRS = ("middlebury2003_teddy", "middlebury2003_cones")
 SEED_KINDS = ("canny", "sobel", "random")
-EXTENSIONS = (("published method (1 band, tau 0.6, mu 0.1, no check, no speckle removal)",
-               {"bands": 1, "tau": 0.6, "mu": 0.1, "shifted_windows": False, "speckle_size": 0}),
+EXTENSIONS = (("published method (1 band, tau 0.6, mu 0.1, K 10, no check, no speckle removal)",
+               {"bands": 1, "tau": 0.6, "mu": 0.1, "max_candidates": 10, "shifted_windows": False,
+                "speckle_size": 0}),
               ("defaults with 1 band", {"bands": 1}),
               ("defaults without the shifted-window check", {"shifted_windows": False}),
               ("defaults without speckle removal", {"speckle_size": 0}),
               ("defaults (2 bands, check, speckle removal)", {}),
-              ("coarse to fine (scale 0.5, the pipeline's settings: mu 0.1, no speckle removal)",
-               {"matching_scale": 0.5, **MatchingOptions().to_kwargs()}))
+              ("coarse to fine (scale 0.5, the pipeline's settings: mu 0.1, K 10, no speckle removal)",
+               {"matching_scale": 0.5, **pipeline_match_kwargs(MatchingOptions())}))
 """Settings of the extensions section: ``match`` options, or ``matching_scale`` for
 :func:`stereo_obstacles.scaled_matching.match_at_scale` (growth on a half-size copy, refined at
 full size), whose disparity has no single ``match_seconds``: its rows report the whole call."""

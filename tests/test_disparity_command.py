@@ -55,7 +55,7 @@ def test_disparity_command_defaults_are_the_matchers(tmp_path, capsys):
     args = build_parser().parse_args(["disparity", "l.png", "r.png", "-o", "d.npy"])
     defaults = inspect.signature(match).parameters
     for name in ("seeds", "max_disparity", "min_disparity", "tau", "mu", "max_candidates", "final_margin",
-                 "variant", "similarity", "rng_seed", "bands", "shifted_windows"):
+                 "variant", "similarity", "rng_seed", "bands", "shifted_windows", "speckle_size", "speckle_range"):
         assert getattr(args, name) == defaults[name].default, name
     left, right = _write_pair(tmp_path)
     assert main(["disparity", str(left), str(right), "-o", str(tmp_path / "d.npy"), "--max-disparity", "10"]) == 0

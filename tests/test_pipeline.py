@@ -118,3 +118,23 @@ def test_warm_up_compiles_the_refinement_too():
             "from stereo_obstacles._refinement_kernel import _refine_rows; print(len(_refine_rows.signatures))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert int(out.strip().splitlines()[-1]) >= 1        # in a fresh process: nothing else compiled it
+
+
+def test_the_pipeline_matches_with_its_own_defaults_unless_told(default_pair, monkeypatch):
+    from stereo_obstacles import pipeline
+    from stereo_obstacles.pipeline import PIPELINE_MATCHING, MatchingOptions, pipeline_match_kwargs
+
+    assert pipeline_match_kwargs(MatchingOptions()) == PIPELINE_MATCHING
+    assert pipeline_match_kwargs(MatchingOptions(mu=0.2, seeds="sobel")) == {**PIPELINE_MATCHING, "mu": 0.2,
+                                                                              "seeds": "sobel"}
+    seen = []
+    real = pipeline.match_at_scale
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(pipeline, "match_at_scale", spy)
+    detect(default_pair.left, default_pair.right, default_pair.calibration,
+           config=DetectionConfig(matching=MatchingOptions(max_candidates=6)))
+    assert seen and {k: seen[0][k] for k in PIPELINE_MATCHING} == {**PIPELINE_MATCHING, "max_candidates": 6}

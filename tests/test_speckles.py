@@ -67,9 +67,14 @@ def test_regions_link_through_small_steps_only():
     assert speckle_mask(ramp, max_size_px=3, max_difference_px=0.5).all()
 
 
-def test_size_zero_removes_nothing():
-    d = np.random.default_rng(0).uniform(0, 50, (10, 10)).astype(np.float32)
-    assert not speckle_mask(d, max_size_px=0, max_difference_px=1.0).any()
+def test_extreme_settings_stay_exact():
+    d = np.full((5, 5), 10.0, np.float32)
+    d[2, 2] = np.inf                                   # unmatched, however large the range
+    assert not speckle_mask(d, max_size_px=100, max_difference_px=1e39)[2, 2]
+    assert np.count_nonzero(speckle_mask(d, max_size_px=2 ** 70, max_difference_px=1.0)) == 24
+    # float64 maps are compared in float64: a step just over the range splits them
+    assert speckle_mask(np.array([[100.0, 101.00000001]]), max_size_px=1, max_difference_px=1.0).all()
+    assert not speckle_mask(np.array([[100.0, 101.0]]), max_size_px=1, max_difference_px=1.0).any()
 
 
 @pytest.mark.parametrize("kwargs, message", [

@@ -65,27 +65,34 @@ logger = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class MatchingOptions:
-    """Options passed to :func:`stereo_obstacles.matching.match`; ``None`` keeps its default.
-
-    Two defaults are the pipeline's own: ``mu = 0.1`` and ``speckle_size = 0`` (no speckle
-    removal), the matcher's defaults before session 10, with which every detection figure in
-    ``docs/pipeline.md`` was measured. With the matcher's newer defaults (``mu`` 0.05, speckles
-    of up to 200 px removed from the half-size match) a 3 613 px box of scene 1 was lost
-    (``docs/matching.md``, "Speckle removal").
-    """
+    """Options passed to :func:`stereo_obstacles.matching.match`; ``None`` keeps its default
+    (in the obstacle pipeline: :data:`PIPELINE_MATCHING` first)."""
 
     seeds: str | None = None
     max_disparity: int | None = None
     tau: float | None = None
-    mu: float | None = 0.1
+    mu: float | None = None
     max_candidates: int | None = None
     variant: str | None = None
-    speckle_size: int | None = 0
+    speckle_size: int | None = None
     speckle_range: float | None = None
 
     def to_kwargs(self) -> dict:
         """Keyword arguments for ``match`` with the unset options left out."""
         return {k: v for k, v in asdict(self).items() if v is not None}
+
+
+PIPELINE_MATCHING = {"mu": 0.1, "max_candidates": 10, "speckle_size": 0}
+"""The obstacle pipeline's own defaults for :func:`~stereo_obstacles.matching.match` options
+that :class:`MatchingOptions` leaves unset: the matcher's defaults before session 10, with
+which every detection figure in ``docs/pipeline.md`` was measured. With the matcher's newer
+defaults a 3 613 px box of scene 1 was lost (``docs/matching.md``, "Speckle removal")."""
+
+
+def pipeline_match_kwargs(options: MatchingOptions) -> dict:
+    """Keyword arguments the obstacle pipeline passes to ``match``: :data:`PIPELINE_MATCHING`,
+    overridden by the options set in ``options``."""
+    return {**PIPELINE_MATCHING, **options.to_kwargs()}
 
 
 @dataclass(frozen=True)
@@ -375,9 +382,9 @@ def _match_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, s
     t = time.perf_counter()
     if disparity_estimate is None:
         disparity, matched = match_at_scale(left, right, config.matching_scale, seed_points=seed_points,
-                                            **config.matching.to_kwargs())
+                                            **pipeline_match_kwargs(config.matching))
     else:
-        matched = refine_at_full_size(left, right, disparity_estimate, **config.matching.to_kwargs())
+        matched = refine_at_full_size(left, right, disparity_estimate, **pipeline_match_kwargs(config.matching))
         disparity = matched.disparity
     if config.visibility is not None:
         disparity = np.where(hidden_in_right(disparity, config.visibility), np.float32(np.nan), disparity)

@@ -140,7 +140,9 @@ def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_po
     max_disparity : int, optional
         Largest disparity in full-size pixels.
     **options
-        Other keyword arguments of :func:`stereo_obstacles.matching.match` (used at both sizes).
+        Other keyword arguments of :func:`stereo_obstacles.matching.match`: all of them apply to
+        the reduced-size match; those :func:`refine_at_full_size` takes apply at full size too
+        (speckles, for example, are removed from the reduced-size match only).
 
     Returns
     -------

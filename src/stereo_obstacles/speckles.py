@@ -25,7 +25,8 @@ def speckle_mask(disparity: np.ndarray, *, max_size_px: int, max_difference_px: 
     Parameters
     ----------
     disparity : ndarray of float, shape (H, W)
-        Disparity map in pixels, NaN (or any non-finite value) where unmatched.
+        Disparity map in pixels, NaN (or any non-finite value) where unmatched; float64 maps
+        are compared in float64, others in float32.
     max_size_px : int
         Regions of at most this many pixels are speckles (>= 0; 0 finds none).
     max_difference_px : float
@@ -48,12 +49,16 @@ def speckle_mask(disparity: np.ndarray, *, max_size_px: int, max_difference_px: 
     """
     if isinstance(max_size_px, bool) or not isinstance(max_size_px, (int, np.integer)) or max_size_px < 0:
         raise InvalidInputError(f"max_size_px: expected an integer >= 0, got {max_size_px!r}")
-    if isinstance(max_difference_px, bool) or not np.isfinite(max_difference_px) or max_difference_px < 0:
+    if (isinstance(max_difference_px, bool) or not isinstance(max_difference_px, (int, float, np.integer, np.floating))
+            or not 0.0 <= max_difference_px < np.inf):
         raise InvalidInputError(f"max_difference_px: expected a finite number >= 0, got {max_difference_px!r}")
     d = np.asarray(disparity)
     if d.ndim != 2 or not np.issubdtype(d.dtype, np.floating):
         raise InvalidInputError(f"disparity: expected a 2-D float array, got {d.dtype} {d.shape}")
+    d = np.ascontiguousarray(d, dtype=np.float64 if d.dtype == np.float64 else np.float32)
     removed = np.zeros(d.shape, np.bool_)
     if max_size_px > 0 and d.size:
-        speckle_kernel(np.ascontiguousarray(d, np.float32), int(max_size_px), np.float32(max_difference_px), removed)
+        # a size beyond the pixel count removes every region, as any larger one would
+        step = d.dtype.type(min(float(max_difference_px), float(np.finfo(d.dtype).max)))
+        speckle_kernel(d, min(int(max_size_px), d.size), step, removed)
     return removed

@@ -26,7 +26,8 @@ def register(subparsers) -> None:
                    help="similarity threshold (default 0.55; the published method uses 0.6)")
     p.add_argument("--mu", type=float, default=0.05, metavar="C",
                    help="growth margin (default 0.05; the published method uses 0.1)")
-    p.add_argument("--max-candidates", type=int, default=10, metavar="K", help="candidates per pixel, K (default 10)")
+    p.add_argument("--max-candidates", type=int, default=4, metavar="K",
+                   help="candidates per pixel, K (default 4; the published method uses 10)")
     p.add_argument("--final-margin", type=float, default=0.1, metavar="C", help="stable matching margin (default 0.1)")
     p.add_argument("--variant", choices=("stable", "greedy"), default="stable")
     p.add_argument("--similarity", choices=("ncc", "mncc"), default="ncc")
@@ -35,7 +36,8 @@ def register(subparsers) -> None:
                    help="row bands grown in parallel threads (default 2; 1: the published single growth)")
     p.add_argument("--shifted-windows", action=argparse.BooleanOptionalAction, default=True,
                    help="reject fattened matches next to depth edges (an extension, on by default; "
-                        "--no-shifted-windows --tau 0.6 is the published method)")
+                        "--no-shifted-windows --tau 0.6 --mu 0.1 --max-candidates 10 --speckle-size 0 "
+                        "is the published method)")
     p.add_argument("--speckle-size", type=int, default=200, metavar="PX",
                    help="remove regions of at most PX matches whose disparity stands apart from their "
                         "surroundings (an extension, default 200; 0 keeps them, as the published method)")
