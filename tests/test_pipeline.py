@@ -136,5 +136,7 @@ def test_the_pipeline_matches_with_its_own_defaults_unless_told(default_pair, mo
 
     monkeypatch.setattr(pipeline, "match_at_scale", spy)
     detect(default_pair.left, default_pair.right, default_pair.calibration,
-           config=DetectionConfig(matching=MatchingOptions(max_candidates=6)))
-    assert seen and {k: seen[0][k] for k in PIPELINE_MATCHING} == {**PIPELINE_MATCHING, "max_candidates": 6}
+           config=DetectionConfig(matching=MatchingOptions(mu=0.07, max_candidates=6)))
+    assert len(seen) == 1
+    assert {k: seen[0][k] for k in (*PIPELINE_MATCHING, "max_candidates")} == {**PIPELINE_MATCHING, "mu": 0.07,
+                                                                               "max_candidates": 6}
