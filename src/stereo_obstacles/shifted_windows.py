@@ -76,7 +76,15 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     sq_hi = cv2.dilate(as_float, square, borderType=cv2.BORDER_CONSTANT, borderValue=-1.0)
     sq_lo = cv2.erode(np.where(d_map >= 0, as_float, np.inf).astype(np.float32), square,
                       borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
-    edges = np.linspace(0, ys.size, int(n_threads) + 1).astype(int)
-    parts = run_in_threads(_shifted_window_kernel, [(*inputs.kernel_args(), d_map, sq_lo, sq_hi, ys[lo:hi],
-                                                     xs[lo:hi]) for lo, hi in zip(edges[:-1], edges[1:])])
-    return np.concatenate([p[0] for p in parts]), int(sum(p[1] for p in parts))
+    # only the matches next to a jump are handed to the threads, in equal shares (6-10 % of them
+    # on the Middlebury pairs, bunched along depth edges)
+    near_jump = np.flatnonzero((sq_hi[ys, xs] - ds > 1) | (ds - sq_lo[ys, xs] > 1))
+    keep = np.ones(ys.size, np.bool_)
+    if near_jump.size == 0:
+        return keep, 0
+    edges = np.linspace(0, near_jump.size, min(int(n_threads), near_jump.size) + 1).astype(int)
+    parts = run_in_threads(_shifted_window_kernel, [
+        (*inputs.kernel_args(), d_map, sq_lo, sq_hi, ys[near_jump[lo:hi]], xs[near_jump[lo:hi]])
+        for lo, hi in zip(edges[:-1], edges[1:])])
+    keep[near_jump] = np.concatenate([p[0] for p in parts])
+    return keep, int(sum(p[1] for p in parts))
