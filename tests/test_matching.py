@@ -163,7 +163,10 @@ def test_speckles_removed_from_the_result_and_counted():
 @pytest.mark.parametrize("kwargs, message", [(dict(speckle_size=-1), "speckle_size"),
                                              (dict(speckle_size=1.5), "speckle_size"),
                                              (dict(speckle_range=-1.0), "speckle_range"),
-                                             (dict(speckle_range=float("inf")), "speckle_range")])
+                                             (dict(speckle_range=float("inf")), "speckle_range"),
+                                             (dict(speckle_range=10 ** 400), "speckle_range"),
+                                             (dict(speckle_size=True), "speckle_size"),
+                                             (dict(speckle_size="5"), "speckle_size")])
 def test_speckle_options_are_validated(kwargs, message):
     a = np.zeros((20, 30), np.uint8)
     with pytest.raises(InvalidInputError, match=message):

@@ -93,3 +93,10 @@ def test_bad_settings_are_refused(kwargs, message):
 def test_bad_maps_are_refused(array):
     with pytest.raises(InvalidInputError, match="disparity"):
         speckle_mask(array, max_size_px=10, max_difference_px=1.0)
+
+
+def test_a_huge_range_joins_far_apart_finite_values_only():
+    d = np.array([[3e38, -3e38, np.inf]], np.float32)
+    assert not speckle_mask(d, max_size_px=1, max_difference_px=1e308)[0, :2].any()   # one region of 2 stays
+    with pytest.raises(InvalidInputError, match="max_difference_px"):
+        speckle_mask(d, max_size_px=2, max_difference_px=10 ** 400)

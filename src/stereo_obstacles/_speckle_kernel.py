@@ -12,7 +12,7 @@ from stereo_obstacles._similarity_kernel import CACHE
 def speckle_kernel(disparity, max_size, max_difference, removed):
     """Set ``removed`` (``bool (H, W)``, all False on entry) on the regions of at most ``max_size``
     pixels; a region is 4-connected through neighbours whose finite disparities differ by at most
-    ``max_difference`` (of the map's dtype). Breadth-first flood fill, every
+    ``max_difference`` (float64; the steps are computed in float64). Breadth-first flood fill, every
     pixel entered once; returns the count set."""
     h, w = disparity.shape
     seen = np.zeros((h, w), np.bool_)
@@ -35,7 +35,7 @@ def speckle_kernel(disparity, max_size, max_difference, removed):
                     nx = x + (k == 3) - (k == 2)
                     if 0 <= ny < h and 0 <= nx < w and not seen[ny, nx]:
                         e = disparity[ny, nx]
-                        if np.isfinite(e) and abs(e - d) <= max_difference:
+                        if np.isfinite(e) and abs(np.float64(e) - np.float64(d)) <= max_difference:
                             seen[ny, nx] = True
                             queue_y[tail], queue_x[tail] = ny, nx
                             tail += 1

@@ -6,7 +6,20 @@ import math
 import numbers
 from collections.abc import Iterable
 
+import numpy as np
+
 from stereo_obstacles.errors import InvalidInputError
+
+
+def is_finite_real(value: object) -> bool:
+    """True for a finite real number, Python's or NumPy's, other than a bool (an integer too
+    large for a float is not finite)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> None:
@@ -20,8 +33,7 @@ def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> 
     """
     for name, low, high in ranges:
         value = getattr(owner, name)
-        if (isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value)
-                or not low <= value <= high):
+        if not is_finite_real(value) or not low <= value <= high:
             raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
 
 
@@ -35,7 +47,7 @@ def check_positive(owner: object, names: Iterable[str]) -> None:
     """
     for name in names:
         value = getattr(owner, name)
-        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (math.isfinite(value) and value > 0):
+        if not (is_finite_real(value) and value > 0):
             raise InvalidInputError(f"{name} must be a finite number > 0, got {value!r}")
 
 

@@ -18,6 +18,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import is_finite_real
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.banded import match_bands
 from stereo_obstacles.growing import MARGIN_REFERENCES
@@ -186,10 +187,11 @@ def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, m
         raise InvalidInputError(f"rng_seed: expected an integer >= 0, got {rng_seed}")
     if int(bands) != bands or bands < 1:
         raise InvalidInputError(f"bands: expected an integer >= 1, got {bands}")
-    if isinstance(speckle_size, bool) or not isinstance(speckle_size, (int, np.integer)) or speckle_size < 0:
+    whole = isinstance(speckle_size, (int, np.integer)) or (is_finite_real(speckle_size)
+                                                           and float(speckle_size).is_integer())
+    if isinstance(speckle_size, (bool, np.bool_)) or not whole or speckle_size < 0:
         raise InvalidInputError(f"speckle_size: expected an integer >= 0, got {speckle_size!r}")
-    if (isinstance(speckle_range, bool) or not isinstance(speckle_range, (int, float, np.integer, np.floating))
-            or not 0.0 <= speckle_range < np.inf):
+    if not (is_finite_real(speckle_range) and speckle_range >= 0):
         raise InvalidInputError(f"speckle_range: expected a finite number >= 0, got {speckle_range!r}")
 
 

@@ -154,8 +154,11 @@ class DetectionConfig:
             raise InvalidInputError(f"standing_max_sigma_px must be > 0 pixels, got {self.standing_max_sigma_px}")
 
     def to_dict(self) -> dict:
-        """JSON-ready nested mapping of every option."""
-        return asdict(self)
+        """JSON-ready nested mapping of every option; ``matching`` shows the pipeline's own
+        defaults (:data:`PIPELINE_MATCHING`) where they apply, not ``None``."""
+        options = asdict(self)
+        options["matching"].update(pipeline_match_kwargs(self.matching))
+        return options
 
 
 @dataclass(frozen=True, eq=False)

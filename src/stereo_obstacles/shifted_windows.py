@@ -37,8 +37,8 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     d : ndarray of int, shape (N,)
         Integer disparities in pixels (>= 0; the right pixel ``x - d`` inside the image).
     n_threads : int
-        The matches are checked in this many equal chunks, one thread each (the result does not
-        depend on it).
+        The matches next to a disparity jump are checked in up to this many equal chunks, one
+        thread each (the result does not depend on it).
 
     Returns
     -------

@@ -15,6 +15,7 @@ import numpy as np
 
 from stereo_obstacles._speckle_kernel import speckle_kernel
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import is_finite_real
 
 __all__ = ["speckle_mask"]
 
@@ -25,8 +26,8 @@ def speckle_mask(disparity: np.ndarray, *, max_size_px: int, max_difference_px: 
     Parameters
     ----------
     disparity : ndarray of float, shape (H, W)
-        Disparity map in pixels, NaN (or any non-finite value) where unmatched; float64 maps
-        are compared in float64, others in float32.
+        Disparity map in pixels, NaN (or any non-finite value) where unmatched (float16 maps
+        are read as float32). Disparity steps are computed and compared in float64.
     max_size_px : int
         Regions of at most this many pixels are speckles (>= 0; 0 finds none).
     max_difference_px : float
@@ -49,8 +50,7 @@ def speckle_mask(disparity: np.ndarray, *, max_size_px: int, max_difference_px: 
     """
     if isinstance(max_size_px, bool) or not isinstance(max_size_px, (int, np.integer)) or max_size_px < 0:
         raise InvalidInputError(f"max_size_px: expected an integer >= 0, got {max_size_px!r}")
-    if (isinstance(max_difference_px, bool) or not isinstance(max_difference_px, (int, float, np.integer, np.floating))
-            or not 0.0 <= max_difference_px < np.inf):
+    if not (is_finite_real(max_difference_px) and max_difference_px >= 0):
         raise InvalidInputError(f"max_difference_px: expected a finite number >= 0, got {max_difference_px!r}")
     d = np.asarray(disparity)
     if d.ndim != 2 or not np.issubdtype(d.dtype, np.floating):
@@ -59,6 +59,5 @@ def speckle_mask(disparity: np.ndarray, *, max_size_px: int, max_difference_px: 
     removed = np.zeros(d.shape, np.bool_)
     if max_size_px > 0 and d.size:
         # a size beyond the pixel count removes every region, as any larger one would
-        step = d.dtype.type(min(float(max_difference_px), float(np.finfo(d.dtype).max)))
-        speckle_kernel(d, min(int(max_size_px), d.size), step, removed)
+        speckle_kernel(d, min(int(max_size_px), d.size), float(max_difference_px), removed)
     return removed
