@@ -56,7 +56,7 @@ EXTENSIONS = (("published method (1 band, tau 0.6, mu 0.1, K 10, no check, no sp
               ("defaults without the shifted-window check", {"shifted_windows": False}),
               ("defaults without speckle removal", {"speckle_size": 0}),
               ("defaults (2 bands, check, speckle removal)", {}),
-              ("coarse to fine (scale 0.5, the pipeline's settings: mu 0.1, no speckle removal)",
+              ("coarse to fine (scale 0.5, the pipeline's settings: no speckle removal)",
                {"matching_scale": 0.5, **pipeline_match_kwargs(MatchingOptions())}))
 """Settings of the extensions section: ``match`` options, or ``matching_scale`` for
 :func:`stereo_obstacles.scaled_matching.match_at_scale` (growth on a half-size copy, refined at

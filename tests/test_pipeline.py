@@ -138,5 +138,5 @@ def test_the_pipeline_matches_with_its_own_defaults_unless_told(default_pair, mo
     detect(default_pair.left, default_pair.right, default_pair.calibration,
            config=DetectionConfig(matching=MatchingOptions(mu=0.07, max_candidates=6)))
     assert len(seen) == 1
-    assert {k: seen[0][k] for k in (*PIPELINE_MATCHING, "max_candidates")} == {**PIPELINE_MATCHING, "mu": 0.07,
-                                                                               "max_candidates": 6}
+    assert {k: seen[0][k] for k in (*PIPELINE_MATCHING, "mu", "max_candidates")} == {
+        **PIPELINE_MATCHING, "mu": 0.07, "max_candidates": 6}

@@ -82,12 +82,12 @@ class MatchingOptions:
         return {k: v for k, v in asdict(self).items() if v is not None}
 
 
-PIPELINE_MATCHING = {"mu": 0.1, "speckle_size": 0}
+PIPELINE_MATCHING = {"speckle_size": 0}
 """The obstacle pipeline's own defaults for :func:`~stereo_obstacles.matching.match` options
-that :class:`MatchingOptions` leaves unset: the matcher's defaults before session 10, with
-which the detection figures in ``docs/pipeline.md`` were measured. With the matcher's newer
-``mu`` and speckle removal a 3 613 px box of scene 1 was lost (``docs/matching.md``, "Speckle
-removal"); its newer ``max_candidates`` (4) is used (``docs/pipeline.md``, session 10)."""
+that :class:`MatchingOptions` leaves unset: no speckle removal. With it, the half-size match
+lost a 3 613 px box of scene 1 (``docs/matching.md``, "Speckle removal"); the matcher's other
+session-10 defaults (``mu`` 0.05, ``max_candidates`` 4) gave the same detection figures
+(``docs/pipeline.md``, session 10)."""
 
 
 def pipeline_match_kwargs(options: MatchingOptions) -> dict:
