@@ -1,4 +1,4 @@
-"""The quick percentiles equal NumPy's to the bit."""
+"""The quick percentiles and medians equal NumPy's to the bit, in NumPy's types."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from stereo_obstacles.quantiles import median_of_sorted, percentile, percentile_of_sorted
+from stereo_obstacles.quantiles import median, median_of_sorted, percentile, percentile_of_sorted, percentiles
 
 VALUES = hnp.arrays(np.float64, st.integers(1, 60),
                     elements=st.floats(-1e300, 1e300, allow_nan=False, allow_infinity=False))
@@ -36,10 +36,30 @@ def test_equal_to_numpy_on_many_values_with_repeats(q):
     assert median_of_sorted(np.sort(values[:-1])) == np.median(values[:-1])   # an even count
 
 
-@pytest.mark.parametrize("n", [1, 2, 7, 1000])
-def test_float32_values_within_their_rounding(n):
-    """NumPy takes the difference of two float32 values in float32, this module in double (the
-    edge threshold of the seeds is such a percentile)."""
+FLOAT32_VALUES = hnp.arrays(np.float32, st.integers(1, 60),
+                            elements=st.floats(-2.0 ** 100, 2.0 ** 100, width=32))
+UINT8_VALUES = hnp.arrays(np.uint8, st.integers(1, 60))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(VALUES, FLOAT32_VALUES, UINT8_VALUES), st.floats(0.0, 100.0), st.floats(0.0, 100.0))
+@example(np.array([0.1, 0.7], dtype=np.float32), 30.0, 70.0)
+@example(np.array([250, 255], dtype=np.uint8), 50.0, 50.0)      # the sum of the middle values overflows uint8
+def test_equal_to_numpy_in_its_types(values, q, other_q):
+    """float32 arrays are interpolated in float32 for one q and in float64 for a list of q;
+    the median of uint8 values is taken in float64."""
+    ordered = np.sort(values)
+    assert percentile(values, q) == np.percentile(values, q)
+    assert percentile_of_sorted(ordered, q) == np.percentile(values, q)
+    assert percentiles(values, (q, 50.0, other_q)) == tuple(np.percentile(values, [q, 50.0, other_q]))
+    assert median(values) == np.median(values)
+    assert median_of_sorted(ordered) == np.median(values)
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 1000, 46_080])
+def test_float32_values_like_the_reference_area(n):
     values = np.random.default_rng(n).uniform(0, 50, n).astype(np.float32)
-    for q in (0.0, 37.5, 80.0, 100.0):
-        assert percentile(values, q) == pytest.approx(float(np.percentile(values, q)), rel=1e-6)
+    assert median(values) == np.median(values)
+    for q in (0.0, 5.0, 37.5, 80.0, 95.0, 100.0):
+        assert percentile(values, q) == np.percentile(values, q)
+    assert percentiles(values, (5.0, 50.0, 95.0)) == tuple(np.percentile(values, [5.0, 50.0, 95.0]))

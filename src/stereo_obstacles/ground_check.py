@@ -51,6 +51,7 @@ from stereo_obstacles.colour import check_rgb
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.ground_plane import GroundPlane, PlaneFitParameters, fit_plane_points
+from stereo_obstacles.quantiles import median
 
 logger = logging.getLogger(__name__)
 
@@ -311,7 +312,7 @@ def off_ground_mask(left: np.ndarray, right: np.ndarray, plane: GroundPlane, box
     variance = np.empty((y1 - y0, x1 - x0), dtype=np.float32)
     window_variance_kernel(means[y0 - top:y1 - top, x0:x1], MIN_VALID_SHARE, variance)
     reference = variance[(variance >= 0) & (terms[y0 - top:y1 - top, x0:x1, 3] > 0)]
-    noise = max(float(np.median(reference)) if reference.size else 0.0, MIN_NOISE_VARIANCE)
+    noise = max(median(reference) if reference.size else 0.0, MIN_NOISE_VARIANCE)
     off = np.zeros(left.shape, dtype=np.bool_)
     off_ground_kernel(terms, means, MIN_VALID_SHARE, np.float32(params.mismatch_factor * noise), off[top:])
     if params.vote_window_px > 1:

@@ -31,6 +31,7 @@ import numpy as np
 from stereo_obstacles.colour import HSI, hue_difference
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
+from stereo_obstacles.quantiles import median, percentile, percentiles
 
 logger = logging.getLogger(__name__)
 
@@ -263,12 +264,12 @@ def circular_median_deg(hue_deg: np.ndarray) -> float:
         raise InvalidInputError(f"hue_deg must be a non-empty 1-D array without NaN, got shape {h.shape}")
     radians = np.deg2rad(h)
     mean = math.degrees(math.atan2(float(np.sin(radians).mean()), float(np.cos(radians).mean())))
-    return float((mean + np.median(hue_difference(h, mean))) % 360.0)
+    return float((mean + median(hue_difference(h, mean))) % 360.0)
 
 
 def _keep_close(values: np.ndarray, centre: float, floor: float, mads: float) -> np.ndarray:
     deviation = np.abs(values - centre)
-    limit = max(floor, mads * _MAD_TO_SIGMA * float(np.median(deviation)))
+    limit = max(floor, mads * _MAD_TO_SIGMA * median(deviation))
     return deviation <= limit
 
 
@@ -314,7 +315,7 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
     grey = hue_valid.sum() < params.min_hue_fraction * n_measurable
     if grey:
         keep = measurable.copy()
-        keep[measurable] = _keep_close(saturation[measurable], float(np.median(saturation[measurable])),
+        keep[measurable] = _keep_close(saturation[measurable], median(saturation[measurable]),
                                        params.min_outlier_saturation, params.outlier_mads)
         hue_deg = None
         spread = threshold = 0.0
@@ -323,7 +324,7 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
         offsets = np.zeros(n_pixels)
         offsets[hue_valid] = hue_difference(hue[hue_valid], hue_deg)
         keep = hue_valid & _keep_close(offsets, 0.0, params.min_outlier_hue_deg, params.outlier_mads)
-    intensity_keep = _keep_close(intensity[keep], float(np.median(intensity[keep])),
+    intensity_keep = _keep_close(intensity[keep], median(intensity[keep]),
                                  params.min_outlier_intensity, params.outlier_mads)
     keep[np.flatnonzero(keep)[~intensity_keep]] = False
     n_kept = int(keep.sum())
@@ -332,30 +333,30 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
                                 f"consistent with one ground (need {params.min_pixels})")
     q = params.spread_percentile
     kept_intensity = intensity[keep]
-    low, median, high = (float(v) for v in np.percentile(kept_intensity, [q, 50.0, 100.0 - q]))
+    low, middle, high = percentiles(kept_intensity, (q, 50.0, 100.0 - q))
     full_scale = float(np.iinfo(rgb.dtype).max)
-    rgb_median = tuple(float(v) / full_scale for v in np.median(rgb.reshape(-1, 3)[keep], axis=0))
+    rgb_median = tuple(median(channel) / full_scale for channel in rgb.reshape(-1, 3)[keep].T)
     max_saturation = None
     if grey:
-        max_saturation = min(1.0, float(np.percentile(saturation[keep], 100.0 - q))
+        max_saturation = min(1.0, percentile(saturation[keep], 100.0 - q)
                              + params.saturation_margin)
     else:
-        spread = float(np.percentile(np.abs(offsets[keep]), 100.0 - q))
+        spread = percentile(np.abs(offsets[keep]), 100.0 - q)
         threshold = float(np.clip(params.hue_threshold_factor * spread,
                                   params.min_hue_threshold_deg, params.max_hue_threshold_deg))
-    if median <= 0.0:
+    if middle <= 0.0:
         raise InvalidInputError(f"reference area {box_px} is black (median intensity 0)")
     if n_kept < params.warn_kept_fraction * n_measurable:
         logger.warning("reference area %s: only %d of %d measurable pixels look like one ground; "
                        "an obstacle or a shadow may cover it", box_px, n_kept, n_measurable)
-    if spread > params.warn_hue_spread_deg or (high - low) / median > params.warn_intensity_spread:
+    if spread > params.warn_hue_spread_deg or (high - low) / middle > params.warn_intensity_spread:
         logger.warning("reference area %s is very varied (hue spread %.0f deg, intensity %.2f..%.2f); "
                        "the segmentation may be poor", box_px, spread, low, high)
     logger.debug("reference %s: hue %s, threshold %.1f deg, intensity %.3f [%.3f, %.3f]", box_px,
-                 hue_deg, threshold, median, low, high)
+                 hue_deg, threshold, middle, low, high)
     return ReferenceStatistics(box_px=tuple(int(v) for v in box_px), hue_deg=hue_deg,
                                hue_spread_deg=spread, hue_threshold_deg=threshold,
-                               max_saturation=max_saturation, intensity_median=median,
+                               max_saturation=max_saturation, intensity_median=middle,
                                intensity_low=low, intensity_high=high, rgb_median=rgb_median,
                                n_pixels=n_pixels,
                                n_measurable=n_measurable, n_kept=n_kept)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from stereo_obstacles import quantiles
 from stereo_obstacles._shadow_texture_kernel import relative_texture_kernel, sampled_square_means_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
@@ -120,7 +121,7 @@ def noise_floor(grey: np.ndarray, *, window_px: int = 9, percentile: float = 5.0
     rows, cols = -(-grey.shape[0] // NOISE_SAMPLE_STEP), -(-grey.shape[1] // NOISE_SAMPLE_STEP)
     energy = np.empty((rows, cols), dtype=np.float64)
     sampled_square_means_kernel(response, window_px, NOISE_SAMPLE_STEP, energy)
-    noise = float(np.percentile(energy, percentile)) / float(np.sum(_NOISE_MASK ** 2))
+    noise = quantiles.percentile(energy.ravel(), percentile) / float(np.sum(_NOISE_MASK ** 2))
     return max(noise, MIN_NOISE_VARIANCE)
 
 
@@ -183,11 +184,11 @@ def smooth_pixels(grey: np.ndarray, box: tuple[int, int, int, int], *,
     relative, variance = relative_texture(grey, noise, params.window_px)
     x0, y0, x1, y1 = box
     needed = max(params.min_reference_snr * noise, MIN_REFERENCE_TEXTURE_VARIANCE)
-    if not float(np.median(variance[y0:y1, x0:x1])) >= needed:
+    if not quantiles.median(variance[y0:y1, x0:x1].ravel()) >= needed:
         logger.debug("shadow texture test skipped: the reference area's texture variance is below %.3f "
                      "(noise variance %.3f)", needed, noise)
         return None
-    reference = float(np.median(relative[y0:y1, x0:x1]))
+    reference = quantiles.median(relative[y0:y1, x0:x1].ravel())
     return relative < np.float32(params.min_relative_texture * reference)
 
 
