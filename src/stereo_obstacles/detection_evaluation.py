@@ -133,9 +133,9 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
     alarms = []
     for o in obstacle_list.obstacles:
         pixels = id_map == o.id
-        on_obstacle = np.count_nonzero(pixels & (true_labels == Label.OBSTACLE))
+        on_obstacle = np.count_nonzero(pixels & (true_labels == Label.OBSTACLE.value))
         if on_obstacle < FALSE_ALARM_MAX_ON_OBSTACLE * np.count_nonzero(pixels):
-            classes, counts = np.unique(true_labels[pixels & (true_labels != Label.OBSTACLE)], return_counts=True)
+            classes, counts = np.unique(true_labels[pixels & (true_labels != Label.OBSTACLE.value)], return_counts=True)
             alarms.append(FalseAlarm(o.id, o.distance_m, Label(int(classes[np.argmax(counts)])).name.lower()))
     return comparisons, alarms
 

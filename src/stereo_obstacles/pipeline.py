@@ -303,7 +303,7 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
     """
     if not colour_trusted:
         return np.isfinite(disparity)
-    candidates = segmentation.labels == Label.OBSTACLE
+    candidates = segmentation.labels == Label.OBSTACLE.value
     if ground is None or calibration is None or min_height_m <= 0:
         return candidates
     return candidates | raised_pixels(ground, disparity, segmentation.ground_mask, calibration,

@@ -232,12 +232,12 @@ class SegmentationResult:
     @property
     def obstacle_mask(self) -> np.ndarray:
         """``bool (H, W)``: pixels labelled OBSTACLE."""
-        return self.labels == Label.OBSTACLE
+        return self.labels == Label.OBSTACLE.value
 
     @property
     def ground_mask(self) -> np.ndarray:
         """``bool (H, W)``: pixels labelled GROUND or SHADOW (ground in shadow)."""
-        return (self.labels == Label.GROUND) | (self.labels == Label.SHADOW)
+        return (self.labels == Label.GROUND.value) | (self.labels == Label.SHADOW.value)
 
 
 def _match_flags(rgb: np.ndarray, inv_full_scale: float, ref: ReferenceStatistics,
@@ -281,7 +281,7 @@ def _remove_specks(labels: np.ndarray, darker: np.ndarray | None, params: Segmen
     """Obstacle regions smaller than ``params.min_obstacle_area_px`` become ground, or shadow
     where ``darker`` (``bool (H, W)``) is set, in place."""
     if params.min_obstacle_area_px > 1:
-        obstacle = (labels == Label.OBSTACLE).view(np.uint8)
+        obstacle = (labels == Label.OBSTACLE.value).view(np.uint8)
         n, components = cv2.connectedComponents(obstacle, connectivity=8, ltype=cv2.CV_32S)
         if darker is None or not params.shadow_rule:
             darker = np.zeros(labels.shape, dtype=np.bool_)
@@ -364,14 +364,14 @@ def segment(rgb: np.ndarray, *, right: np.ndarray | None = None,
     if ground is not None:
         labels[ground.off_ground] = Label.OBSTACLE
         # no ground is seen above the horizon: what colour took for ground there stands up from it
-        labels[ground.above_horizon & ((labels == Label.GROUND) | (labels == Label.SHADOW))] = Label.OBSTACLE
+        labels[ground.above_horizon & ((labels == Label.GROUND.value) | (labels == Label.SHADOW.value))] = Label.OBSTACLE
     _fill_holes(labels, params)
     if ground is not None:
-        labels[far_ground_pixels(far, labels == Label.OBSTACLE) & ~ground.above_horizon] = Label.GROUND
+        labels[far_ground_pixels(far, labels == Label.OBSTACLE.value) & ~ground.above_horizon] = Label.GROUND
     if smooth_shadow is not None:
-        smooth_shadow &= labels == Label.OBSTACLE          # what the texture test made obstacle and still is
+        smooth_shadow &= labels == Label.OBSTACLE.value          # what the texture test made obstacle and still is
     logger.debug("segmented %dx%d: %.1f %% obstacle", a.shape[1], a.shape[0],
-                 100.0 * np.count_nonzero(labels == Label.OBSTACLE) / labels.size)
+                 100.0 * np.count_nonzero(labels == Label.OBSTACLE.value) / labels.size)
     return SegmentationResult(labels=labels, reference=ref, params=params, ground_check=ground,
                               textureless_shadow=smooth_shadow)
 
@@ -383,7 +383,7 @@ def _fill_holes(labels: np.ndarray, params: SegmentationParameters) -> None:
     max_enclosed = int(params.max_hole_fraction * labels.size)
     if params.max_hole_area_px <= 1 and max_enclosed < 1:
         return
-    free = (labels != Label.OBSTACLE).view(np.uint8)
+    free = (labels != Label.OBSTACLE.value).view(np.uint8)
     n, components = cv2.connectedComponents(free, connectivity=4, ltype=cv2.CV_32S)
     fill_holes_kernel(components, n, params.max_hole_area_px, max_enclosed, int(Label.OBSTACLE), labels)
 
@@ -416,8 +416,9 @@ def _colour_cues(a: np.ndarray, inv_full_scale: float, box: tuple[int, int, int,
                  params: SegmentationParameters) -> tuple[ReferenceStatistics, np.ndarray, np.ndarray | None]:
     """:func:`_reference_and_colour_labels`, then the texture test on those labels: the reference
     statistics, the labels (textureless shadow made obstacle) and the textureless shadow mask."""
+    smooth = _smooth_pixels(a, box, params)
     ref, labels = _reference_and_colour_labels(a, inv_full_scale, box, params)
-    return ref, labels, _mark_textureless_shadow(labels, _smooth_pixels(a, box, params), params)
+    return ref, labels, _mark_textureless_shadow(labels, smooth, params)
 
 
 def _mark_textureless_shadow(labels: np.ndarray, smooth: np.ndarray | None,
@@ -426,7 +427,7 @@ def _mark_textureless_shadow(labels: np.ndarray, smooth: np.ndarray | None,
     (``bool (H, W)``), or None when the texture test is not made (``smooth`` None)."""
     if smooth is None:
         return None
-    flagged = textureless_shadow(smooth, labels == Label.SHADOW, params=params.shadow_texture)
+    flagged = textureless_shadow(smooth, labels == Label.SHADOW.value, params=params.shadow_texture)
     labels[flagged] = Label.OBSTACLE
     return flagged
 

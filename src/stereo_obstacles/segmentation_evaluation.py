@@ -145,10 +145,10 @@ def count_segmentation(predicted: np.ndarray, truth: np.ndarray) -> Segmentation
         raise InvalidInputError(f"labels must be uint8 (H, W), got {p.dtype} {p.shape} and {t.dtype} {t.shape}")
     if p.shape != t.shape:
         raise ImageMismatchError(f"predicted labels {p.shape} and truth {t.shape} differ in shape")
-    said_obstacle = p == Label.OBSTACLE
-    said_ground = (p == Label.GROUND) | (p == Label.SHADOW)
-    obstacle, ground, shadow, marking = (t == v for v in (Label.OBSTACLE, Label.GROUND, Label.SHADOW,
-                                                          Label.MARKING))
+    said_obstacle = p == Label.OBSTACLE.value
+    said_ground = (p == Label.GROUND.value) | (p == Label.SHADOW.value)
+    obstacle, ground, shadow, marking = (t == v.value for v in (Label.OBSTACLE, Label.GROUND, Label.SHADOW,
+                                                                Label.MARKING))
     scored = obstacle | ground | shadow
 
     def n(mask: np.ndarray) -> int:
@@ -159,7 +159,7 @@ def count_segmentation(predicted: np.ndarray, truth: np.ndarray) -> Segmentation
         obstacle_hit=n(obstacle & said_obstacle), ground_kept=n(ground & said_ground),
         shadow_kept=n(shadow & said_ground), ground_to_obstacle=n(ground & said_obstacle),
         shadow_to_obstacle=n(shadow & said_obstacle), marking_to_obstacle=n(marking & said_obstacle),
-        n_unknown=n(scored & (p == Label.UNKNOWN)))
+        n_unknown=n(scored & (p == Label.UNKNOWN.value)))
 
 
 @dataclass(frozen=True)

@@ -196,7 +196,7 @@ def _labels(view: _View) -> tuple[np.ndarray, np.ndarray]:
     labels = np.full(shape, int(Label.SKY), dtype=np.uint8)
     labels[hits.owner > 0] = Label.OBSTACLE
     ground = hits.owner == GROUND
-    labels[ground] = np.where(cast_shadow[ground], Label.SHADOW, Label.GROUND)
+    labels[ground] = np.where(cast_shadow[ground], Label.SHADOW.value, Label.GROUND.value)
     labels[view.paint >= 0] = Label.MARKING
     return labels, cast_shadow
 
