@@ -9,7 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from stereo_obstacles._ground_check_kernel import TERMS, ground_warp_terms_kernel, off_ground_kernel
+from stereo_obstacles._ground_check_kernel import (PATCH_AT_BORDER, PATCH_FLAT, PATCH_FOUND, PATCH_WEAK, TERMS,
+                                                   ground_warp_terms_kernel, off_ground_kernel,
+                                                   patch_disparities_kernel)
 from stereo_obstacles.cli import main
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.fileio import write_image
@@ -182,6 +184,49 @@ def test_vote_fills_speckle_and_drops_specks():
     assert not voted[:, :20].any()
     valid[:, 40:] = False
     assert not vote(off, valid, 5, 0.4)[:, 40:].any()
+
+
+def _patch_search_with_opencv(left, right, x, y, ry, rx, max_d, min_std, min_correlation):
+    """The slow reference of :func:`patch_disparities_kernel` for one patch: OpenCV's
+    ``TM_CCOEFF_NORMED`` along the row, a parabola through the peak."""
+    patch = left[y - ry:y + ry + 1, x - rx:x + rx + 1]
+    if patch.std() < min_std:
+        return PATCH_FLAT, None
+    low = max(0, x - rx - max_d)
+    scores = cv2.matchTemplate(right[y - ry:y + ry + 1, low:x + rx + 1], patch, cv2.TM_CCOEFF_NORMED)[0]
+    k = int(np.argmax(scores))
+    if not scores[k] >= min_correlation:
+        return PATCH_WEAK, None
+    if k in (0, scores.size - 1):
+        return PATCH_AT_BORDER, None
+    s0, s1, s2 = (float(v) for v in scores[k - 1:k + 2])
+    curvature = s0 - 2.0 * s1 + s2
+    return PATCH_FOUND, x - (low + k + rx + (0.5 * (s0 - s2) / curvature if curvature < 0 else 0.0))
+
+
+def test_patch_search_agrees_with_opencv_template_matching():
+    rng = np.random.default_rng(3)
+    left = (255 * _texture(4)[:, :WIDTH]).astype(np.float32)
+    shift = 7.3 + 0.02 * np.arange(HEIGHT)[:, None]               # disparity growing down the rows
+    columns = np.arange(WIDTH)[None, :] + shift
+    right = np.stack([np.interp(columns[r], np.arange(WIDTH), left[r]) for r in range(HEIGHT)]).astype(np.float32)
+    right += rng.normal(0.0, 1.0, right.shape).astype(np.float32)
+    left[20:40, 100:200] = 90.0                                    # a flat patch
+    right[60:80, :] = rng.uniform(0, 255, (20, WIDTH)).astype(np.float32)   # no match in these rows
+    centres = np.array([(x, y) for y in (30, 70, 120, 200) for x in (16, 40, 150, 300)], dtype=np.int64)
+    ry, rx = 4, 16
+    outcomes = []
+    for max_d in (20, 7):                     # 7: just short of the true disparity, the peak at the end
+        outcome = np.empty(len(centres), dtype=np.int64)
+        disparity = np.full(len(centres), np.nan)
+        patch_disparities_kernel(left, right, centres, ry, rx, max_d, 2.0, 0.7, outcome, disparity)
+        want = [_patch_search_with_opencv(left, right, int(x), int(y), ry, rx, max_d, 2.0, 0.7) for x, y in centres]
+        assert [int(o) for o in outcome] == [w[0] for w in want]
+        found = outcome == PATCH_FOUND
+        assert disparity[found] == pytest.approx([w[1] for w in want if w[0] == PATCH_FOUND], abs=1e-3)
+        assert disparity[found] == pytest.approx(shift[centres[found, 1], 0], abs=0.1)
+        outcomes += outcome.tolist()
+    assert set(outcomes) == {PATCH_FOUND, PATCH_FLAT, PATCH_WEAK, PATCH_AT_BORDER}
 
 
 def test_plane_is_recovered_from_the_reference_area():

@@ -5,6 +5,8 @@ The public wrapper is :func:`stereo_obstacles.ground_check.off_ground_mask`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -98,3 +100,94 @@ def off_ground_kernel(terms, means, min_valid, noise_level, off):
         for x in range(w):
             variance = _valid_variance(means, y, x, min_valid)
             off[y, x] = terms[y, x, 3] > 0.0 and variance >= 0.0 and variance > noise_level + means[y, x, 2]
+
+
+PATCH_FOUND, PATCH_FLAT, PATCH_WEAK, PATCH_AT_BORDER = 0, 1, 2, 3
+"""Outcomes of one patch in :func:`patch_disparities_kernel`."""
+
+
+@njit(cache=CACHE, nogil=True)
+def patch_disparities_kernel(left, right, centres, ry, rx, max_disparity, min_std, min_correlation,
+                             outcome, disparity):
+    """Each patch of ``left`` found along its row of ``right`` by normalised cross-correlation.
+
+    ``left``, ``right``: ``float32 (H, W)`` grey images. ``centres``: ``int64 (n, 2)`` patch
+    centres ``(x, y)``, each patch ``(2 ry + 1) x (2 rx + 1)`` inside the image. The patch at
+    ``x`` is compared with the right image's windows starting at columns ``low .. x - rx``,
+    ``low = max(0, x - rx - max_disparity)``, by the zero-mean normalised correlation
+    (OpenCV's ``TM_CCOEFF_NORMED``; 0 where the window is flat), in ``float64``.
+
+    Writes ``outcome (n,)`` (``PATCH_FOUND``; ``PATCH_FLAT``: the patch's standard deviation is
+    below ``min_std``; ``PATCH_WEAK``: the best correlation is below ``min_correlation``;
+    ``PATCH_AT_BORDER``: the best is the first or last window searched, so the true peak may
+    lie beyond) and ``disparity (n,)``: for found patches, ``x`` minus the best window's centre
+    column, refined by a parabola through the correlations around the best.
+
+    The correlations of all windows of a patch are accumulated together, template pixel by
+    template pixel: independent sums that the compiler can vectorise.
+    """
+    rows, cols = 2 * ry + 1, 2 * rx + 1
+    size = rows * cols
+    template = np.empty((rows, cols))
+    for i in range(centres.shape[0]):
+        x, y = centres[i, 0], centres[i, 1]
+        total = 0.0
+        for r in range(rows):
+            for c in range(cols):
+                total += left[y - ry + r, x - rx + c]
+        mean = total / size
+        norm = 0.0
+        for r in range(rows):
+            for c in range(cols):
+                value = left[y - ry + r, x - rx + c] - mean
+                template[r, c] = value
+                norm += value * value
+        if math.sqrt(norm / size) < min_std:
+            outcome[i] = PATCH_FLAT
+            continue
+        low = max(0, x - rx - max_disparity)
+        n = x - rx - low + 1                         # windows starting at columns low .. x - rx
+        products = np.zeros(n)
+        for r in range(rows):
+            line = right[y - ry + r]
+            for c in range(cols):
+                weight = template[r, c]
+                start = low + c
+                for k in range(n):
+                    products[k] += weight * line[start + k]
+        width = n + cols - 1                         # the strip's columns: sums over its rows
+        sums = np.zeros(width)
+        squares = np.zeros(width)
+        for r in range(rows):
+            line = right[y - ry + r]
+            for j in range(width):
+                value = np.float64(line[low + j])
+                sums[j] += value
+                squares[j] += value * value
+        window_sum = 0.0
+        window_squares = 0.0
+        for j in range(cols):
+            window_sum += sums[j]
+            window_squares += squares[j]
+        best, best_k = -2.0, 0
+        scores = np.empty(n)
+        for k in range(n):
+            if k > 0:
+                window_sum += sums[k + cols - 1] - sums[k - 1]
+                window_squares += squares[k + cols - 1] - squares[k - 1]
+            spread = (window_squares - window_sum * window_sum / size) * norm
+            score = products[k] / math.sqrt(spread) if spread > 0.0 else 0.0
+            score = min(1.0, max(-1.0, score))
+            scores[k] = score
+            if score > best:
+                best, best_k = score, k
+        if not best >= min_correlation:
+            outcome[i] = PATCH_WEAK
+            continue
+        if best_k == 0 or best_k == n - 1:
+            outcome[i] = PATCH_AT_BORDER
+            continue
+        curvature = scores[best_k - 1] - 2.0 * scores[best_k] + scores[best_k + 1]
+        offset = 0.5 * (scores[best_k - 1] - scores[best_k + 1]) / curvature if curvature < 0.0 else 0.0
+        outcome[i] = PATCH_FOUND
+        disparity[i] = x - (low + best_k + offset + rx)

@@ -45,8 +45,9 @@ from dataclasses import dataclass, field, replace
 import cv2
 import numpy as np
 
-from stereo_obstacles._ground_check_kernel import (TERMS, ground_warp_terms_kernel, off_ground_kernel,
-                                                   window_variance_kernel)
+from stereo_obstacles._ground_check_kernel import (PATCH_AT_BORDER, PATCH_FLAT, PATCH_FOUND, PATCH_WEAK, TERMS,
+                                                   ground_warp_terms_kernel, off_ground_kernel,
+                                                   patch_disparities_kernel, window_variance_kernel)
 from stereo_obstacles.colour import check_rgb
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
@@ -241,36 +242,21 @@ def estimate_ground_plane(left: np.ndarray, right: np.ndarray, box: tuple[int, i
     max_d = max(1, int(params.max_disparity_fraction * w))
     rows = _spread(y0 + ry, y1 - 1 - ry, params.patch_grid[0])
     cols = _spread(x0 + rx, x1 - 1 - rx, params.patch_grid[1])
-    xs, ys, ds = [], [], []
-    flat = weak = border = 0
-    for y in rows:
-        for x in cols:
-            patch = left[y - ry:y + ry + 1, x - rx:x + rx + 1]
-            if float(cv2.meanStdDev(patch)[1][0, 0]) < params.min_patch_std:   # 7x cheaper than patch.std()
-                flat += 1
-                continue
-            low = max(0, x - rx - max_d)
-            strip = right[y - ry:y + ry + 1, low:x + rx + 1]
-            scores = cv2.matchTemplate(strip, patch, cv2.TM_CCOEFF_NORMED)[0]
-            k = int(np.argmax(scores))
-            if not scores[k] >= params.min_patch_correlation:
-                weak += 1
-                continue
-            if k == 0 or k == scores.size - 1:
-                border += 1  # the largest or no disparity searched: the true peak may lie beyond
-                continue
-            curvature = scores[k - 1] - 2.0 * scores[k] + scores[k + 1]
-            offset = 0.5 * (scores[k - 1] - scores[k + 1]) / curvature if curvature < 0 else 0.0
-            xs.append(x)
-            ys.append(y)
-            ds.append(x - (low + k + offset + rx))
+    centres = np.array([(x, y) for y in rows for x in cols], dtype=np.int64).reshape(-1, 2)
+    outcome = np.empty(len(centres), dtype=np.int64)
+    disparity = np.empty(len(centres), dtype=np.float64)
+    patch_disparities_kernel(np.ascontiguousarray(left, dtype=np.float32),
+                             np.ascontiguousarray(right, dtype=np.float32), centres, ry, rx, max_d,
+                             float(params.min_patch_std), float(params.min_patch_correlation), outcome, disparity)
+    found = outcome == PATCH_FOUND
+    xs, ys, ds = centres[found, 0], centres[found, 1], disparity[found]
+    flat, weak, border = (int(np.count_nonzero(outcome == v)) for v in (PATCH_FLAT, PATCH_WEAK, PATCH_AT_BORDER))
     if len(ds) < params.plane_fit.min_inliers:
         raise InvalidInputError(
             f"reference area {box}: {len(ds)} of {len(rows) * len(cols)} patches found in the right image "
             f"({flat} too flat, {weak} without a clear correlation peak, {border} at the end of the "
             f"disparity search), need {params.plane_fit.min_inliers} to estimate the ground plane")
-    plane = fit_plane_points(np.array(xs, dtype=np.float64), np.array(ys, dtype=np.float64),
-                             np.array(ds, dtype=np.float64), params=params.plane_fit)
+    plane = fit_plane_points(xs, ys, ds, params=params.plane_fit)
     if plane.inlier_fraction < params.min_inlier_fraction:
         raise InvalidInputError(f"reference area {box}: the ground plane agrees with only {plane.n_inliers} of "
                                 f"{len(ds)} patch disparities (need {params.min_inlier_fraction:.0%})")
