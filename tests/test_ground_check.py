@@ -468,6 +468,22 @@ def test_mismatched_images_are_rejected():
         check_ground(left, right, (0, 200, WIDTH, HEIGHT + 10))
 
 
+@pytest.mark.parametrize("right_cut, box, match", [
+    (slice(None), (0, 200, WIDTH, HEIGHT + 10), "not a non-empty rectangle"),
+    (slice(None), (0, 200, WIDTH, 10 ** 7), "not a non-empty rectangle"),
+    (slice(None), (0, 200.0, WIDTH, HEIGHT), "four integers"),
+    (slice(None, -40), REFERENCE, "one size"),
+])
+def test_grey_level_functions_reject_what_their_kernels_would_read_out_of_bounds(right_cut, box, match):
+    """estimate_ground_plane and off_ground_mask are public; their kernels have no bounds checks."""
+    left, right, _, _ = _pair()
+    left, right = grey_levels(left), grey_levels(right)[:, right_cut]
+    with pytest.raises(InvalidInputError, match=match):
+        estimate_ground_plane(left, right, box)
+    with pytest.raises(InvalidInputError, match=match):
+        off_ground_mask(left, right, PLANE, box)
+
+
 @pytest.mark.parametrize("kwargs, match", [
     ({"window_px": 4}, "window_px"), ({"vote_window_px": 0}, "vote_window_px"), ({"vote_fraction": 2.0}, "vote_fraction"),
     ({"vote_fraction": 1.0}, "vote_fraction"), ({"vote_window_px": 257}, "vote_window_px"),

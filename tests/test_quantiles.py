@@ -39,6 +39,7 @@ def test_equal_to_numpy_on_many_values_with_repeats(q):
 FLOAT32_VALUES = hnp.arrays(np.float32, st.integers(1, 60),
                             elements=st.floats(-2.0 ** 100, 2.0 ** 100, width=32))
 UINT8_VALUES = hnp.arrays(np.uint8, st.integers(1, 60))
+BOOL_VALUES = hnp.arrays(np.bool_, st.integers(1, 60))
 
 
 @settings(max_examples=300, deadline=None)
@@ -63,3 +64,17 @@ def test_float32_values_like_the_reference_area(n):
     for q in (0.0, 5.0, 37.5, 80.0, 95.0, 100.0):
         assert percentile(values, q) == np.percentile(values, q)
     assert percentiles(values, (5.0, 50.0, 95.0)) == tuple(np.percentile(values, [5.0, 50.0, 95.0]))
+
+
+@settings(max_examples=100, deadline=None)
+@given(BOOL_VALUES)
+@example(np.array([False, True, True, True]))                   # True + True is not 2 in bool
+def test_median_of_booleans_equal_to_numpy(values):
+    """NumPy takes no percentile of booleans, but their median: the mean in float64."""
+    assert median(values) == np.median(values)
+    assert median_of_sorted(np.sort(values)) == np.median(values)
+
+
+def test_empty_input_raises_instead_of_returning_nan():
+    with pytest.raises(ValueError):
+        median(np.array([], dtype=np.float32))

@@ -13,6 +13,7 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.reference_area import (DEFAULT_REFERENCE_AREA, ReferenceArea,
                                              ReferenceParameters, ReferenceStatistics,
                                              circular_median_deg, reference_statistics)
+from stereo_obstacles.segmentation import segment
 
 
 def _noisy(colour, shape=(40, 60), sigma=3.0, seed=0) -> np.ndarray:
@@ -79,6 +80,17 @@ def test_grey_ground_uses_saturation():
 def test_too_dark_area_is_an_error():
     with pytest.raises(InvalidInputError, match="unusable.*bright enough"):
         _stats(_noisy((5, 5, 5), sigma=1.0))
+
+
+def test_area_of_two_hue_clusters_and_mostly_grey_is_an_error():
+    """The pixels with a hue split into two clusters far apart and the hue-less ones are most of
+    the area: no pixel is kept (once a NumPy-free median crashed here)."""
+    pixels = [(5, 5, 5)] * 30 + [(120, 120, 120)] * 26 + [(200, 60, 60)] * 22 + [(200, 130, 60)] * 22
+    image = np.full((60, 10, 3), 100, np.uint8)
+    image[50:] = np.array(pixels, np.uint8).reshape(10, 10, 3)
+    for right in (None, image):
+        with pytest.raises(InvalidInputError, match="unusable: no pixel is consistent with one ground"):
+            segment(image, right=right, reference=ReferenceArea(0, 50, 10, 60, unit="px"))
 
 
 def test_varied_area_warns(caplog):

@@ -211,6 +211,29 @@ def _spread(first: int, last: int, n: int) -> list[int]:
     return sorted({int(round(v)) for v in np.linspace(first, last, n)})
 
 
+def _check_box(box: tuple[int, int, int, int], shape: tuple[int, ...]) -> None:
+    """Raise :class:`InvalidInputError` unless ``box`` ``(x0, y0, x1, y1)`` is a non-empty
+    rectangle inside an image of ``shape`` ``(H, W, ...)``."""
+    h, w = shape[:2]
+    if not (isinstance(box, (tuple, list)) and len(box) == 4
+            and all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in box)):
+        raise InvalidInputError(f"reference area must be four integers (x0, y0, x1, y1), got {box!r}")
+    x0, y0, x1, y1 = box
+    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
+        raise InvalidInputError(f"reference area {box} is not a non-empty rectangle inside the {w}x{h} image")
+
+
+def _check_grey_pair(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Both grey images as C-contiguous ``float32 (H, W)`` arrays of one shape, ``box`` inside them
+    (the compiled kernels read without bounds checks); raises :class:`InvalidInputError`."""
+    left, right = np.asarray(left), np.asarray(right)
+    if left.ndim != 2 or left.shape != right.shape:
+        raise InvalidInputError(f"left and right must be grey (H, W) images of one size, got {left.shape} "
+                                f"and {right.shape}")
+    _check_box(box, left.shape)
+    return np.ascontiguousarray(left, dtype=np.float32), np.ascontiguousarray(right, dtype=np.float32)
+
+
 def estimate_ground_plane(left: np.ndarray, right: np.ndarray, box: tuple[int, int, int, int], *,
                           params: GroundCheckParameters = GroundCheckParameters()) -> tuple[GroundPlane, int]:
     """The ground plane from patches of the reference area found in the right image.
@@ -232,10 +255,12 @@ def estimate_ground_plane(left: np.ndarray, right: np.ndarray, box: tuple[int, i
     Raises
     ------
     InvalidInputError
-        Fewer than ``params.plane_fit.min_inliers`` patches matched, no ground-like plane
+        Images not of one ``(H, W)`` shape, a box that is not a non-empty rectangle inside them,
+        fewer than ``params.plane_fit.min_inliers`` patches matched, no ground-like plane
         (e.g. a wall fills the area, or the area has no texture), or a plane that fits fewer
         than ``params.min_inlier_fraction`` of the patches.
     """
+    left, right = _check_grey_pair(left, right, box)
     x0, y0, x1, y1 = box
     w = left.shape[1]
     ry, rx = params.patch_rows_px // 2, params.patch_cols_px // 2
@@ -245,9 +270,8 @@ def estimate_ground_plane(left: np.ndarray, right: np.ndarray, box: tuple[int, i
     centres = np.array([(x, y) for y in rows for x in cols], dtype=np.int64).reshape(-1, 2)
     outcome = np.empty(len(centres), dtype=np.int64)
     disparity = np.empty(len(centres), dtype=np.float64)
-    patch_disparities_kernel(np.ascontiguousarray(left, dtype=np.float32),
-                             np.ascontiguousarray(right, dtype=np.float32), centres, ry, rx, max_d,
-                             float(params.min_patch_std), float(params.min_patch_correlation), outcome, disparity)
+    patch_disparities_kernel(left, right, centres, ry, rx, max_d, float(params.min_patch_std),
+                             float(params.min_patch_correlation), outcome, disparity)
     found = outcome == PATCH_FOUND
     xs, ys, ds = centres[found, 0], centres[found, 1], disparity[found]
     flat, weak, border = (int(np.count_nonzero(outcome == v)) for v in (PATCH_FLAT, PATCH_WEAK, PATCH_AT_BORDER))
@@ -283,9 +307,13 @@ def off_ground_mask(left: np.ndarray, right: np.ndarray, plane: GroundPlane, box
     (numpy.ndarray, float)
         ``bool (H, W)`` off-ground mask (False where the plane maps outside the right image
         or has no positive disparity, e.g. above the horizon), and the ground's variance.
+
+    Raises
+    ------
+    InvalidInputError
+        Images not of one ``(H, W)`` shape, or a box that is not a non-empty rectangle inside them.
     """
-    left = np.ascontiguousarray(left, dtype=np.float32)
-    right = np.ascontiguousarray(right, dtype=np.float32)
+    left, right = _check_grey_pair(left, right, box)
     x0, y0, x1, y1 = box
     # rows above the plane's horizon have no valid pixel: their windows are not judged, so the
     # work starts half a window above the first row where the plane's disparity can be positive
@@ -385,10 +413,7 @@ def check_ground(left_rgb: np.ndarray, right_rgb: np.ndarray, box: tuple[int, in
     (0.2, True, False)
     """
     left_rgb, right_rgb = check_colour_pair(left_rgb, right_rgb)
-    x0, y0, x1, y1 = box
-    h, w = left_rgb.shape[:2]
-    if not (0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h):
-        raise InvalidInputError(f"reference area {box} is not a non-empty rectangle inside the {w}x{h} image")
+    _check_box(box, left_rgb.shape)
     left, right = grey_levels(left_rgb), grey_levels(right_rgb)
     plane, n_patches, plane_box, fallback_reason = _plane_with_fallback(left, right, box, params)
     off_ground, noise = off_ground_mask(left, right, plane, plane_box, params=params)

@@ -15,10 +15,11 @@ The arithmetic is NumPy's (NumPy 2), in NumPy's types:
   :func:`percentile` and :func:`percentile_of_sorted` follow the first, :func:`percentiles`
   the second.
 * The median of an even count is the mean of the two middle values: ``(a + b) / 2`` in the
-  array's type for floats, in ``float64`` for integers.
+  array's type for ``float32`` and ``float64``, in ``float64`` for integers and booleans.
 
-The results are returned as Python floats. NaN, infinite values and -0.0 are not handled as
-NumPy handles them (it returns NaN for NaN input, for instance); callers pass finite values only.
+The results are returned as Python floats. NaN, infinite values, -0.0 and ``float16`` are not
+handled as NumPy handles them (it returns NaN for NaN input, for instance), and empty input
+raises ``ValueError`` where NumPy returns NaN: callers pass finite, non-empty values only.
 """
 
 from __future__ import annotations
@@ -58,8 +59,9 @@ def percentile_of_sorted(ordered: np.ndarray, q: float) -> float:
 
 
 def _mean_of_two(a, b) -> float:
-    """NumPy's mean of two values of one array: in ``float64`` for integers, else in their type."""
-    if np.issubdtype(np.asarray(a).dtype, np.integer):
+    """NumPy's mean of two values of one array: in ``float64`` for integers and booleans, else
+    in their type (``float32``, ``float64``; ``float16`` is not handled as NumPy does)."""
+    if np.asarray(a).dtype.kind in "biu":
         return (float(a) + float(b)) / 2.0
     return float((a + b) / 2)
 

@@ -324,6 +324,9 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
         offsets = np.zeros(n_pixels)
         offsets[hue_valid] = hue_difference(hue[hue_valid], hue_deg)
         keep = hue_valid & _keep_close(offsets, 0.0, params.min_outlier_hue_deg, params.outlier_mads)
+    if not keep.any():
+        raise InvalidInputError(f"reference area {box_px} is unusable: no pixel is consistent with one "
+                                f"ground (need {params.min_pixels})")
     intensity_keep = _keep_close(intensity[keep], median(intensity[keep]),
                                  params.min_outlier_intensity, params.outlier_mads)
     keep[np.flatnonzero(keep)[~intensity_keep]] = False
