@@ -85,6 +85,9 @@ def test_validation():
     inputs = prepare_similarity(*(np.random.default_rng(0).uniform(0, 255, (2, 12, 20)).astype(np.float32)))
     with pytest.raises(InvalidInputError, match="inside"):
         shifted_window_check(inputs, np.array([3]), np.array([2]), np.array([5]))
+    for y, x, d in ((-1, 5, 1), (12, 5, 1), (3, 20, 1), (3, 5, -1)):  # row, column, disparity outside
+        with pytest.raises(InvalidInputError, match="inside"):
+            shifted_window_check(inputs, np.array([1, y]), np.array([9, x]), np.array([1, d]))
     with pytest.raises(InvalidInputError, match="at most once"):
         shifted_window_check(inputs, np.array([3, 3]), np.array([9, 9]), np.array([1, 2]))
     with pytest.raises(InvalidInputError, match="one length"):

@@ -66,6 +66,50 @@ def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
     return best
 
 
+MAPS_OK, MAPS_OUTSIDE, MAPS_REPEATED = 0, 1, 2
+"""Status of :func:`_disparity_maps`: the matches are valid, one lies outside the image (or has
+``d < 0`` or ``x - d < 0``), a left pixel is matched twice."""
+
+
+@njit(cache=CACHE, nogil=True)
+def _disparity_maps(ys, xs, ds, h, w):
+    """The ``(h, w)`` maps of integer disparities ``ds`` at left pixels ``(xs, ys)``, and a status.
+
+    Returns ``d_map`` (int32, -1 where unmatched), two float32 copies for OpenCV's square max and
+    min (-1 and +inf where unmatched) and :data:`MAPS_OK`, or the status of the first invalid
+    match (the maps are then incomplete).
+    """
+    d_map = np.full((h, w), -1, np.int32)
+    for_max = np.full((h, w), -1.0, np.float32)
+    for_min = np.full((h, w), np.inf, np.float32)
+    for i in range(ys.shape[0]):
+        y = ys[i]
+        x = xs[i]
+        d = ds[i]
+        if y < 0 or y >= h or x < 0 or x >= w or d < 0 or x - d < 0:
+            return d_map, for_max, for_min, MAPS_OUTSIDE
+        if d_map[y, x] >= 0:
+            return d_map, for_max, for_min, MAPS_REPEATED
+        d_map[y, x] = d
+        for_max[y, x] = d
+        for_min[y, x] = d
+    return d_map, for_max, for_min, MAPS_OK
+
+
+@njit(cache=CACHE, nogil=True)
+def _near_jump(ys, xs, ds, sq_lo, sq_hi):
+    """Indices of the matches whose square holds a disparity more than 1 px from their own."""
+    out = np.empty(ys.shape[0], np.int64)
+    n = 0
+    for i in range(ys.shape[0]):
+        y = ys[i]
+        x = xs[i]
+        if sq_hi[y, x] - ds[i] > 1 or ds[i] - sq_lo[y, x] > 1:
+            out[n] = i
+            n += 1
+    return out[:n]
+
+
 @njit(cache=CACHE, nogil=True)
 def _shifted_window_kernel(lp, rp, ml, nl, mr, nr, kind, d_map, sq_lo, sq_hi, ys, xs):
     """Keep flags of the matches ``(ys, xs)`` with integer disparities ``d_map`` (-1: unmatched).

@@ -360,25 +360,27 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
                          greedy=variant == "greedy", final_margin=final_margin)
     t4 = time.perf_counter()
 
-    my, mx, md, offset, mc = banded.y, banded.x, banded.x - banded.x_right, banded.offset, banded.similarity
+    my, mx, md = banded.y, banded.x, banded.x - banded.x_right
     n_checked = n_rejected = 0
+    kept = slice(None)
     if shifted_windows:
-        keep, n_checked = shifted_window_check(inputs, my, mx, md, n_threads=int(bands))
-        n_rejected = int(keep.size - np.count_nonzero(keep))
-        my, mx, md, offset, mc = my[keep], mx[keep], md[keep], offset[keep], mc[keep]
+        kept, n_checked = shifted_window_check(inputs, my, mx, md, n_threads=int(bands))
+        n_rejected = int(kept.size - np.count_nonzero(kept))
     t_checked = time.perf_counter()
+    # flat indices: NumPy scatters and gathers them ~2x faster than (row, column) pairs
+    flat = (my.astype(np.int64) * w + mx)[kept]
+    md = md[kept]
     disparity = np.full((h, w), np.nan, np.float32)
     sim = np.full((h, w), np.nan, np.float32)
-    disparity[my, mx] = md + offset
-    sim[my, mx] = mc
+    disparity.ravel()[flat] = md + banded.offset[kept]
+    sim.ravel()[flat] = banded.similarity[kept]
     t_filled = time.perf_counter()
     speckles = speckle_mask(disparity, max_size_px=int(speckle_size), max_difference_px=float(speckle_range))
     n_speckle = int(np.count_nonzero(speckles))
     if n_speckle:
         disparity[speckles] = np.nan
         sim[speckles] = np.nan
-        keep = ~speckles[my, mx]
-        my, mx, md, offset, mc = my[keep], mx[keep], md[keep], offset[keep], mc[keep]
+        md = md[~speckles.ravel()[flat]]
     t5 = time.perf_counter()
 
     n_visited = found.n_evaluated + banded.n_computed - banded.n_rescanned
@@ -387,7 +389,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         n_seeds=int(np.count_nonzero(found.similarity >= tau)), n_seed_pixels=found.n_candidates,
         n_candidates=banded.n_candidates, n_visited=int(n_visited), n_memo_overflow=banded.n_overflow,
         visited_fraction_full=n_visited / (w * w * h), visited_fraction_range=n_visited / (w * h * n_range),
-        density=float(my.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
+        density=float(md.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
         prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=banded.growth_seconds,
         final_seconds=banded.matched_seconds - banded.growth_seconds,
         subpixel_seconds=t4 - t2 - banded.matched_seconds + t_filled - t_checked,

@@ -16,7 +16,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from stereo_obstacles._shifted_windows_kernel import _shifted_window_kernel
+from stereo_obstacles._shifted_windows_kernel import (MAPS_OUTSIDE, MAPS_REPEATED, _disparity_maps, _near_jump,
+                                                       _shifted_window_kernel)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.similarity import RADIUS, SimilarityInputs
 from stereo_obstacles.thread_pool import run_in_threads
@@ -63,22 +64,18 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     ys, xs, ds = (np.ascontiguousarray(a, np.int64).ravel() for a in (y, x, d))
     if not ys.shape == xs.shape == ds.shape:
         raise InvalidInputError(f"y, x, d: expected one length, got {ys.shape}, {xs.shape}, {ds.shape}")
-    if ys.size and (ys.min() < 0 or ys.max() >= h or xs.min() < 0 or xs.max() >= w or ds.min() < 0
-                    or (xs - ds).min() < 0):
+    d_map, for_max, for_min, status = _disparity_maps(ys, xs, ds, h, w)
+    if status == MAPS_OUTSIDE:
         raise InvalidInputError(f"y, x, d: expected matches inside the {w}x{h} image with d >= 0 and x - d >= 0")
-    d_map = np.full((h, w), -1, np.int64)
-    d_map[ys, xs] = ds
-    if np.count_nonzero(d_map >= 0) != ys.size:
+    if status == MAPS_REPEATED:
         raise InvalidInputError("y, x: expected each left pixel at most once")
     # smallest and largest disparity in the square around each pixel (exact: disparities < 2^24)
     square = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
-    as_float = d_map.astype(np.float32)
-    sq_hi = cv2.dilate(as_float, square, borderType=cv2.BORDER_CONSTANT, borderValue=-1.0)
-    sq_lo = cv2.erode(np.where(d_map >= 0, as_float, np.inf).astype(np.float32), square,
-                      borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
+    sq_hi = cv2.dilate(for_max, square, borderType=cv2.BORDER_CONSTANT, borderValue=-1.0)
+    sq_lo = cv2.erode(for_min, square, borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
     # only the matches next to a jump are handed to the threads, in equal shares (6-10 % of them
     # on the Middlebury pairs, bunched along depth edges)
-    near_jump = np.flatnonzero((sq_hi[ys, xs] - ds > 1) | (ds - sq_lo[ys, xs] > 1))
+    near_jump = _near_jump(ys, xs, ds, sq_lo, sq_hi)
     keep = np.ones(ys.size, np.bool_)
     if near_jump.size == 0:
         return keep, 0
