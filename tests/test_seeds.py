@@ -5,8 +5,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import gcs_reference as ref
+from stereo_obstacles._edge_cells_kernel import strongest_per_cell
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.seeds import edge_pixels, find_seeds, match_pixels, random_pixels, user_seeds
 from stereo_obstacles.similarity import prepare_similarity
@@ -102,6 +105,25 @@ def test_edge_spacing_keeps_the_strongest_edge_pixel_per_cell():
         assert mag[y, x] == pytest.approx(max(in_cell), rel=1e-5)
     with pytest.raises(InvalidInputError, match="spacing"):
         edge_pixels(img, "canny", 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 25), st.integers(1, 25), st.integers(1, 7), st.integers(0, 2 ** 31 - 1))
+def test_strongest_per_cell_kernel_agrees_with_a_plain_loop(h, w, spacing, rng_seed):
+    rng = np.random.default_rng(rng_seed)
+    edges = rng.random((h, w)) < 0.4
+    magnitude = rng.integers(0, 4, (h, w)).astype(np.float32)   # few levels: many ties
+    expected = []
+    for y0 in range(0, h, spacing):
+        for x0 in range(0, w, spacing):
+            pixels = [(y, x) for y in range(y0, min(y0 + spacing, h)) for x in range(x0, min(x0 + spacing, w))
+                      if edges[y, x]]
+            if pixels:   # the first of the strongest, in raster order inside the cell
+                expected.append(max(pixels, key=lambda p: (magnitude[p], -p[0], -p[1])))
+    expected.sort()
+    ys, xs = strongest_per_cell(edges, magnitude, spacing)
+    assert ys.dtype == xs.dtype == np.int32
+    assert list(zip(ys.tolist(), xs.tolist())) == expected
 
 
 def test_scanned_pixels_are_recorded_for_visit_counting():

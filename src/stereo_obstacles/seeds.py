@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from stereo_obstacles._edge_cells_kernel import strongest_per_cell
 from stereo_obstacles._similarity_kernel import _scan_best
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.quantiles import percentile
@@ -110,24 +111,9 @@ def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tu
     else:
         raise InvalidInputError(f"method: expected 'canny' or 'sobel', got {method!r}")
     if spacing > 1:
-        edges = _strongest_per_cell(np.where(edges, mag, -1.0), spacing)
+        return strongest_per_cell(edges, mag, int(spacing))
     ys, xs = np.nonzero(edges)
     return ys.astype(np.int32), xs.astype(np.int32)
-
-
-def _strongest_per_cell(score: np.ndarray, spacing: int) -> np.ndarray:
-    """Mask of the pixel of largest ``score`` in each ``spacing`` square cell, where that score is >= 0."""
-    h, w = score.shape
-    ch, cw = -(-h // spacing), -(-w // spacing)
-    padded = np.full((ch * spacing, cw * spacing), -1.0, np.float32)
-    padded[:h, :w] = score
-    cells = padded.reshape(ch, spacing, cw, spacing).transpose(0, 2, 1, 3).reshape(ch, cw, spacing * spacing)
-    best = cells.argmax(axis=2)
-    keep = np.take_along_axis(cells, best[..., None], axis=2)[..., 0] >= 0
-    cy, cx = np.nonzero(keep)
-    mask = np.zeros((h, w), bool)
-    mask[cy * spacing + best[cy, cx] // spacing, cx * spacing + best[cy, cx] % spacing] = True
-    return mask
 
 
 def random_pixels(shape: tuple[int, int], count: int, rng_seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
