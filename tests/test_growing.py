@@ -58,6 +58,35 @@ def test_growth_matches_reference(kind, greedy, use_max, k_max, buckets):
         assert winners == ref.stable_matching(got, margin=0.1)
 
 
+def test_growth_matches_reference_beyond_the_memo_window():
+    """Repetitive texture over a wide range: pixels hold points many disparities apart, so the
+    memo's overflow blocks (codes outside a record's window) are used and must change nothing."""
+    rng = np.random.default_rng(2)
+    stripe = np.tile(rng.uniform(0, 255, 5), 12)            # period 5 px: every 5th disparity fits
+    left = np.tile(stripe, (14, 1)) + rng.normal(0, 3, (14, 60))
+    right = np.tile(stripe, (14, 1)) + rng.normal(0, 3, (14, 60))
+    left, right = left.astype(np.float32), right.astype(np.float32)
+    inputs = prepare_similarity(left, right)
+    seeds = find_seeds(inputs, left, "random", d_min=0, d_max=24, tau=0.6, margin=0.0, random_fraction=0.05)
+    growth = grow(inputs, seeds, d_min=0, d_max=24, tau=0.6, mu=0.3, max_candidates=6)
+    assert growth.n_memo_blocks > 0 and growth.n_overflow == 0
+    order = np.argsort(-seeds.similarity, kind="stable")
+    seed_list = [(int(seeds.y[i]), int(seeds.x[i]), int(seeds.x_right[i]), float(seeds.similarity[i]))
+                 for i in order]
+    expected = ref.grow(left, right, seed_list, d_min=0, d_max=24, tau=0.6, mu=0.3, k_max=6)
+    got = {(int(y), int(x), int(xr)): float(c)
+           for y, x, xr, c in zip(growth.y, growth.x, growth.x_right, growth.similarity)}
+    assert len(got) == growth.y.size and set(got) == set(expected)
+    d = growth.x - growth.x_right
+    assert np.ptp(d) >= 10                                   # matches of several periods
+    inside = (d >= 1) & (d <= 23) & (growth.x_right >= 1) & (growth.x_right < left.shape[1] - 1)
+    c_minus, c_plus = growth.side_similarities(growth.y[inside], growth.x[inside], d[inside])
+    np.testing.assert_allclose(c_minus, similarity_at(inputs, growth.y[inside], growth.x[inside],
+                                                      growth.x_right[inside] + 1), atol=STEP)
+    np.testing.assert_allclose(c_plus, similarity_at(inputs, growth.y[inside], growth.x[inside],
+                                                     growth.x_right[inside] - 1), atol=STEP)
+
+
 def test_growth_recovers_layers_and_leaves_occlusion():
     left, right = _scene(seed=3, shape=(24, 40))
     inputs = prepare_similarity(left, right)
