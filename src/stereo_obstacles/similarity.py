@@ -74,8 +74,11 @@ class SimilarityInputs:
 
     Attributes
     ----------
-    left_pad, right_pad : ndarray of float32, shape (H + 4, W + 4)
-        Grey images minus their own mean, padded by reflection by :data:`RADIUS`.
+    left_pad, right_pad : ndarray of float64, shape (H + 4, W + 4)
+        Grey images minus their own mean, rounded to float32 and padded by reflection by
+        :data:`RADIUS`. Held in float64 (the values of the float32 rounding, exactly): the
+        kernels form the window products in float64, and reading them without a conversion
+        made the growth about 7 % faster with the same results.
     mean_l, mean_r : ndarray of float32, shape (H, W)
         Window means of the padded images (same offset as ``left_pad``/``right_pad``).
     norm_l, norm_r : ndarray of float32, shape (H, W)
@@ -124,7 +127,8 @@ def _window_stats(grey: np.ndarray, kind: int, min_std: float) -> tuple[np.ndarr
                                 borderType=cv2.BORDER_REFLECT_101)
     # a zero variance is flat even with min_std 0
     mean32, norm = _window_norms(mean, sqr_mean, kind, max(min_std * min_std, 1e-12))
-    pad = cv2.copyMakeBorder(centred.astype(np.float32), RADIUS, RADIUS, RADIUS, RADIUS, cv2.BORDER_REFLECT_101)
+    pad = cv2.copyMakeBorder(centred.astype(np.float32).astype(np.float64), RADIUS, RADIUS, RADIUS, RADIUS,
+                             cv2.BORDER_REFLECT_101)
     return pad, mean32, norm
 
 
