@@ -6,23 +6,28 @@ kept near each other (a coarse priority queue, see ``growing.QUEUE_BUCKETS``) an
 visit of a left pixel needs lives in one 32-byte record (two per cache line) of one int16
 buffer ``buf``:
 
-* pixel record ``(y * W + x) * REC``: the ``FILL`` word (low byte: points stored for the
-  pixel; high byte: the in-T flags of the window slots), the candidate counts of the pixel as a
-  left and as a right pixel, its best candidate similarity as a left and as a right pixel, the
-  window base ``BASE``, the newest overflow block (an int32 at int32 index
-  ``rec // 2 + NEXT32``), and a window of :data:`WIN` similarities of the consecutive codes
-  ``BASE .. BASE + WIN - 1`` (code ``d - d_min``) at ``KEY + code - BASE``, :data:`NOT_STORED`
-  where none is stored. The first point stored at a pixel places the window
-  (:data:`WIN_BELOW` codes below it): the growth moves in disparity steps of one, so about
-  92 % of a pixel's points fall in it (Teddy, Cones), and a look-up there is one load;
+* pixel record ``(y * W + x) * REC``: the ``FILL`` word (bits 0-4: points stored for the
+  pixel; from bit :data:`FLAG_SHIFT`: the in-T flags of the window slots), the candidate count
+  and the best candidate similarity of the pixel as a left pixel, the window base ``BASE``, the
+  newest overflow block (an int32 at int32 index ``rec // 2 + NEXT32``), and a window of
+  :data:`WIN` similarities of the consecutive codes ``BASE .. BASE + WIN - 1`` (code
+  ``d - d_min``) at ``KEY + code - BASE``, :data:`NOT_STORED` where none is stored. The first
+  point stored at a pixel places the window (:data:`WIN_BELOW` codes below it): the growth
+  moves in disparity steps of one, so about 94 % of a pixel's points fall in it (Teddy, Cones),
+  and a look-up there is one load;
 * overflow blocks after the ``H * W`` records, for the codes outside the window, taken in
   order of use: ``FILL`` (slots used), the link to the pixel's next older block, and
   :data:`SLOTS` keys ``code * 2 + in_T`` at ``KEY + j`` with their similarities at
   ``KEY + SLOTS + j``.
 
 A stored point is named by the index of its similarity in ``buf`` (:func:`_value_index`); an
-index below ``H * W * REC`` is a window slot, whose in-T flag is bit ``8 + index - rec - KEY`` of
-its record's ``FILL`` word; above, an overflow slot, whose flag is bit 0 of its key.
+index below ``H * W * REC`` is a window slot, whose in-T flag is bit
+``FLAG_SHIFT + index - rec - KEY`` of its record's ``FILL`` word; above, an overflow slot, whose
+flag is bit 0 of its key.
+
+The candidate count and best similarity of each pixel as a *right* pixel live apart, in a
+compact int16 array (4 bytes a pixel): only the acceptance tests read them, and a record's
+cache line for two of its words cost more than the two words it freed for the window.
 
 Similarities are stored as int16 in steps of ``1 / QUANT`` (3e-5; :func:`quantise`), and every
 decision of the growth uses the stored value, so the reference implementation reproduces it.
@@ -53,19 +58,22 @@ REC = 16
 """int16 words per pixel record and per overflow block (32 bytes)."""
 SLOTS = 4
 """Memo slots per overflow block."""
-FILL, CNT_L, CNT_R, BEST_L, BEST_R, BASE, KEY = 0, 1, 2, 3, 4, 5, 8
+FILL, CNT_L, BEST_L, BASE, KEY = 0, 1, 2, 3, 6
 """int16 word offsets inside a record (blocks use ``FILL``, the link and the slots only)."""
-WIN = 8
+COUNT_MASK = 0x1F
+"""Bits of the ``FILL`` word holding the count of stored points (at most 31)."""
+WIN = 10
 """Consecutive disparity codes a record stores directly (its words ``KEY .. KEY + WIN - 1``)."""
-WIN_BELOW = 3
+WIN_BELOW = 4
 """Codes of the window below the first point stored at the pixel."""
 NOT_STORED = -32768
 """Window word of a code with no stored similarity (stored ones are in ``[-32767, 32767]``), and
 the ``BASE`` of a record with none (every code then falls outside the window)."""
-FLAG_SHIFT = 8
-"""Bit of the in-T flag of window slot 0 in the ``FILL`` word (slot ``j``: ``FLAG_SHIFT + j``)."""
-NEXT32 = 3
-"""int32 offset of the overflow link inside a record or block (int16 words 6 and 7)."""
+FLAG_SHIFT = 5
+"""Bit of the in-T flag of window slot 0 in the ``FILL`` word (slot ``j``: ``FLAG_SHIFT + j``;
+``FLAG_SHIFT + WIN`` bits fit the 16-bit word)."""
+NEXT32 = 2
+"""int32 offset of the overflow link inside a record or block (int16 words 4 and 5)."""
 QUANT = 32767.0
 """Stored similarities are multiples of ``1 / QUANT``."""
 STEP = 1.0 / QUANT
@@ -166,9 +174,7 @@ def _init_records(buf, n_px):
         b = p * REC
         buf[b + FILL] = 0
         buf[b + CNT_L] = 0
-        buf[b + CNT_R] = 0
         buf[b + BEST_L] = -32767
-        buf[b + BEST_R] = -32767
         buf[b + BASE] = NOT_STORED
         wide[(b >> 1) + NEXT32] = -1
         for j in range(WIN):
@@ -188,8 +194,12 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
     side = 2 * RADIUS + 1
     n_px = h * w
     _init_records(buf, n_px)
+    right = np.empty(2 * n_px, np.int16)  # per right pixel: candidate count, best similarity
+    for p in range(n_px):
+        right[2 * p] = 0
+        right[2 * p + 1] = -32767  # below any tau
     wide = buf.view(np.int32)
-    flags = buf.view(np.uint16)  # FILL words: count in the low byte, window in-T flags above
+    flags = buf.view(np.uint16)  # FILL words: count in bits 0-4, window in-T flags above
     n_words = n_px * REC  # value indices from here on are overflow slots
     counters = np.zeros(N_COUNTERS, np.int64)
     cap = n_px * (1 if greedy else k_max)  # the per-pixel cap bounds the table
@@ -227,11 +237,11 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             # pixels will read: their loads were the slowest of the loop (perf)
             if y > 0:
                 _prefetch(buf, ((y - 1) * w + x) * REC)
-                _prefetch(buf, ((y - 1) * w + xr) * REC)
+                _prefetch(right, ((y - 1) * w + xr) * 2)
             if y + 1 < h:
                 _prefetch(buf, ((y + 1) * w + x) * REC)
-                _prefetch(buf, ((y + 1) * w + xr) * REC)
-            _prefetch(buf, (y * w + xr) * REC)
+                _prefetch(right, ((y + 1) * w + xr) * 2)
+            _prefetch(right, (y * w + xr) * 2)
             g_lo = 0
             g_hi = _SEED_GROUP
         for g in range(g_lo, g_hi):
@@ -252,7 +262,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                     continue
                 # memo look-up, written out (see the module docstring on calls in this loop)
                 rec = (py * w + px) * REC
-                n = flags[rec + FILL] & 0xFF
+                n = flags[rec + FILL] & COUNT_MASK
                 s = _value_index(buf, wide, rec, code, n_px)
                 if s >= 0:
                     c = buf[s] * STEP
@@ -317,15 +327,15 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             elif buf[qslot - SLOTS] & 1:  # an overflow slot: its flag is bit 0 of its key
                 continue
             rl = (qy * w + qx) * REC
-            rr = (qy * w + qxr) * REC
+            rr = (qy * w + qxr) * 2
             if greedy:
-                if buf[rl + CNT_L] > 0 or buf[rr + CNT_R] > 0:
+                if buf[rl + CNT_L] > 0 or right[rr] > 0:
                     continue
             else:
-                if buf[rl + CNT_L] >= k_max or buf[rr + CNT_R] >= k_max:
+                if buf[rl + CNT_L] >= k_max or right[rr] >= k_max:
                     continue
                 bl = buf[rl + BEST_L]
-                br = buf[rr + BEST_R]
+                br = right[rr + 1]
                 ref = (max(bl, br) if use_max else min(bl, br)) * STEP
                 if i >= n_seeds and qc + mu < ref:
                     continue
@@ -345,9 +355,9 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
             n_t += 1
             qq = quantise(qc)
             buf[rl + BEST_L] = max(buf[rl + BEST_L], qq)
-            buf[rr + BEST_R] = max(buf[rr + BEST_R], qq)
+            right[rr + 1] = max(right[rr + 1], qq)
             buf[rl + CNT_L] += 1
-            buf[rr + CNT_R] += 1
+            right[rr] += 1
     counters[COUNT_BLOCKS] = n_blocks
     return (t_int[:n_t, 0].copy(), t_int[:n_t, 1].copy(), t_int[:n_t, 2].copy(), t_c[:n_t].copy(),
             buf, counters)

@@ -39,7 +39,8 @@ MARGIN_REFERENCES = ("max", "min")
 """How the left and right per-pixel bests combine in the ``mu`` test."""
 
 MEMO_SLOTS = 24
-"""Memoised disparities per left pixel (more are computed but not stored, and counted)."""
+"""Memoised disparities per left pixel (more are computed but not stored, and counted); at most
+31, the count a pixel record holds (``_growing_kernel.COUNT_MASK``)."""
 
 QUEUE_BUCKETS = 8
 """Similarity steps of the bucket priority queue on ``[tau, 1]`` (LIFO inside a step).
