@@ -73,6 +73,26 @@ def test_two_threads_prepare_the_same_inputs(kind):
         prepare_similarity(left, right, n_threads=0)
 
 
+@pytest.mark.parametrize("shape", [(20, 25), (5, 5), (6, 9)])
+def test_padded_images_mirror_the_float32_centred_image(shape):
+    rng = np.random.default_rng(6)
+    left, right = rng.uniform(0, 255, (2, *shape)).astype(np.float32)
+    inputs = prepare_similarity(left, right)
+    for grey, pad in ((left, inputs.left_pad), (right, inputs.right_pad)):
+        centred32 = (grey.astype(np.float64) - float(grey.mean())).astype(np.float32)
+        assert pad.dtype == np.float64
+        np.testing.assert_array_equal(pad, np.pad(centred32, 2, mode="reflect").astype(np.float64))
+
+
+def test_mncc_norm_is_the_window_variance():
+    rng = np.random.default_rng(5)
+    grey = rng.uniform(0, 255, (12, 16)).astype(np.float32)
+    inputs = prepare_similarity(grey, grey, kind="mncc")
+    centred = np.pad(grey.astype(np.float64) - float(grey.mean()), 2, mode="reflect")
+    windows = np.lib.stride_tricks.sliding_window_view(centred, (5, 5))
+    np.testing.assert_allclose(inputs.norm_l, windows.var(axis=(2, 3)), rtol=1e-5)
+
+
 def test_window_norms_equal_the_numpy_expressions():
     rng = np.random.default_rng(4)
     grey = rng.uniform(0, 255, (20, 25)).astype(np.float32)

@@ -54,20 +54,70 @@ def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x,
     return c
 
 
-@njit(cache=CACHE, nogil=True)
-def _window_norms(mean, sqr_mean, kind, min_var):
-    """float32 window means and norms from float64 window means and mean squares (H, W).
+@njit(cache=CACHE, inline="always")
+def _reflect101(i, n):
+    """Index ``i`` mirrored into ``[0, n)`` without repeating the edge (OpenCV ``BORDER_REFLECT_101``)."""
+    if n == 1:
+        return 0
+    while i < 0 or i >= n:
+        i = -i if i < 0 else 2 * (n - 1) - i
+    return i
 
-    The norm is ``1 / std`` (NCC) or the variance (MNCC), 0 where the variance is below
-    ``min_var`` (flat). No fast-math: the values are those of the same NumPy expressions.
+
+@njit(cache=CACHE, nogil=True)
+def _window_stats_kernel(grey, offset, kind, min_var):
+    """The padded image and the window statistics of one grey image ``(H, W)``.
+
+    ``centred = grey - offset`` in float64. Returns ``pad`` (float64 ``(H + 4, W + 4)``: the float32
+    rounding of ``centred``, mirrored at the border as OpenCV's ``BORDER_REFLECT_101``), the window
+    means (float32 ``(H, W)``) and the norms (float32: ``1 / std`` for NCC, the variance for MNCC,
+    0 where the variance is below ``min_var``), both over the 5 x 5 windows of ``centred`` mirrored
+    the same way. Each window sum adds five row sums of five values, in float64; the row sums of
+    the last five padded rows are kept in a ring, so no full-size scratch array is touched. No
+    fast-math: the values are those of the written expressions.
     """
-    h, w = mean.shape
+    h, w = grey.shape
+    r = RADIUS
+    side = 2 * r + 1
+    hp = h + 2 * r
+    wp = w + 2 * r
+    col = np.empty(wp, np.int64)
+    for xx in range(wp):
+        col[xx] = _reflect101(xx - r, w)
+    pad = np.empty((hp, wp), np.float64)
     mean32 = np.empty((h, w), np.float32)
     norm = np.empty((h, w), np.float32)
-    for y in range(h):
+    ring_sum = np.empty((side, w), np.float64)  # row sums of the last `side` padded rows
+    ring_sqr = np.empty((side, w), np.float64)
+    row = np.empty(wp, np.float64)
+    scale = 1.0 / (side * side)
+    for yy in range(hp):
+        src = _reflect101(yy - r, h)
+        for xx in range(wp):
+            v = np.float64(grey[src, col[xx]]) - offset
+            row[xx] = v
+            pad[yy, xx] = np.float64(np.float32(v))
+        k = yy % side
         for x in range(w):
-            m = mean[y, x]
-            var = sqr_mean[y, x] - m * m
+            s = 0.0
+            q = 0.0
+            for j in range(side):
+                v = row[x + j]
+                s += v
+                q += v * v
+            ring_sum[k, x] = s
+            ring_sqr[k, x] = q
+        y = yy - 2 * r  # the window rows y .. y + 4 (padded) are complete
+        if y < 0:
+            continue
+        for x in range(w):
+            s = 0.0
+            q = 0.0
+            for i in range(side):
+                s += ring_sum[(y + i) % side, x]
+                q += ring_sqr[(y + i) % side, x]
+            m = s * scale
+            var = q * scale - m * m
             mean32[y, x] = m
             if var < min_var:
                 norm[y, x] = 0.0
@@ -75,7 +125,7 @@ def _window_norms(mean, sqr_mean, kind, min_var):
                 norm[y, x] = 1.0 / np.sqrt(var)
             else:
                 norm[y, x] = var
-    return mean32, norm
+    return pad, mean32, norm
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
