@@ -106,3 +106,23 @@ def test_window_norms_equal_the_numpy_expressions():
     assert flat.any() and not flat.all()
     np.testing.assert_array_equal(inputs.norm_l[flat], 0.0)
     np.testing.assert_allclose(inputs.norm_l[~flat], 1.0 / np.sqrt(var[~flat]), rtol=1e-5)
+
+
+@pytest.mark.parametrize("left, right, message", [
+    (np.zeros((0, 5), np.float32), np.zeros((0, 5), np.float32), "left_grey"),
+    (np.zeros((4, 5), np.float32), np.zeros((4, 6), np.float32), "one shape"),
+    (np.zeros((4, 5, 3), np.float32), np.zeros((4, 5, 3), np.float32), "left_grey"),
+    (np.zeros((4, 5), bool), np.zeros((4, 5), bool), "left_grey"),
+])
+def test_prepare_refuses_what_is_not_a_pair_of_grey_images(left, right, message):
+    with pytest.raises(InvalidInputError, match=message):
+        prepare_similarity(left, right)
+
+
+def test_prepare_takes_one_pixel_and_integer_images():
+    one = prepare_similarity(np.full((1, 1), 9, np.uint8), np.full((1, 1), 9, np.uint8))
+    assert one.left_pad.shape == (5, 5) and float(one.norm_l[0, 0]) == 0.0   # flat: never matched
+    rng = np.random.default_rng(7)
+    grey = rng.integers(0, 256, (9, 11), dtype=np.uint8)
+    np.testing.assert_array_equal(prepare_similarity(grey, grey).norm_l,
+                                  prepare_similarity(grey.astype(np.float32), grey.astype(np.float32)).norm_l)

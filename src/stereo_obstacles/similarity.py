@@ -150,8 +150,17 @@ def prepare_similarity(left_grey: np.ndarray, right_grey: np.ndarray, *, kind: s
         raise InvalidInputError(f"min_std: expected >= 0, got {min_std}")
     if int(n_threads) != n_threads or n_threads < 1:
         raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
+    for name, grey in (("left_grey", left_grey), ("right_grey", right_grey)):
+        dtype = np.asarray(grey).dtype
+        if np.ndim(grey) != 2 or np.size(grey) == 0 or dtype == bool or not (
+                np.issubdtype(dtype, np.integer) or np.issubdtype(dtype, np.floating)):
+            raise InvalidInputError(f"{name}: expected a non-empty 2-D grey image of numbers, got {dtype} "
+                                    f"{np.shape(grey)}")
+    if np.shape(left_grey) != np.shape(right_grey):
+        raise InvalidInputError(f"left_grey, right_grey: expected one shape, got {np.shape(left_grey)} and "
+                                f"{np.shape(right_grey)}")
     code = KINDS[kind]
-    images = [(left_grey, code, min_std), (right_grey, code, min_std)]
+    images = [(np.asarray(left_grey), code, min_std), (np.asarray(right_grey), code, min_std)]
     (lp, ml, nl), (rp, mr, nr) = (run_in_threads(_window_stats, images) if n_threads > 1
                                   else [_window_stats(*a) for a in images])
     return SimilarityInputs(lp, rp, ml, nl, mr, nr, code)
