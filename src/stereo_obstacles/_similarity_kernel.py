@@ -57,7 +57,7 @@ def _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, y, x,
 @njit(cache=CACHE, inline="always")
 def _reflect101(i, n):
     """Index ``i`` mirrored into ``[0, n)`` without repeating the edge (OpenCV ``BORDER_REFLECT_101``)."""
-    if n == 1:
+    if n <= 1:  # one pixel (or none, which the callers refuse: no index to return)
         return 0
     while i < 0 or i >= n:
         i = -i if i < 0 else 2 * (n - 1) - i
@@ -79,6 +79,8 @@ def _window_stats_kernel(grey, offset, kind, min_var):
     h, w = grey.shape
     r = RADIUS
     side = 2 * r + 1
+    if h == 0 or w == 0:  # nothing to mirror (prepare_similarity refuses such images)
+        return np.zeros((h + 2 * r, w + 2 * r)), np.zeros((h, w), np.float32), np.zeros((h, w), np.float32)
     hp = h + 2 * r
     wp = w + 2 * r
     col = np.empty(wp, np.int64)
