@@ -87,6 +87,27 @@ def test_growth_matches_reference_beyond_the_memo_window():
                                                      growth.x_right[inside] - 1), atol=STEP)
 
 
+def test_memo_cap_stores_no_more_points_and_keeps_the_table_right(monkeypatch):
+    """With room for 2 points a pixel, further points are computed but not stored (counted), and
+    never join the table: the table stays distinct correspondences with their true similarities."""
+    import stereo_obstacles.growing as growing
+    rng = np.random.default_rng(4)
+    stripe = np.tile(rng.uniform(0, 255, 5), 12)
+    left = (np.tile(stripe, (14, 1)) + rng.normal(0, 3, (14, 60))).astype(np.float32)
+    right = (np.tile(stripe, (14, 1)) + rng.normal(0, 3, (14, 60))).astype(np.float32)
+    inputs = prepare_similarity(left, right, kind="mncc")
+    seeds = find_seeds(inputs, left, "random", d_min=2, d_max=26, tau=0.6, margin=0.0, random_fraction=0.05)
+    monkeypatch.setattr(growing, "MEMO_SLOTS", 2)
+    for greedy in (False, True):
+        g = grow(inputs, seeds, d_min=2, d_max=26, tau=0.6, mu=0.3, max_candidates=6, greedy=greedy)
+        assert g.n_overflow > 0 and g.y.size > 0
+        keys = (g.y.astype(np.int64) * 100 + g.x) * 100 + g.x_right
+        assert np.unique(keys).size == keys.size
+        d = g.x - g.x_right
+        assert d.min() >= 2 and d.max() <= 26
+        np.testing.assert_allclose(g.similarity, similarity_at(inputs, g.y, g.x, g.x_right), atol=STEP)
+
+
 def test_growth_recovers_layers_and_leaves_occlusion():
     left, right = _scene(seed=3, shape=(24, 40))
     inputs = prepare_similarity(left, right)

@@ -83,7 +83,13 @@ stored values changes)."""
 MAX_CODE = 16383
 """Largest ``d - d_min`` a key holds (``code * 2 + 1`` must fit in int16)."""
 MAX_COUNT = 32767
-"""Largest per-pixel candidate cap a record counts."""
+"""Largest per-pixel candidate cap the int16 counts hold (a record's, as a left pixel; the
+``right`` array's, as a right pixel)."""
+
+# the layout above must hold together: the count must not carry into the first window flag, the
+# flags must fit the word, and the link, the window and a block's keys and values the 16 words
+assert COUNT_MASK < 1 << FLAG_SHIFT and FLAG_SHIFT + WIN <= 16
+assert BASE < 2 * NEXT32 and 2 * NEXT32 + 2 <= KEY and KEY + WIN <= REC and KEY + 2 * SLOTS <= REC
 
 # The 16-point disparity-space neighbourhood of (y, x, x') in 4 groups: (dy, dx, dx'); a fifth
 # group, the point itself, is how a seed enters (one code path for both).

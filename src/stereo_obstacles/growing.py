@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stereo_obstacles._growing_kernel import (COUNT_BLOCKS, COUNT_COMPUTED, COUNT_OVERFLOW, COUNT_RESCANNED,
+from stereo_obstacles._growing_kernel import (COUNT_BLOCKS, COUNT_COMPUTED, COUNT_MASK, COUNT_OVERFLOW, COUNT_RESCANNED,
                                                  MAX_CODE, MAX_COUNT, _grow_kernel, _side_similarities,
                                                  buffer_size)
 from stereo_obstacles.errors import InvalidInputError
@@ -41,6 +41,7 @@ MARGIN_REFERENCES = ("max", "min")
 MEMO_SLOTS = 24
 """Memoised disparities per left pixel (more are computed but not stored, and counted); at most
 31, the count a pixel record holds (``_growing_kernel.COUNT_MASK``)."""
+assert MEMO_SLOTS <= COUNT_MASK
 
 QUEUE_BUCKETS = 8
 """Similarity steps of the bucket priority queue on ``[tau, 1]`` (LIFO inside a step).

@@ -121,6 +121,8 @@ def _window_stats(grey: np.ndarray, kind: int, min_std: float) -> tuple[np.ndarr
     # one compiled pass (padding, window sums, norms): OpenCV's box filters and border copy
     # gave the same float32 statistics in 1.8x the time (KITTI 000005: 7.7 -> 3.4 ms an image)
     # a zero variance is flat even with min_std 0
+    if grey.dtype not in (np.float32, np.float64):  # exact, and one compiled kernel for the rest
+        grey = grey.astype(np.float64)
     return _window_stats_kernel(grey, float(grey.mean()), kind, max(min_std * min_std, 1e-12))
 
 
