@@ -27,13 +27,14 @@ def _fattening_scene(shape=(40, 80), seed=5):
 
 def _reference(inputs, ys, xs, ds):
     """Per match: alternatives are the distinct disparities of matches in its 5x5 square more than
-    1 px away; best over the 25 windows containing the pixel; rejected if an alternative beats d."""
+    1 px away; best over the nine windows centred on the pixel and 2 px away from it in each
+    direction; rejected if an alternative beats d."""
     h, w = inputs.shape
     d_map = np.full((h + 4, w + 4), -100)
     d_map[ys + 2, xs + 2] = ds
 
     def best(y, x, d):
-        values = [similarity_at(inputs, yc, xc, xc - d)[()] for yc in range(y - 2, y + 3) for xc in range(x - 2, x + 3)
+        values = [similarity_at(inputs, yc, xc, xc - d)[()] for yc in (y - 2, y, y + 2) for xc in (x - 2, x, x + 2)
                   if 0 <= yc < h and 0 <= xc < w and 0 <= xc - d < w]
         return max(values, default=-1.0)
 

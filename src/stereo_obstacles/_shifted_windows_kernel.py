@@ -2,8 +2,9 @@
 
 The public wrapper is :func:`stereo_obstacles.shifted_windows.shifted_window_check`.
 
-The 25 windows containing a pixel overlap: at one disparity they are built from the products of
-a ``(4 RADIUS + 1)^2`` tile (81 products instead of 25 x 25), summed along rows then columns.
+The nine windows a pixel is checked with overlap: at one disparity they are built from the
+products of a ``(4 RADIUS + 1)^2`` tile (81 products instead of 9 x 25), summed along rows then
+columns.
 """
 
 from __future__ import annotations
@@ -19,16 +20,16 @@ _TILE = 4 * RADIUS + 1
 
 @njit(cache=CACHE, inline="always", fastmath=FASTMATH)
 def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
-    """Best similarity at disparity ``d`` over the windows containing left pixel ``(x, y)``:
-    the windows centred on every pixel of the ``(2 RADIUS + 1)^2`` square around it (inside the
-    image, right centre inside the image); :data:`UNDEFINED` when there is none.
+    """Best similarity at disparity ``d`` over nine windows containing left pixel ``(x, y)``:
+    those centred on ``(x + a, y + b)`` for ``a, b`` in ``(-RADIUS, 0, RADIUS)`` (inside the image,
+    right centre inside the image); :data:`UNDEFINED` when there is none.
 
     Scratch (float64): ``products`` of shape ``(4 RADIUS + 1,)`` holds one row of the tile of
-    padded rows ``y - RADIUS + i``; ``row_sums`` of shape ``(4 RADIUS + 1, 2 RADIUS + 1)``, at
-    row ``i`` and column ``j``, the sum of that row's products over the columns of the window
-    centred at ``x - RADIUS + j``. The tile has a fixed size (loops the compiler unrolls); at the
-    image border its reads are clamped into the padded images and only feed windows that are
-    skipped.
+    padded rows ``y - RADIUS + i``; ``row_sums`` of shape ``(4 RADIUS + 1, 3)``, at
+    row ``i`` and column ``k`` (0, 1, 2), the sum of that row's products over the columns of the
+    window centred at ``x - RADIUS + k * RADIUS``. The tile has a fixed size (loops the compiler
+    unrolls); at the image border its reads are clamped into the padded images and only feed
+    windows that are skipped.
     """
     h, w = ml.shape
     hp = h + 2 * RADIUS - 1  # last padded row and column
@@ -39,18 +40,19 @@ def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
             xl = min(max(x - RADIUS + j, 0), wp)
             xr = min(max(x - RADIUS - d + j, 0), wp)
             products[j] = np.float64(lp[py, xl]) * np.float64(rp[py, xr])
-        for j in range(_SIDE):
+        for k in range(3):
             s = 0.0
-            for k in range(_SIDE):
-                s += products[j + k]
-            row_sums[i, j] = s
+            for m in range(_SIDE):
+                s += products[k * RADIUS + m]
+            row_sums[i, k] = s
     best = UNDEFINED
-    for ic in range(_SIDE):
+    for ki in range(3):
+        ic = ki * RADIUS
         yc = y - RADIUS + ic
         if yc < 0 or yc >= h:
             continue
-        for jc in range(_SIDE):
-            xc = x - RADIUS + jc
+        for kj in range(3):
+            xc = x - RADIUS + kj * RADIUS
             if xc < 0 or xc >= w or xc - d < 0 or xc - d >= w:
                 continue
             a = nl[yc, xc]
@@ -59,7 +61,7 @@ def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
                 continue  # UNDEFINED, never above best
             acc = 0.0
             for i in range(_SIDE):
-                acc += row_sums[ic + i, jc]
+                acc += row_sums[ic + i, kj]
             cov = acc * (1.0 / (_SIDE * _SIDE)) - np.float64(ml[yc, xc]) * np.float64(mr[yc, xc - d])
             c = cov * a * b if kind == KIND_NCC else 2.0 * cov / (a + b)
             best = max(best, min(max(c, -1.0), 1.0))
@@ -123,7 +125,7 @@ def _shifted_window_kernel(lp, rp, ml, nl, mr, nr, kind, d_map, sq_lo, sq_hi, ys
     keep = np.ones(n, np.bool_)
     seen = np.empty(_SIDE * _SIDE, np.int64)
     products = np.empty(_TILE, np.float64)
-    row_sums = np.empty((_TILE, _SIDE), np.float64)
+    row_sums = np.empty((_TILE, 3), np.float64)
     n_checked = 0
     for i in range(n):
         y = ys[i]
