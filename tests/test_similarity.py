@@ -110,7 +110,7 @@ def test_window_norms_equal_the_numpy_expressions():
 
 @pytest.mark.parametrize("left, right, message", [
     (np.zeros((0, 5), np.float32), np.zeros((0, 5), np.float32), "left_grey"),
-    (np.zeros((4, 5), np.float32), np.zeros((4, 6), np.float32), "one shape"),
+    (np.zeros((4, 5), np.float32), np.zeros((4, 6), np.float32), "differ in size"),
     (np.zeros((4, 5, 3), np.float32), np.zeros((4, 5, 3), np.float32), "left_grey"),
     (np.zeros((4, 5), bool), np.zeros((4, 5), bool), "left_grey"),
 ])

@@ -16,6 +16,8 @@ from stereo_obstacles._similarity_kernel import CACHE, FASTMATH, KIND_NCC, RADIU
 
 _SIDE = 2 * RADIUS + 1
 _TILE = 4 * RADIUS + 1
+_CENTRES = 3
+"""Window centres along each axis: ``-RADIUS``, 0 and ``RADIUS`` from the pixel (nine windows)."""
 
 
 @njit(cache=CACHE, inline="always", fastmath=FASTMATH)
@@ -25,7 +27,7 @@ def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
     right centre inside the image); :data:`UNDEFINED` when there is none.
 
     Scratch (float64): ``products`` of shape ``(4 RADIUS + 1,)`` holds one row of the tile of
-    padded rows ``y - RADIUS + i``; ``row_sums`` of shape ``(4 RADIUS + 1, 3)``, at
+    padded rows ``y - RADIUS + i``; ``row_sums`` of shape ``(4 RADIUS + 1, _CENTRES)``, at
     row ``i`` and column ``k`` (0, 1, 2), the sum of that row's products over the columns of the
     window centred at ``x - RADIUS + k * RADIUS``. The tile has a fixed size (loops the compiler
     unrolls); at the image border its reads are clamped into the padded images and only feed
@@ -40,18 +42,18 @@ def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
             xl = min(max(x - RADIUS + j, 0), wp)
             xr = min(max(x - RADIUS - d + j, 0), wp)
             products[j] = np.float64(lp[py, xl]) * np.float64(rp[py, xr])
-        for k in range(3):
+        for k in range(_CENTRES):
             s = 0.0
             for m in range(_SIDE):
                 s += products[k * RADIUS + m]
             row_sums[i, k] = s
     best = UNDEFINED
-    for ki in range(3):
+    for ki in range(_CENTRES):
         ic = ki * RADIUS
         yc = y - RADIUS + ic
         if yc < 0 or yc >= h:
             continue
-        for kj in range(3):
+        for kj in range(_CENTRES):
             xc = x - RADIUS + kj * RADIUS
             if xc < 0 or xc >= w or xc - d < 0 or xc - d >= w:
                 continue
@@ -125,7 +127,7 @@ def _shifted_window_kernel(lp, rp, ml, nl, mr, nr, kind, d_map, sq_lo, sq_hi, ys
     keep = np.ones(n, np.bool_)
     seen = np.empty(_SIDE * _SIDE, np.int64)
     products = np.empty(_TILE, np.float64)
-    row_sums = np.empty((_TILE, 3), np.float64)
+    row_sums = np.empty((_TILE, _CENTRES), np.float64)
     n_checked = 0
     for i in range(n):
         y = ys[i]

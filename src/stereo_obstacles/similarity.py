@@ -23,6 +23,7 @@ import numpy as np
 from stereo_obstacles._similarity_kernel import (KIND_MNCC, KIND_NCC, RADIUS, UNDEFINED, _similarity,
                                                  _window_stats_kernel)
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.thread_pool import run_in_threads
 
 __all__ = ["KINDS", "RADIUS", "UNDEFINED", "SimilarityInputs", "prepare_similarity", "similarity_at",
@@ -32,6 +33,14 @@ KINDS = {"ncc": KIND_NCC, "mncc": KIND_MNCC}
 """Similarity names accepted by :func:`prepare_similarity` and their kernel codes."""
 
 _RGB_WEIGHTS = np.array([0.299, 0.587, 0.114], np.float32)
+
+
+def _numeric_image(image, name: str) -> np.ndarray:
+    """``image`` as an array of integers or floats (not booleans), or :class:`InvalidInputError`."""
+    a = np.asarray(image)
+    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
+        raise InvalidInputError(f"{name}: expected an integer or float image, got dtype {a.dtype}")
+    return a
 
 
 def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
@@ -54,9 +63,7 @@ def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
     InvalidInputError
         Wrong number of dimensions or channels, non-numeric dtype or non-finite values.
     """
-    a = np.asarray(image)
-    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)):
-        raise InvalidInputError(f"{name}: expected an integer or float image, got dtype {a.dtype}")
+    a = _numeric_image(image, name)
     if a.ndim == 3 and a.shape[2] == 3:
         grey = a.astype(np.float32) @ _RGB_WEIGHTS
     elif a.ndim == 2:
@@ -152,17 +159,13 @@ def prepare_similarity(left_grey: np.ndarray, right_grey: np.ndarray, *, kind: s
         raise InvalidInputError(f"min_std: expected >= 0, got {min_std}")
     if int(n_threads) != n_threads or n_threads < 1:
         raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
+    left_grey, right_grey = _numeric_image(left_grey, "left_grey"), _numeric_image(right_grey, "right_grey")
     for name, grey in (("left_grey", left_grey), ("right_grey", right_grey)):
-        dtype = np.asarray(grey).dtype
-        if np.ndim(grey) != 2 or np.size(grey) == 0 or dtype == bool or not (
-                np.issubdtype(dtype, np.integer) or np.issubdtype(dtype, np.floating)):
-            raise InvalidInputError(f"{name}: expected a non-empty 2-D grey image of numbers, got {dtype} "
-                                    f"{np.shape(grey)}")
-    if np.shape(left_grey) != np.shape(right_grey):
-        raise InvalidInputError(f"left_grey, right_grey: expected one shape, got {np.shape(left_grey)} and "
-                                f"{np.shape(right_grey)}")
+        if grey.ndim != 2 or grey.size == 0:
+            raise InvalidInputError(f"{name}: expected a non-empty 2-D grey image, got shape {grey.shape}")
+    check_same_size(left_grey, right_grey)
     code = KINDS[kind]
-    images = [(np.asarray(left_grey), code, min_std), (np.asarray(right_grey), code, min_std)]
+    images = [(left_grey, code, min_std), (right_grey, code, min_std)]
     (lp, ml, nl), (rp, mr, nr) = (run_in_threads(_window_stats, images) if n_threads > 1
                                   else [_window_stats(*a) for a in images])
     return SimilarityInputs(lp, rp, ml, nl, mr, nr, code)
