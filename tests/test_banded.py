@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 
@@ -10,9 +12,11 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.growing import grow
 from stereo_obstacles.matching import match
 from stereo_obstacles.seeds import find_seeds
+from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.similarity import prepare_similarity
 from stereo_obstacles.stable_matching import stable_matching
 from stereo_obstacles.subpixel import parabola_offset
+from stereo_obstacles.thread_pool import run_in_threads
 
 OPTIONS = dict(d_min=0, d_max=12, tau=0.6, mu=0.1, max_candidates=10, margin_reference="max", greedy=False)
 
@@ -88,3 +92,70 @@ def test_match_bands_option_gives_the_same_accuracy():
     assert abs(one.stats.density - two.stats.density) < 0.02
     with pytest.raises(InvalidInputError, match="bands"):
         match(left, right, max_disparity=12, bands=0)
+
+
+def _checked_bands(n_bands, overlap=16):
+    """The layers scene matched by bands with the shifted-window check, and without it."""
+    left, right = _layers()
+    inputs = prepare_similarity(left, right)
+    seeds = find_seeds(inputs, left, "canny", d_min=0, d_max=12, tau=0.6, margin=0.1)
+    run = dict(scanned_hi=seeds.scanned_hi, n_bands=n_bands, overlap=overlap, final_margin=0.1, **OPTIONS)
+    return inputs, match_bands(inputs, seeds, shifted_windows=True, **run), match_bands(inputs, seeds, **run)
+
+
+@pytest.mark.parametrize("n_bands, overlap", [(1, 16), (2, 16), (3, 0), (7, 2)])
+def test_check_in_the_bands_is_the_check_of_the_whole_image(n_bands, overlap):
+    inputs, checked, plain = _checked_bands(n_bands, overlap)
+    keep, n_checked = shifted_window_check(inputs, plain.y, plain.x, plain.x - plain.x_right)
+    assert n_checked > 0 and not keep.all()  # the square's edges are checked, and some matches fail
+    np.testing.assert_array_equal(checked.y, plain.y[keep])
+    np.testing.assert_array_equal(checked.x_right, plain.x_right[keep])
+    np.testing.assert_array_equal(checked.offset, plain.offset[keep])
+    assert (checked.n_edge_checked, checked.n_edge_rejected) == (n_checked, keep.size - keep.sum())
+    assert plain.n_edge_checked == plain.n_edge_rejected == 0
+    assert 0 < checked.growth_seconds <= checked.matched_seconds <= checked.checked_seconds
+    assert plain.checked_seconds == plain.matched_seconds
+
+
+def _within(seconds, function):
+    """``function()`` on a daemon thread; fails the test when it has not ended after ``seconds``
+    (a band waiting for ever must not hang the test run). Returns its result or raises its error."""
+    outcome = {}
+
+    def run():
+        try:
+            outcome["result"] = function()
+        except BaseException as error:  # handed to the test
+            outcome["error"] = error
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(timeout=seconds)
+    assert not thread.is_alive(), f"still running after {seconds} s"
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["result"]
+
+
+def test_bands_run_one_after_the_other_on_a_pool_thread():
+    """A call made on a pool thread runs its bands in turn on that thread: no band may wait for
+    another's matches (it would wait for ever)."""
+    on_pool = _within(120, lambda: run_in_threads(lambda k: _checked_bands(2)[1] if k else None, [(0,), (1,)])[1])
+    direct = _checked_bands(2)[1]
+    np.testing.assert_array_equal(on_pool.y, direct.y)
+    np.testing.assert_array_equal(on_pool.x, direct.x)
+    assert on_pool.n_edge_rejected == direct.n_edge_rejected > 0
+
+
+def test_a_failing_band_ends_the_call(monkeypatch):
+    """A band that raises wakes the band waiting for its matches; the error reaches the caller."""
+    import stereo_obstacles.banded as banded
+
+    def failing_on_the_pool(y, *args, **kwargs):
+        if threading.current_thread().name.startswith("gcs-band"):
+            raise RuntimeError("band failed")
+        return stable_matching(y, *args, **kwargs)
+
+    monkeypatch.setattr(banded, "stable_matching", failing_on_the_pool)
+    with pytest.raises(RuntimeError, match="band failed"):
+        _within(120, lambda: _checked_bands(2))

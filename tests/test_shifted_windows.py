@@ -7,7 +7,7 @@ import pytest
 
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.matching import match
-from stereo_obstacles.shifted_windows import shifted_window_check
+from stereo_obstacles.shifted_windows import ShiftedWindowCheck, shifted_window_check
 from stereo_obstacles.similarity import prepare_similarity, similarity_at
 
 
@@ -49,12 +49,17 @@ def _reference(inputs, ys, xs, ds):
     return np.array(keep), n_checked
 
 
-def test_kernel_agrees_with_reference():
+def _unchecked_matches():
+    """The fattening scene's prepared images and its matches without the check: rows, columns,
+    integer disparities."""
     left, right, _ = _fattening_scene()
     result = match(left, right, max_disparity=14, shifted_windows=False)
     ys, xs = np.nonzero(np.isfinite(result.disparity))
-    ds = np.rint(result.disparity[ys, xs]).astype(int)
-    inputs = prepare_similarity(left, right)
+    return prepare_similarity(left, right), ys, xs, np.rint(result.disparity[ys, xs]).astype(int)
+
+
+def test_kernel_agrees_with_reference():
+    inputs, ys, xs, ds = _unchecked_matches()
     keep, n_checked = shifted_window_check(inputs, ys, xs, ds)
     expected, expected_checked = _reference(inputs, ys, xs, ds)
     assert n_checked == expected_checked > 0
@@ -114,3 +119,30 @@ def test_disparity_command_options(tmp_path, capsys):
     d = read_disparity(out)
     m = np.isfinite(d)
     assert m.mean() > 0.5 and np.mean(np.abs(d[m] - truth[m]) <= 1) > 0.9
+
+
+def test_strips_of_rows_give_the_verdicts_of_the_whole_image():
+    inputs, ys, xs, ds = _unchecked_matches()
+    expected, expected_checked = _reference(inputs, ys, xs, ds)
+    h = inputs.shape[0]
+    for cuts in ([0, h], [0, 11, 12, 29, h], [0, 1, 2, 3, 20, 21, h]):
+        check = ShiftedWindowCheck(inputs)
+        top = ys < 20  # matches added in two parts, as two bands add theirs
+        check.add(ys[top], xs[top], ds[top])
+        check.add(ys[~top], xs[~top], ds[~top])
+        n_checked = sum(check.check_rows(lo, hi) for lo, hi in reversed(list(zip(cuts[:-1], cuts[1:]))))
+        np.testing.assert_array_equal(check.keep(ys, xs), expected)
+        assert n_checked == expected_checked
+
+
+def test_strip_check_refuses_bad_rows_and_repeated_pixels():
+    inputs = prepare_similarity(*_fattening_scene()[:2])
+    check = ShiftedWindowCheck(inputs)
+    check.add(np.array([3]), np.array([9]), np.array([1]))
+    with pytest.raises(InvalidInputError, match="each left pixel at most once"):
+        check.add(np.array([3]), np.array([9]), np.array([2]))
+    with pytest.raises(InvalidInputError, match="lo, hi"):
+        check.check_rows(5, 41)
+    with pytest.raises(InvalidInputError, match="lo, hi"):
+        check.check_rows(6, 5)
+    assert check.check_rows(7, 7) == 0

@@ -71,88 +71,71 @@ def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
 
 
 MAPS_OK, MAPS_OUTSIDE, MAPS_REPEATED = 0, 1, 2
-"""Status of :func:`_disparity_maps`: the matches are valid, one lies outside the image (or has
+"""Status of :func:`_add_matches`: the matches are valid, one lies outside the image (or has
 ``d < 0`` or ``x - d < 0``), a left pixel is matched twice."""
 
 
 @njit(cache=CACHE, nogil=True)
-def _disparity_maps(ys, xs, ds, h, w):
-    """The ``(h, w)`` maps of integer disparities ``ds`` at left pixels ``(xs, ys)``, and a status.
-
-    Returns ``d_map`` (int32, -1 where unmatched), two float32 copies for OpenCV's square max and
-    min (-1 and +inf where unmatched) and :data:`MAPS_OK`, or the status of the first invalid
-    match (the maps are then incomplete).
-    """
-    d_map = np.full((h, w), -1, np.int32)
-    for_max = np.full((h, w), -1.0, np.float32)
-    for_min = np.full((h, w), np.inf, np.float32)
+def _add_matches(ys, xs, ds, d_map, for_max, for_min):
+    """Write the integer disparities ``ds`` of left pixels ``(xs, ys)`` into the ``(h, w)`` maps:
+    ``d_map`` (int32, -1 where unmatched) and two float32 copies for OpenCV's square max and min
+    (-1 and +inf where unmatched). Returns :data:`MAPS_OK` or the status of the first invalid
+    match (the maps then hold the matches before it)."""
+    h, w = d_map.shape
     for i in range(ys.shape[0]):
         y = ys[i]
         x = xs[i]
         d = ds[i]
         if y < 0 or y >= h or x < 0 or x >= w or d < 0 or x - d < 0:
-            return d_map, for_max, for_min, MAPS_OUTSIDE
+            return MAPS_OUTSIDE
         if d_map[y, x] >= 0:
-            return d_map, for_max, for_min, MAPS_REPEATED
+            return MAPS_REPEATED
         d_map[y, x] = d
         for_max[y, x] = d
         for_min[y, x] = d
-    return d_map, for_max, for_min, MAPS_OK
+    return MAPS_OK
 
 
 @njit(cache=CACHE, nogil=True)
-def _near_jump(ys, xs, ds, sq_lo, sq_hi):
-    """Indices of the matches whose square holds a disparity more than 1 px from their own."""
-    out = np.empty(ys.shape[0], np.int64)
-    n = 0
-    for i in range(ys.shape[0]):
-        y = ys[i]
-        x = xs[i]
-        if sq_hi[y, x] - ds[i] > 1 or ds[i] - sq_lo[y, x] > 1:
-            out[n] = i
-            n += 1
-    return out[:n]
+def _check_rows_kernel(lp, rp, ml, nl, mr, nr, kind, d_map, sq_lo, sq_hi, top, lo, hi, rejected):
+    """Check the matches of image rows ``[lo, hi)``: set ``rejected[y, x]`` where a neighbouring
+    disparity beats the match's own; returns the number of matches compared.
 
-
-@njit(cache=CACHE, nogil=True)
-def _shifted_window_kernel(lp, rp, ml, nl, mr, nr, kind, d_map, sq_lo, sq_hi, ys, xs):
-    """Keep flags of the matches ``(ys, xs)`` with integer disparities ``d_map`` (-1: unmatched).
-
-    ``sq_lo``, ``sq_hi``: smallest and largest disparity of the matches in the
-    ``(2 RADIUS + 1)^2`` square around each pixel; only matches whose square holds a disparity
-    more than 1 px away are scanned for their alternatives.
+    ``d_map``, ``rejected``: ``(h, w)`` maps of the whole image (integer disparities, -1 where
+    unmatched; verdicts). ``sq_lo``, ``sq_hi``: smallest and largest disparity of the matches in
+    the ``(2 RADIUS + 1)^2`` square around each pixel of image rows ``top, top + 1, ...``; only
+    matches whose square holds a disparity more than 1 px away are scanned for alternatives.
     """
     h, w = d_map.shape
-    n = ys.shape[0]
-    keep = np.ones(n, np.bool_)
     seen = np.empty(_SIDE * _SIDE, np.int64)
     products = np.empty(_TILE, np.float64)
     row_sums = np.empty((_TILE, _CENTRES), np.float64)
     n_checked = 0
-    for i in range(n):
-        y = ys[i]
-        x = xs[i]
-        d = d_map[y, x]
-        if sq_hi[y, x] - d <= 1 and d - sq_lo[y, x] <= 1:
-            continue
-        own = 2.0  # not computed yet (similarities are <= 1)
-        n_seen = 0
-        for yy in range(max(0, y - RADIUS), min(h, y + RADIUS + 1)):
-            for xx in range(max(0, x - RADIUS), min(w, x + RADIUS + 1)):
-                a = d_map[yy, xx]
-                if a < 0 or abs(a - d) <= 1 or not keep[i]:
-                    continue
-                new = True
-                for k in range(n_seen):
-                    if seen[k] == a:
-                        new = False
-                if not new:
-                    continue
-                seen[n_seen] = a
-                n_seen += 1
-                if own > 1.5:
-                    own = _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums)
-                    n_checked += 1
-                if _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, a, products, row_sums) > own:
-                    keep[i] = False
-    return keep, n_checked
+    for y in range(lo, hi):
+        for x in range(w):
+            d = d_map[y, x]
+            if d < 0 or (sq_hi[y - top, x] - d <= 1 and d - sq_lo[y - top, x] <= 1):
+                continue
+            own = 2.0  # not computed yet (similarities are <= 1)
+            n_seen = 0
+            beaten = False
+            for yy in range(max(0, y - RADIUS), min(h, y + RADIUS + 1)):
+                for xx in range(max(0, x - RADIUS), min(w, x + RADIUS + 1)):
+                    a = d_map[yy, xx]
+                    if a < 0 or abs(a - d) <= 1 or beaten:
+                        continue
+                    new = True
+                    for k in range(n_seen):
+                        if seen[k] == a:
+                            new = False
+                    if not new:
+                        continue
+                    seen[n_seen] = a
+                    n_seen += 1
+                    if own > 1.5:
+                        own = _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums)
+                        n_checked += 1
+                    if _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, a, products, row_sums) > own:
+                        beaten = True
+            rejected[y, x] = beaten
+    return n_checked

@@ -5,7 +5,11 @@ The image is cut into ``n_bands`` bands of equal height. Each band is grown on i
 it, over its own rows plus ``overlap`` rows of each neighbour, so that a surface reaching into a
 band from a seed just across the border is still grown. The candidates of the rows a band owns
 then go through the (row-independent) confidently stable matching and the subpixel look-ups of
-that band. A band sees neither the candidates nor the ``mu`` and cap bookkeeping of the other
+that band. The shifted-window check (:mod:`stereo_obstacles.shifted_windows`) runs in strips of
+rows that the band threads take as soon as the final matches around a strip are in: a band
+that finishes growing first checks its own rows while the other still grows, then shares the
+other band's strips with it. Its verdicts are those of one check over the whole image. A band
+sees neither the candidates nor the ``mu`` and cap bookkeeping of the other
 band beyond the overlap: the result is close to, not equal to, one growth over the whole image
 (measured in ``docs/matching.md``). One band is the published single-queue growth.
 
@@ -15,6 +19,7 @@ others on a persistent pool, so a call wakes ``n_bands - 1`` idle threads.
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
 
@@ -23,6 +28,7 @@ import numpy as np
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.growing import grow
 from stereo_obstacles.seeds import Seeds
+from stereo_obstacles.shifted_windows import STRIPS_PER_THREAD, ShiftedWindowCheck
 from stereo_obstacles.similarity import RADIUS, SimilarityInputs
 from stereo_obstacles.stable_matching import stable_matching
 from stereo_obstacles.subpixel import parabola_offset
@@ -48,11 +54,16 @@ class BandedMatch:
     n_candidates, n_computed, n_rescanned, n_overflow : int
         Sums over the bands (:class:`~stereo_obstacles.growing.Growth`); candidates are those of
         the rows each band owns, computed points include the overlap rows of both bands.
+    n_edge_checked, n_edge_rejected : int
+        Matches the shifted-window check compared with a neighbouring disparity, and rejected
+        (0 without the check); the rejected ones are not in the arrays above.
     growth_seconds : float
         Wall time from the start until the slowest band finished growing.
     matched_seconds : float
-        Wall time from the start until the slowest band finished its final matching (the
-        subpixel look-ups follow).
+        Wall time from the start until the slowest band finished its final matching.
+    checked_seconds : float
+        Wall time from the start until the last strip of the shifted-window check was checked
+        (``matched_seconds`` without the check).
     """
 
     y: np.ndarray
@@ -64,8 +75,11 @@ class BandedMatch:
     n_computed: int
     n_rescanned: int
     n_overflow: int
+    n_edge_checked: int
+    n_edge_rejected: int
     growth_seconds: float
     matched_seconds: float
+    checked_seconds: float
 
     def __post_init__(self) -> None:
         n = self.y.shape[0]
@@ -93,36 +107,101 @@ def band_rows(h: int, n_bands: int, overlap: int) -> list[tuple[int, int, int, i
     return [(lo, hi, max(0, lo - overlap), min(h, hi + overlap)) for lo, hi in zip(edges[:-1], edges[1:])]
 
 
-def _band_inputs(inputs: SimilarityInputs, lo: int, hi: int) -> SimilarityInputs:
-    """The prepared images of rows ``[lo, hi)`` (views; padded arrays keep their border rows)."""
-    pad = 2 * RADIUS
-    return SimilarityInputs(inputs.left_pad[lo:hi + pad], inputs.right_pad[lo:hi + pad], inputs.mean_l[lo:hi],
-                            inputs.norm_l[lo:hi], inputs.mean_r[lo:hi], inputs.norm_r[lo:hi], inputs.kind)
+class _CheckStrips:
+    """The shifted-window check's strips of rows, handed out to the band threads.
+
+    Each band's own rows are cut into :data:`~stereo_obstacles.shifted_windows.STRIPS_PER_THREAD`
+    strips; a strip can be checked once every band owning one of its rows or of the ``RADIUS``
+    rows around it has added its final matches. A thread waits for a strip only while a band it
+    needs is running (so a call whose bands run one after the other on one thread never waits).
+    """
+
+    def __init__(self, inputs: SimilarityInputs, bands: list[tuple[int, int, int, int]]) -> None:
+        self.check = ShiftedWindowCheck(inputs)
+        self.todo = []
+        for own_lo, own_hi, _, _ in bands:
+            edges = [own_lo + round(i * (own_hi - own_lo) / STRIPS_PER_THREAD) for i in range(STRIPS_PER_THREAD + 1)]
+            for lo, hi in zip(edges[:-1], edges[1:]):
+                if hi > lo:
+                    needs = [b for b, rows in enumerate(bands) if rows[0] < hi + RADIUS and rows[1] > lo - RADIUS]
+                    self.todo.append((lo, hi, needs))
+        self.state = ["waiting"] * len(bands)
+        self.n_checked = 0
+        self.last_end = 0.0
+        self._changed = threading.Condition()
+
+    def set_state(self, band: int, state: str) -> None:
+        """Mark a band ``"running"``, ``"added"`` or ``"failed"``, waking the waiting threads."""
+        with self._changed:
+            self.state[band] = state
+            self._changed.notify_all()
+
+    def add(self, band: int, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> None:
+        """Add a band's final matches (image rows)."""
+        self.check.add(y, x, d)
+        self.set_state(band, "added")
+
+    def _next_strip(self, wait: bool):
+        with self._changed:
+            while self.todo:
+                for k, (lo, hi, needs) in enumerate(self.todo):
+                    if all(self.state[b] == "added" for b in needs):
+                        del self.todo[k]
+                        return lo, hi
+                pending = {self.state[b] for _, _, needs in self.todo for b in needs}
+                if not wait or "running" not in pending or "failed" in pending:
+                    return None
+                self._changed.wait()
+            return None
+
+    def work(self, *, wait: bool) -> None:
+        """Check every strip that is ready; with ``wait``, also those whose bands are still running."""
+        while (strip := self._next_strip(wait)) is not None:
+            n = self.check.check_rows(*strip)
+            with self._changed:
+                self.n_checked += n
+                self.last_end = max(self.last_end, time.perf_counter())
 
 
-def _match_band(inputs, seeds, scanned_hi, rows, options, t_start):
-    """Grow one band, match its own rows; returns arrays in image rows, counters and stage end times."""
+def _match_band(inputs, seeds, scanned_hi, band, rows, options, strips, t_start):
+    """Grow one band, match its own rows, hand the matches to the check; returns arrays in
+    image rows, counters and stage end times."""
     own_lo, own_hi, lo, hi = rows
-    inside = (seeds.y >= lo) & (seeds.y < hi)
-    band_seeds = Seeds(seeds.y[inside] - lo, seeds.x[inside], seeds.x_right[inside], seeds.similarity[inside],
-                       0, 0)
-    growth = grow(_band_inputs(inputs, lo, hi), band_seeds, scanned_hi=scanned_hi[lo:hi], **options["grow"])
-    t_grown = time.perf_counter() - t_start
-    own = (growth.y >= own_lo - lo) & (growth.y < own_hi - lo)
-    y, x, xr, c = growth.y[own], growth.x[own], growth.x_right[own], growth.similarity[own]
-    if not options["greedy"]:
-        won = stable_matching(y, x, xr, c, (hi - lo, inputs.shape[1]), margin=options["final_margin"])
-        y, x, xr, c = y[won], x[won], xr[won], c[won]
-    t_matched = time.perf_counter() - t_start
+    if strips is not None:
+        strips.set_state(band, "running")
+    try:
+        inside = (seeds.y >= lo) & (seeds.y < hi)
+        band_seeds = Seeds(seeds.y[inside] - lo, seeds.x[inside], seeds.x_right[inside], seeds.similarity[inside],
+                           0, 0)
+        growth = grow(inputs.rows(lo, hi), band_seeds, scanned_hi=scanned_hi[lo:hi], **options["grow"])
+        t_grown = time.perf_counter() - t_start
+        own = (growth.y >= own_lo - lo) & (growth.y < own_hi - lo)
+        y, x, xr, c = growth.y[own], growth.x[own], growth.x_right[own], growth.similarity[own]
+        if not options["greedy"]:
+            won = stable_matching(y, x, xr, c, (hi - lo, inputs.shape[1]), margin=options["final_margin"])
+            y, x, xr, c = y[won], x[won], xr[won], c[won]
+        t_matched = time.perf_counter() - t_start
+        y_image = (y + lo).astype(np.int32)
+        if strips is not None:
+            strips.add(band, y_image, x, x - xr)
+            strips.work(wait=False)
+    except BaseException:
+        if strips is not None:
+            strips.set_state(band, "failed")
+        raise
     c_minus, c_plus = growth.side_similarities(y, x, x - xr)
+    offset = parabola_offset(c_minus, c, c_plus)
+    if strips is not None:
+        strips.work(wait=True)  # the strips of bands still growing
     counts = (int(own.sum()), growth.n_computed, growth.n_rescanned, growth.n_overflow)
-    return (y + lo).astype(np.int32), x, xr, c, parabola_offset(c_minus, c, c_plus), counts, t_grown, t_matched
+    return y_image, x, xr, c, offset, counts, t_grown, t_matched
 
 
 def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarray, n_bands: int,
                 overlap: int = BAND_OVERLAP, d_min: int, d_max: int, tau: float, mu: float,
-                max_candidates: int, margin_reference: str, greedy: bool, final_margin: float) -> BandedMatch:
-    """Grow, match and refine each row band in its own thread.
+                max_candidates: int, margin_reference: str, greedy: bool, final_margin: float,
+                shifted_windows: bool = False) -> BandedMatch:
+    """Grow, match, check and refine each row band in its own thread.
 
     Parameters
     ----------
@@ -140,6 +219,9 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
         As :func:`stereo_obstacles.growing.grow`.
     final_margin : float
         Margin of :func:`stereo_obstacles.stable_matching.stable_matching` (ignored when greedy).
+    shifted_windows : bool
+        Run the shifted-window check (:func:`stereo_obstacles.shifted_windows.shifted_window_check`)
+        and drop the matches it rejects.
 
     Returns
     -------
@@ -152,9 +234,20 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     options = {"grow": dict(d_min=d_min, d_max=d_max, tau=tau, mu=mu, max_candidates=max_candidates,
                             margin_reference=margin_reference, greedy=greedy),
                "greedy": greedy, "final_margin": final_margin}
+    strips = _CheckStrips(inputs, bands) if shifted_windows else None
     t_start = time.perf_counter()
-    parts = run_in_threads(_match_band, [(inputs, seeds, scanned_hi, rows, options, t_start) for rows in bands])
+    parts = run_in_threads(_match_band, [(inputs, seeds, scanned_hi, band, rows, options, strips, t_start)
+                                         for band, rows in enumerate(bands)])
     y, x, xr, c, offset = (np.concatenate([p[k] for p in parts]) for k in range(5))
-    counts = np.sum([p[5] for p in parts], axis=0)
-    return BandedMatch(y, x, xr, c, offset, *(int(v) for v in counts), max(p[6] for p in parts),
-                       max(p[7] for p in parts))
+    counts = [int(v) for v in np.sum([p[5] for p in parts], axis=0)]
+    matched_seconds = max(p[7] for p in parts)
+    n_checked = n_rejected = 0
+    checked_seconds = matched_seconds
+    if strips is not None:
+        keep = strips.check.keep(y, x)
+        n_checked, n_rejected = strips.n_checked, int(keep.size - np.count_nonzero(keep))
+        checked_seconds = strips.last_end - t_start
+        if n_rejected:
+            y, x, xr, c, offset = (a[keep] for a in (y, x, xr, c, offset))
+    return BandedMatch(y, x, xr, c, offset, *counts, n_checked, n_rejected, max(p[6] for p in parts),
+                       matched_seconds, checked_seconds)

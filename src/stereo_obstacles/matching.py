@@ -24,7 +24,6 @@ from stereo_obstacles.banded import match_bands
 from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
 from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
-from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.speckles import speckle_mask
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 
@@ -93,7 +92,10 @@ class MatchStats:
         Matches next to a disparity jump that the shifted-window check compared, and rejected
         (0 without ``shifted_windows``).
     edge_check_seconds : float
-        Wall time of the shifted-window check (0 without it).
+        Wall time the shifted-window check adds after the final matching: from the end of the
+        slowest band's final matching to the end of the check's last strip of rows (strips a band
+        checks while another still grows cost no wall time; :mod:`stereo_obstacles.banded`).
+        0 without the check.
     n_speckle_removed : int
         Matches removed as speckles (0 with ``speckle_size=0``).
     speckle_seconds : float
@@ -357,23 +359,15 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     scanned_hi = found.scanned_hi if found.scanned_hi is not None else np.full((h, w), -1, np.int32)
     banded = match_bands(inputs, found, scanned_hi=scanned_hi, n_bands=int(bands), d_min=d_min, d_max=d_max, tau=tau,
                          mu=mu, max_candidates=int(max_candidates), margin_reference=margin_reference,
-                         greedy=variant == "greedy", final_margin=final_margin)
-    t4 = time.perf_counter()
+                         greedy=variant == "greedy", final_margin=final_margin, shifted_windows=shifted_windows)
 
-    my, mx, md = banded.y, banded.x, banded.x - banded.x_right
-    n_checked = n_rejected = 0
-    kept = slice(None)
-    if shifted_windows:
-        kept, n_checked = shifted_window_check(inputs, my, mx, md, n_threads=int(bands))
-        n_rejected = int(kept.size - np.count_nonzero(kept))
-    t_checked = time.perf_counter()
     # flat indices: NumPy scatters and gathers them ~2x faster than (row, column) pairs
-    flat = (my.astype(np.int64) * w + mx)[kept]
-    md = md[kept]
+    flat = banded.y.astype(np.int64) * w + banded.x
+    md = banded.x - banded.x_right
     disparity = np.full((h, w), np.nan, np.float32)
     sim = np.full((h, w), np.nan, np.float32)
-    disparity.ravel()[flat] = md + banded.offset[kept]
-    sim.ravel()[flat] = banded.similarity[kept]
+    disparity.ravel()[flat] = md + banded.offset
+    sim.ravel()[flat] = banded.similarity
     t_filled = time.perf_counter()
     speckles = speckle_mask(disparity, max_size_px=int(speckle_size), max_difference_px=float(speckle_range))
     n_speckle = int(np.count_nonzero(speckles))
@@ -392,9 +386,10 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
         density=float(md.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
         prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=banded.growth_seconds,
         final_seconds=banded.matched_seconds - banded.growth_seconds,
-        subpixel_seconds=t4 - t2 - banded.matched_seconds + t_filled - t_checked,
-        match_seconds=t2 - t1 + banded.matched_seconds + t_checked - t4 + t5 - t_filled, total_seconds=t5 - t0,
-        n_edge_checked=n_checked, n_edge_rejected=n_rejected, edge_check_seconds=t_checked - t4,
+        subpixel_seconds=t_filled - t2 - banded.checked_seconds,
+        match_seconds=t2 - t1 + banded.checked_seconds + t5 - t_filled, total_seconds=t5 - t0,
+        n_edge_checked=banded.n_edge_checked, n_edge_rejected=banded.n_edge_rejected,
+        edge_check_seconds=banded.checked_seconds - banded.matched_seconds,
         n_speckle_removed=n_speckle, speckle_seconds=t5 - t_filled)
     _warn_if_doubtful(stats.density, stats.n_seed_pixels, stats.n_seeds,
                       float(np.mean(md == 0)) if md.size else 0.0, d_min, tau, seed_points is not None)

@@ -12,6 +12,11 @@ than ``d`` at the pixel. Only matches next to a disparity jump pay for the check
 windows at one disparity share the products of a 9 x 9 tile. Until session 13 all 25 windows
 containing the pixel were tried: the nine give the same or lower bad-1 on the Middlebury pairs
 in 0.8x the time (``docs/matching.md``).
+
+A verdict depends only on the matches in the pixel's square, so the check runs strip by strip
+of rows (:class:`ShiftedWindowCheck`): a strip can be checked as soon as the matches of its rows
+and of the :data:`~stereo_obstacles.similarity.RADIUS` rows on each side are known, which lets
+the row bands of :mod:`stereo_obstacles.banded` check while another band still grows.
 """
 
 from __future__ import annotations
@@ -19,13 +24,75 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from stereo_obstacles._shifted_windows_kernel import (MAPS_OUTSIDE, MAPS_REPEATED, _disparity_maps, _near_jump,
-                                                       _shifted_window_kernel)
+from stereo_obstacles._shifted_windows_kernel import MAPS_OUTSIDE, MAPS_REPEATED, _add_matches, _check_rows_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.similarity import RADIUS, SimilarityInputs
 from stereo_obstacles.thread_pool import run_in_threads
 
-__all__ = ["shifted_window_check"]
+__all__ = ["STRIPS_PER_THREAD", "ShiftedWindowCheck", "shifted_window_check"]
+
+STRIPS_PER_THREAD = 4
+""":func:`shifted_window_check` cuts the rows into this many strips per thread, dealt out in
+turn: matches next to depth edges bunch in some rows, and one strip per thread left one thread
+with up to 60 % of the work (Teddy)."""
+
+_SQUARE = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
+
+
+class ShiftedWindowCheck:
+    """The shifted-window check of one image's final matches, filled in and run by rows.
+
+    :meth:`add` writes matches into integer disparity maps of the whole image; :meth:`check_rows`
+    then checks the matches of a strip of rows, once every match of those rows and of the
+    :data:`RADIUS` rows on each side has been added. Calls on disjoint rows may run in parallel
+    threads (the kernels release the GIL and write only their own rows). The verdicts do not
+    depend on how the rows are cut.
+
+    Parameters
+    ----------
+    inputs : SimilarityInputs
+        Prepared images, shape (H, W).
+    """
+
+    def __init__(self, inputs: SimilarityInputs) -> None:
+        h, w = inputs.shape
+        self.inputs = inputs
+        self.d_map = np.full((h, w), -1, np.int32)
+        self._for_max = np.full((h, w), -1.0, np.float32)
+        self._for_min = np.full((h, w), np.inf, np.float32)
+        self.rejected = np.zeros((h, w), np.bool_)
+
+    def add(self, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> None:
+        """Add matches: left pixels ``(x, y)`` (int, shape (N,), each at most once over all calls)
+        with integer disparities ``d`` in pixels (>= 0, right pixel ``x - d`` inside the image)."""
+        ys, xs, ds = (np.ascontiguousarray(a, np.int64).ravel() for a in (y, x, d))
+        if not ys.shape == xs.shape == ds.shape:
+            raise InvalidInputError(f"y, x, d: expected one length, got {ys.shape}, {xs.shape}, {ds.shape}")
+        status = _add_matches(ys, xs, ds, self.d_map, self._for_max, self._for_min)
+        if status == MAPS_OUTSIDE:
+            h, w = self.d_map.shape
+            raise InvalidInputError(f"y, x, d: expected matches inside the {w}x{h} image with d >= 0 and x - d >= 0")
+        if status == MAPS_REPEATED:
+            raise InvalidInputError("y, x: expected each left pixel at most once")
+
+    def check_rows(self, lo: int, hi: int) -> int:
+        """Check the matches of image rows ``[lo, hi)`` (their verdicts go to :attr:`rejected`);
+        returns how many had a neighbouring disparity to compare with."""
+        h = self.d_map.shape[0]
+        if not 0 <= lo <= hi <= h:
+            raise InvalidInputError(f"lo, hi: expected 0 <= lo <= hi <= {h}, got {lo}, {hi}")
+        if lo == hi:
+            return 0
+        # smallest and largest disparity in the square around each pixel of the rows (exact:
+        # disparities < 2^24), from the maps of those rows and the RADIUS rows on each side
+        top, bottom = max(0, lo - RADIUS), min(h, hi + RADIUS)
+        sq_hi = cv2.dilate(self._for_max[top:bottom], _SQUARE, borderType=cv2.BORDER_CONSTANT, borderValue=-1.0)
+        sq_lo = cv2.erode(self._for_min[top:bottom], _SQUARE, borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
+        return _check_rows_kernel(*self.inputs.kernel_args(), self.d_map, sq_lo, sq_hi, top, lo, hi, self.rejected)
+
+    def keep(self, y: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """False for the matches at left pixels ``(x, y)`` the check rejected (bool, shaped like ``y``)."""
+        return ~self.rejected[y, x]
 
 
 def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
@@ -41,8 +108,8 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     d : ndarray of int, shape (N,)
         Integer disparities in pixels (>= 0; the right pixel ``x - d`` inside the image).
     n_threads : int
-        The matches next to a disparity jump are checked in up to this many equal chunks, one
-        thread each (the result does not depend on it).
+        The rows are checked in :data:`STRIPS_PER_THREAD` strips per thread, in up to this many
+        threads (the result does not depend on it).
 
     Returns
     -------
@@ -61,30 +128,18 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     >>> keep.tolist(), n_checked
     ([True], 0)
     """
-    h, w = inputs.shape
     if int(n_threads) != n_threads or n_threads < 1:
         raise InvalidInputError(f"n_threads: expected an integer >= 1, got {n_threads}")
-    ys, xs, ds = (np.ascontiguousarray(a, np.int64).ravel() for a in (y, x, d))
-    if not ys.shape == xs.shape == ds.shape:
-        raise InvalidInputError(f"y, x, d: expected one length, got {ys.shape}, {xs.shape}, {ds.shape}")
-    d_map, for_max, for_min, status = _disparity_maps(ys, xs, ds, h, w)
-    if status == MAPS_OUTSIDE:
-        raise InvalidInputError(f"y, x, d: expected matches inside the {w}x{h} image with d >= 0 and x - d >= 0")
-    if status == MAPS_REPEATED:
-        raise InvalidInputError("y, x: expected each left pixel at most once")
-    # smallest and largest disparity in the square around each pixel (exact: disparities < 2^24)
-    square = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
-    sq_hi = cv2.dilate(for_max, square, borderType=cv2.BORDER_CONSTANT, borderValue=-1.0)
-    sq_lo = cv2.erode(for_min, square, borderType=cv2.BORDER_CONSTANT, borderValue=np.inf)
-    # only the matches next to a jump are handed to the threads, in equal shares (6-10 % of them
-    # on the Middlebury pairs, bunched along depth edges)
-    near_jump = _near_jump(ys, xs, ds, sq_lo, sq_hi)
-    keep = np.ones(ys.size, np.bool_)
-    if near_jump.size == 0:
-        return keep, 0
-    edges = np.linspace(0, near_jump.size, min(int(n_threads), near_jump.size) + 1).astype(int)
-    parts = run_in_threads(_shifted_window_kernel, [
-        (*inputs.kernel_args(), d_map, sq_lo, sq_hi, ys[near_jump[lo:hi]], xs[near_jump[lo:hi]])
-        for lo, hi in zip(edges[:-1], edges[1:])])
-    keep[near_jump] = np.concatenate([p[0] for p in parts])
-    return keep, int(sum(p[1] for p in parts))
+    check = ShiftedWindowCheck(inputs)
+    check.add(y, x, d)
+    h = inputs.shape[0]
+    n_threads = int(n_threads)
+    n_strips = 1 if n_threads == 1 else STRIPS_PER_THREAD * n_threads
+    edges = [round(i * h / n_strips) for i in range(n_strips + 1)]
+    strips = list(zip(edges[:-1], edges[1:]))
+    counts = run_in_threads(_check_strips, [(check, strips[t::n_threads]) for t in range(min(n_threads, n_strips))])
+    return check.keep(np.asarray(y).ravel(), np.asarray(x).ravel()), sum(counts)
+
+
+def _check_strips(check: ShiftedWindowCheck, strips: list[tuple[int, int]]) -> int:
+    return sum(check.check_rows(lo, hi) for lo, hi in strips)

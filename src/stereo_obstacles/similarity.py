@@ -118,6 +118,14 @@ class SimilarityInputs:
         """Image shape ``(H, W)``."""
         return self.mean_l.shape
 
+    def rows(self, lo: int, hi: int) -> "SimilarityInputs":
+        """The prepared images of image rows ``[lo, hi)``, as views (the padded images keep the
+        :data:`RADIUS` border rows around them, so windows centred on those rows read the same
+        pixels as in the whole image)."""
+        pad = 2 * RADIUS
+        return SimilarityInputs(self.left_pad[lo:hi + pad], self.right_pad[lo:hi + pad], self.mean_l[lo:hi],
+                                self.norm_l[lo:hi], self.mean_r[lo:hi], self.norm_r[lo:hi], self.kind)
+
     def kernel_args(self) -> tuple:
         """The arrays and code in the order the kernels take them."""
         return (self.left_pad, self.right_pad, self.mean_l, self.norm_l, self.mean_r, self.norm_r,
