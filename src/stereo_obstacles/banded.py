@@ -175,11 +175,14 @@ def _match_band(inputs, seeds, scanned_hi, band, rows, options, strips, t_start)
                            0, 0)
         growth = grow(inputs.rows(lo, hi), band_seeds, scanned_hi=scanned_hi[lo:hi], **options["grow"])
         t_grown = time.perf_counter() - t_start
-        own = (growth.y >= own_lo - lo) & (growth.y < own_hi - lo)
-        y, x, xr, c = growth.y[own], growth.x[own], growth.x_right[own], growth.similarity[own]
+        # index lists and take(): a boolean mask that keeps ~60 % of the entries at random (the
+        # winners) indexes several times slower, 0.8 ms per array on Teddy
+        own = np.flatnonzero((growth.y >= own_lo - lo) & (growth.y < own_hi - lo))
+        y, x, xr, c = (a.take(own) for a in (growth.y, growth.x, growth.x_right, growth.similarity))
         if not options["greedy"]:
-            won = stable_matching(y, x, xr, c, (hi - lo, inputs.shape[1]), margin=options["final_margin"])
-            y, x, xr, c = y[won], x[won], xr[won], c[won]
+            won = np.flatnonzero(stable_matching(y, x, xr, c, (hi - lo, inputs.shape[1]),
+                                                 margin=options["final_margin"]))
+            y, x, xr, c = (a.take(won) for a in (y, x, xr, c))
         t_matched = time.perf_counter() - t_start
         y_image = (y + lo).astype(np.int32)
         if strips is not None:
@@ -193,7 +196,7 @@ def _match_band(inputs, seeds, scanned_hi, band, rows, options, strips, t_start)
     offset = parabola_offset(c_minus, c, c_plus)
     if strips is not None:
         strips.work(wait=True)  # the strips of bands still growing
-    counts = (int(own.sum()), growth.n_computed, growth.n_rescanned, growth.n_overflow)
+    counts = (own.size, growth.n_computed, growth.n_rescanned, growth.n_overflow)
     return y_image, x, xr, c, offset, counts, t_grown, t_matched
 
 
@@ -248,6 +251,7 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
         n_checked, n_rejected = strips.n_checked, int(keep.size - np.count_nonzero(keep))
         checked_seconds = strips.last_end - t_start
         if n_rejected:
-            y, x, xr, c, offset = (a[keep] for a in (y, x, xr, c, offset))
+            kept = np.flatnonzero(keep)
+            y, x, xr, c, offset = (a.take(kept) for a in (y, x, xr, c, offset))
     return BandedMatch(y, x, xr, c, offset, *counts, n_checked, n_rejected, max(p[6] for p in parts),
                        matched_seconds, checked_seconds)

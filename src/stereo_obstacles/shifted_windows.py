@@ -31,10 +31,11 @@ from stereo_obstacles.thread_pool import run_in_threads
 
 __all__ = ["STRIPS_PER_THREAD", "ShiftedWindowCheck", "shifted_window_check"]
 
-STRIPS_PER_THREAD = 4
-""":func:`shifted_window_check` cuts the rows into this many strips per thread, dealt out in
-turn: matches next to depth edges bunch in some rows, and one strip per thread left one thread
-with up to 60 % of the work (Teddy)."""
+STRIPS_PER_THREAD = 8
+"""Strips of rows per thread (:func:`shifted_window_check`, dealt out in turn) and per row band
+(:mod:`stereo_obstacles.banded`, taken by whichever thread is free). Matches next to depth edges
+bunch in some rows: one strip per thread left one thread with up to 60 % of the work, and with
+4 per band the last strip of Teddy's bottom rows alone took 1.9 ms (1.1 ms with 8)."""
 
 _SQUARE = np.ones((2 * RADIUS + 1, 2 * RADIUS + 1), np.uint8)
 
