@@ -148,14 +148,16 @@ def test_bands_run_one_after_the_other_on_a_pool_thread():
 
 
 def test_a_failing_band_ends_the_call(monkeypatch):
-    """A band that raises wakes the band waiting for its matches; the error reaches the caller."""
-    import stereo_obstacles.banded as banded
+    """A band that raises wakes the band waiting for its matches, a piece of final matching that
+    raises on another thread reaches its band; the error reaches the caller."""
+    from stereo_obstacles.stable_matching import RowMatching
+    match_rows = RowMatching.match_rows
 
-    def failing_on_the_pool(y, *args, **kwargs):
+    def failing_on_the_pool(self, lo, hi):
         if threading.current_thread().name.startswith("gcs-band"):
-            raise RuntimeError("band failed")
-        return stable_matching(y, *args, **kwargs)
+            raise RuntimeError("piece failed")
+        return match_rows(self, lo, hi)
 
-    monkeypatch.setattr(banded, "stable_matching", failing_on_the_pool)
-    with pytest.raises(RuntimeError, match="band failed"):
+    monkeypatch.setattr(RowMatching, "match_rows", failing_on_the_pool)
+    with pytest.raises(RuntimeError, match="piece failed"):
         _within(120, lambda: _checked_bands(2))

@@ -9,7 +9,7 @@ import gcs_reference as ref
 from stereo_obstacles.growing import QUEUE_BUCKETS, grow
 from stereo_obstacles.seeds import Seeds, find_seeds, match_pixels
 from stereo_obstacles.similarity import prepare_similarity, similarity_at
-from stereo_obstacles.stable_matching import stable_matching
+from stereo_obstacles.stable_matching import RowMatching, stable_matching
 
 
 STEP = 0.5 / 32767 + 1e-6
@@ -108,11 +108,16 @@ def test_memo_cap_stores_no_more_points_and_keeps_the_table_right(monkeypatch):
         np.testing.assert_allclose(g.similarity, similarity_at(inputs, g.y, g.x, g.x_right), atol=STEP)
 
 
-def test_growth_recovers_layers_and_leaves_occlusion():
+def _layers_grown():
+    """The two-layer scene (24 x 40) and its growth from Canny seeds."""
     left, right = _scene(seed=3, shape=(24, 40))
     inputs = prepare_similarity(left, right)
     seeds = find_seeds(inputs, left, "canny", d_min=0, d_max=9, tau=0.6, margin=0.1)
-    growth = grow(inputs, seeds, d_min=0, d_max=9)
+    return left, grow(inputs, seeds, d_min=0, d_max=9)
+
+
+def test_growth_recovers_layers_and_leaves_occlusion():
+    left, growth = _layers_grown()
     won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, left.shape)
     d = np.full(left.shape, -1)
     d[growth.y[won], growth.x[won]] = growth.x[won] - growth.x_right[won]
@@ -166,6 +171,26 @@ def test_stable_matching_uniqueness_and_errors():
     assert {tuple(int(v) for v in k) for k in w} == ref.stable_matching(table, margin=0.05)
     with pytest.raises(ValueError, match="inside"):
         stable_matching(np.array([9]), np.array([1]), np.array([1]), np.array([0.9]), (5, 30))
+
+
+def test_row_ranges_matched_in_any_order_give_the_whole_matching():
+    left, g = _layers_grown()
+    whole = stable_matching(g.y, g.x, g.x_right, g.similarity, left.shape)
+    assert whole.sum() > 0.5 * left.size
+    for cuts in ([0, 24], [0, 7, 8, 24], [0, 1, 12, 13, 23, 24]):
+        pieces = RowMatching(g.y, g.x, g.x_right, g.similarity, left.shape)
+        for lo, hi in reversed(list(zip(cuts[:-1], cuts[1:]))):
+            pieces.match_rows(lo, hi)
+        np.testing.assert_array_equal(pieces.winner, whole)
+    part = RowMatching(g.y, g.x, g.x_right, g.similarity, left.shape)
+    part.match_rows(5, 9)
+    in_rows = (g.y >= 5) & (g.y < 9)
+    np.testing.assert_array_equal(part.winner, whole & in_rows)
+    assert part.n_candidates(5, 9) == in_rows.sum() and part.n_candidates(0, 24) == g.y.size
+    with pytest.raises(ValueError, match="lo, hi"):
+        part.match_rows(9, 5)
+    with pytest.raises(ValueError, match="lo, hi"):
+        part.match_rows(0, 25)
 
 
 def test_points_of_seed_scanlines_are_not_counted_twice():

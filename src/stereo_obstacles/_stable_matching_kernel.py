@@ -78,26 +78,26 @@ def _link_by(col, head, link):
 
 
 @njit(cache=CACHE, nogil=True)
-def _stable_matching_kernel(t_y, t_x, t_xr, t_c, h, w, margin):
-    """Winners of the confidently stable matching, row by row (see ``stable_matching.py``).
+def _stable_matching_kernel(t_x, t_xr, t_c, row_start, by_row, w, margin, row_lo, row_hi, winner):
+    """Winners of the confidently stable matching (see ``stable_matching.py``) of rows
+    ``[row_lo, row_hi)``, written into ``winner`` (bool (N,), False on entry); the candidates of
+    row y are ``by_row[row_start[y]:row_start[y + 1]]`` (:func:`_rows`).
 
     Each row's candidates are copied, best first, into small local arrays (the table is in
     growth order, so a row's candidates are scattered over it); the candidates sharing a left
     (right) pixel are linked lists through those arrays, so a row costs O(its candidates), not
     O(W). Serial: rows in parallel (``prange``) were slower on the shared 2-core machine (Cones,
     172 k candidates: 19.8 ms wall with two threads, 16.9 ms with one); the row bands run it in
-    parallel instead.
+    parallel instead, and hand pieces of rows to idle threads (``banded.py``).
     """
-    n = t_y.shape[0]
-    row_start, by_row = _rows(t_y, h)
-    winner = np.zeros(n, np.bool_)
+    n = t_x.shape[0]
     done_l = np.zeros(w, np.bool_)
     done_r = np.zeros(w, np.bool_)
     head_l = np.full(w, -1, np.int64)
     head_r = np.full(w, -1, np.int64)
     link_l = np.empty(n, np.int64)
     link_r = np.empty(n, np.int64)
-    for y in range(h):
+    for y in range(row_lo, row_hi):
         cand = by_row[row_start[y]:row_start[y + 1]]
         m = cand.shape[0]
         if m == 0:
@@ -135,4 +135,3 @@ def _stable_matching_kernel(t_y, t_x, t_xr, t_c, h, w, margin):
             done_r[lxr[k]] = False
             head_l[lx[k]] = -1
             head_r[lxr[k]] = -1
-    return winner

@@ -4,13 +4,16 @@ The image is cut into ``n_bands`` bands of equal height. Each band is grown on i
 (:func:`stereo_obstacles.growing.grow` on a view of the prepared images) from the seeds inside
 it, over its own rows plus ``overlap`` rows of each neighbour, so that a surface reaching into a
 band from a seed just across the border is still grown. The candidates of the rows a band owns
-then go through the (row-independent) confidently stable matching and the subpixel look-ups of
-that band. The shifted-window check (:mod:`stereo_obstacles.shifted_windows`) runs in strips of
-rows that the band threads take as soon as the final matches around a strip are in: a band
-that finishes growing first checks its own rows while the other still grows, then shares the
-other band's strips with it. Its verdicts are those of one check over the whole image. A band
-sees neither the candidates nor the ``mu`` and cap bookkeeping of the other
-band beyond the overlap: the result is close to, not equal to, one growth over the whole image
+then go through the (row-independent) confidently stable matching, the shifted-window check
+(:mod:`stereo_obstacles.shifted_windows`) and the subpixel look-ups of that band.
+
+The growth of the bands takes unequal times (Teddy: 13.6 and 19.8 ms), so the work after it is
+cut into pieces any thread may take (:class:`_SharedWork`): a band's final matching in
+:data:`FINAL_PIECES` pieces of rows, and the check in strips of rows handed out as soon as the
+final matches around a strip are in. A thread that has finished its band takes the pieces and
+strips of the band still running, and does its own subpixel look-ups last. Neither the winners
+nor the verdicts depend on who runs what. A band sees neither the candidates nor the ``mu`` and
+cap bookkeeping of the other band beyond the overlap: the result is close to, not equal to, one growth over the whole image
 (measured in ``docs/matching.md``). One band is the published single-queue growth.
 
 The kernels release the GIL (``nogil``); the first band runs on the calling thread and the
@@ -30,11 +33,11 @@ from stereo_obstacles.growing import grow
 from stereo_obstacles.seeds import Seeds
 from stereo_obstacles.shifted_windows import STRIPS_PER_THREAD, ShiftedWindowCheck
 from stereo_obstacles.similarity import RADIUS, SimilarityInputs
-from stereo_obstacles.stable_matching import stable_matching
+from stereo_obstacles.stable_matching import RowMatching
 from stereo_obstacles.subpixel import parabola_offset
 from stereo_obstacles.thread_pool import run_in_threads
 
-__all__ = ["BandedMatch", "BAND_OVERLAP", "band_rows", "match_bands"]
+__all__ = ["BandedMatch", "BAND_OVERLAP", "FINAL_PIECES", "band_rows", "match_bands"]
 
 BAND_OVERLAP = 16
 """Rows of each neighbouring band a band also grows over (see ``docs/matching.md``)."""
@@ -107,96 +110,155 @@ def band_rows(h: int, n_bands: int, overlap: int) -> list[tuple[int, int, int, i
     return [(lo, hi, max(0, lo - overlap), min(h, hi + overlap)) for lo, hi in zip(edges[:-1], edges[1:])]
 
 
-class _CheckStrips:
-    """The shifted-window check's strips of rows, handed out to the band threads.
+FINAL_PIECES = 4
+"""Pieces of rows a band's final matching is cut into; a thread that has finished its own band
+takes pieces of a band still matching (Teddy: the band grown last matched in 2.6 ms alone)."""
 
-    Each band's own rows are cut into :data:`~stereo_obstacles.shifted_windows.STRIPS_PER_THREAD`
-    strips; a strip can be checked once every band owning one of its rows or of the ``RADIUS``
-    rows around it has added its final matches. A thread waits for a strip only while a band it
-    needs is running (so a call whose bands run one after the other on one thread never waits).
+
+class _SharedWork:
+    """Work the band threads hand each other once their growth is done.
+
+    Tasks are pieces of a band's final matching (owned by the band, which waits for them) and
+    strips of the shifted-window check (:data:`~stereo_obstacles.shifted_windows.STRIPS_PER_THREAD`
+    per band; a strip is handed out once every band owning one of its rows or of the ``RADIUS``
+    rows around it has added its final matches). A thread waits for work only while a band is
+    still running, so that a call whose bands run one after the other on one thread never waits.
     """
 
-    def __init__(self, inputs: SimilarityInputs, bands: list[tuple[int, int, int, int]]) -> None:
-        self.check = ShiftedWindowCheck(inputs)
-        self.todo = []
-        for own_lo, own_hi, _, _ in bands:
+    def __init__(self, inputs: SimilarityInputs, bands: list[tuple[int, int, int, int]], check: bool) -> None:
+        self.check = ShiftedWindowCheck(inputs) if check else None
+        self._strips = []
+        for own_lo, own_hi, _, _ in bands if check else []:
             edges = [own_lo + round(i * (own_hi - own_lo) / STRIPS_PER_THREAD) for i in range(STRIPS_PER_THREAD + 1)]
             for lo, hi in zip(edges[:-1], edges[1:]):
                 if hi > lo:
-                    needs = [b for b, rows in enumerate(bands) if rows[0] < hi + RADIUS and rows[1] > lo - RADIUS]
-                    self.todo.append((lo, hi, needs))
+                    needs = {b for b, rows in enumerate(bands) if rows[0] < hi + RADIUS and rows[1] > lo - RADIUS}
+                    self._strips.append((lo, hi, needs))
         self.state = ["waiting"] * len(bands)
+        self._added = set()
+        self._pending = []  # (owning band or None, task)
         self.n_checked = 0
-        self.last_end = 0.0
+        self.last_check_end = 0.0
         self._changed = threading.Condition()
 
     def set_state(self, band: int, state: str) -> None:
-        """Mark a band ``"running"``, ``"added"`` or ``"failed"``, waking the waiting threads."""
+        """Mark a band ``"running"`` (it may hand out more work), ``"done"`` or ``"failed"``."""
         with self._changed:
             self.state[band] = state
             self._changed.notify_all()
 
-    def add(self, band: int, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> None:
-        """Add a band's final matches (image rows)."""
-        self.check.add(y, x, d)
-        self.set_state(band, "added")
+    def _take(self, owner):
+        for k, (task_owner, task) in enumerate(self._pending):
+            if owner is None or task_owner == owner:
+                del self._pending[k]
+                return task
+        return None
 
-    def _next_strip(self, wait: bool):
-        with self._changed:
-            while self.todo:
-                for k, (lo, hi, needs) in enumerate(self.todo):
-                    if all(self.state[b] == "added" for b in needs):
-                        del self.todo[k]
-                        return lo, hi
-                pending = {self.state[b] for _, _, needs in self.todo for b in needs}
-                if not wait or "running" not in pending or "failed" in pending:
-                    return None
-                self._changed.wait()
-            return None
-
-    def work(self, *, wait: bool) -> None:
-        """Check every strip that is ready; with ``wait``, also those whose bands are still running."""
-        while (strip := self._next_strip(wait)) is not None:
-            n = self.check.check_rows(*strip)
+    def _run(self, task) -> None:
+        try:
+            task()
+        finally:
             with self._changed:
-                self.n_checked += n
-                self.last_end = max(self.last_end, time.perf_counter())
+                self._changed.notify_all()
+
+    def final_matching(self, band: int, y, x, xr, c, shape, rows, margin: float) -> tuple[np.ndarray, int]:
+        """Winners of the stable matching of a band's candidates (band coordinates) in rows
+        ``rows = (lo, hi)`` (indices into the candidates) and the number of candidates in those
+        rows. The rows are matched in :data:`FINAL_PIECES` pieces that idle threads may take; the
+        calling thread runs the pieces nobody took and waits for the others."""
+        matching = RowMatching(y, x, xr, c, shape, margin=margin)
+        lo, hi = rows
+        edges = [lo + round(i * (hi - lo) / FINAL_PIECES) for i in range(FINAL_PIECES + 1)]
+        outcome = [None] * FINAL_PIECES  # True, or the error a piece raised (re-raised here)
+
+        def piece(k):
+            try:
+                matching.match_rows(edges[k], edges[k + 1])
+                outcome[k] = True
+            except BaseException as error:
+                outcome[k] = error
+
+        with self._changed:
+            self._pending.extend((band, lambda k=k: piece(k)) for k in range(FINAL_PIECES))
+            self._changed.notify_all()
+        while True:
+            with self._changed:
+                task = self._take(band)
+                while task is None and None in outcome:
+                    self._changed.wait()
+                    task = self._take(band)
+            if task is None:
+                break
+            self._run(task)
+        for result in outcome:
+            if isinstance(result, BaseException):
+                raise result
+        return np.flatnonzero(matching.winner), matching.n_candidates(lo, hi)
+
+    def add(self, band: int, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> None:
+        """Add a band's final matches (image rows) to the check and hand out the strips that
+        became ready."""
+        self.check.add(y, x, d)
+        with self._changed:
+            self._added.add(band)
+            ready = [strip for strip in self._strips if strip[2] <= self._added]
+            self._strips = [strip for strip in self._strips if not strip[2] <= self._added]
+            self._pending.extend((None, lambda lo=lo, hi=hi: self._check(lo, hi)) for lo, hi, _ in ready)
+            self._changed.notify_all()
+
+    def _check(self, lo: int, hi: int) -> None:
+        n = self.check.check_rows(lo, hi)
+        with self._changed:
+            self.n_checked += n
+            self.last_check_end = max(self.last_check_end, time.perf_counter())
+
+    def help(self, *, wait: bool) -> None:
+        """Run handed-out work of any band; with ``wait``, also what bands still running hand out."""
+        while True:
+            with self._changed:
+                task = self._take(None)
+                while task is None and wait and "running" in self.state:
+                    self._changed.wait()
+                    task = self._take(None)
+            if task is None:
+                return
+            self._run(task)
 
 
-def _match_band(inputs, seeds, scanned_hi, band, rows, options, strips, t_start):
+def _match_band(inputs, seeds, scanned_hi, band, rows, options, work, t_start):
     """Grow one band, match its own rows, hand the matches to the check; returns arrays in
     image rows, counters and stage end times."""
     own_lo, own_hi, lo, hi = rows
-    if strips is not None:
-        strips.set_state(band, "running")
+    work.set_state(band, "running")
     try:
         inside = (seeds.y >= lo) & (seeds.y < hi)
         band_seeds = Seeds(seeds.y[inside] - lo, seeds.x[inside], seeds.x_right[inside], seeds.similarity[inside],
                            0, 0)
         growth = grow(inputs.rows(lo, hi), band_seeds, scanned_hi=scanned_hi[lo:hi], **options["grow"])
         t_grown = time.perf_counter() - t_start
+        table = (growth.y, growth.x, growth.x_right, growth.similarity)
+        own_rows = (own_lo - lo, own_hi - lo)
+        if options["greedy"]:
+            kept = np.flatnonzero((growth.y >= own_rows[0]) & (growth.y < own_rows[1]))
+            n_own = kept.size
+        else:
+            kept, n_own = work.final_matching(band, *table, (hi - lo, inputs.shape[1]), own_rows,
+                                              options["final_margin"])
         # index lists and take(): a boolean mask that keeps ~60 % of the entries at random (the
         # winners) indexes several times slower, 0.8 ms per array on Teddy
-        own = np.flatnonzero((growth.y >= own_lo - lo) & (growth.y < own_hi - lo))
-        y, x, xr, c = (a.take(own) for a in (growth.y, growth.x, growth.x_right, growth.similarity))
-        if not options["greedy"]:
-            won = np.flatnonzero(stable_matching(y, x, xr, c, (hi - lo, inputs.shape[1]),
-                                                 margin=options["final_margin"]))
-            y, x, xr, c = (a.take(won) for a in (y, x, xr, c))
+        y, x, xr, c = (a.take(kept) for a in table)
         t_matched = time.perf_counter() - t_start
         y_image = (y + lo).astype(np.int32)
-        if strips is not None:
-            strips.add(band, y_image, x, x - xr)
-            strips.work(wait=False)
+        if work.check is not None:
+            work.add(band, y_image, x, x - xr)
     except BaseException:
-        if strips is not None:
-            strips.set_state(band, "failed")
+        work.set_state(band, "failed")
         raise
+    work.set_state(band, "done")
+    work.help(wait=True)  # and what the bands still running hand out (their subpixel look-ups wait)
     c_minus, c_plus = growth.side_similarities(y, x, x - xr)
     offset = parabola_offset(c_minus, c, c_plus)
-    if strips is not None:
-        strips.work(wait=True)  # the strips of bands still growing
-    counts = (own.size, growth.n_computed, growth.n_rescanned, growth.n_overflow)
+    counts = (n_own, growth.n_computed, growth.n_rescanned, growth.n_overflow)
     return y_image, x, xr, c, offset, counts, t_grown, t_matched
 
 
@@ -237,19 +299,19 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     options = {"grow": dict(d_min=d_min, d_max=d_max, tau=tau, mu=mu, max_candidates=max_candidates,
                             margin_reference=margin_reference, greedy=greedy),
                "greedy": greedy, "final_margin": final_margin}
-    strips = _CheckStrips(inputs, bands) if shifted_windows else None
+    work = _SharedWork(inputs, bands, bool(shifted_windows))
     t_start = time.perf_counter()
-    parts = run_in_threads(_match_band, [(inputs, seeds, scanned_hi, band, rows, options, strips, t_start)
+    parts = run_in_threads(_match_band, [(inputs, seeds, scanned_hi, band, rows, options, work, t_start)
                                          for band, rows in enumerate(bands)])
     y, x, xr, c, offset = (np.concatenate([p[k] for p in parts]) for k in range(5))
     counts = [int(v) for v in np.sum([p[5] for p in parts], axis=0)]
     matched_seconds = max(p[7] for p in parts)
     n_checked = n_rejected = 0
     checked_seconds = matched_seconds
-    if strips is not None:
-        keep = strips.check.keep(y, x)
-        n_checked, n_rejected = strips.n_checked, int(keep.size - np.count_nonzero(keep))
-        checked_seconds = strips.last_end - t_start
+    if work.check is not None:
+        keep = work.check.keep(y, x)
+        n_checked, n_rejected = work.n_checked, int(keep.size - np.count_nonzero(keep))
+        checked_seconds = work.last_check_end - t_start
         if n_rejected:
             kept = np.flatnonzero(keep)
             y, x, xr, c, offset = (a.take(kept) for a in (y, x, xr, c, offset))

@@ -22,15 +22,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from stereo_obstacles._stable_matching_kernel import _stable_matching_kernel
+from stereo_obstacles._stable_matching_kernel import _rows, _stable_matching_kernel
 from stereo_obstacles.errors import InvalidInputError
 
-__all__ = ["stable_matching"]
+__all__ = ["RowMatching", "stable_matching"]
 
 
-def stable_matching(y: np.ndarray, x: np.ndarray, x_right: np.ndarray, similarity: np.ndarray,
-                    shape: tuple[int, int], *, margin: float = 0.1) -> np.ndarray:
-    """Which candidates win the confidently stable matching.
+class RowMatching:
+    """The confidently stable matching of a candidate table, run row range by row range.
+
+    The candidates are grouped by row once; :meth:`match_rows` then matches any range of rows
+    (rows are independent, so calls on disjoint ranges may run in parallel threads, and
+    together they give the winners of one call over every row).
 
     Parameters
     ----------
@@ -41,6 +44,47 @@ def stable_matching(y: np.ndarray, x: np.ndarray, x_right: np.ndarray, similarit
         Image shape; every coordinate must lie inside it.
     margin : float
         Relative confidence margin (>= 0).
+
+    Attributes
+    ----------
+    winner : ndarray of bool, shape (N,)
+        True for the winners of the rows matched so far.
+    """
+
+    def __init__(self, y: np.ndarray, x: np.ndarray, x_right: np.ndarray, similarity: np.ndarray,
+                 shape: tuple[int, int], *, margin: float = 0.1) -> None:
+        h, w = shape
+        ys, xs, xrs = (np.ascontiguousarray(a, np.int32) for a in (y, x, x_right))
+        c = np.ascontiguousarray(similarity, np.float32)
+        if any(a.shape != c.shape or a.ndim != 1 for a in (ys, xs, xrs)):
+            raise InvalidInputError("y, x, x_right, similarity: expected 1-D arrays of one length")
+        if not margin >= 0.0:
+            raise InvalidInputError(f"margin: expected >= 0, got {margin}")
+        if c.size and (ys.min() < 0 or ys.max() >= h
+                       or min(xs.min(), xrs.min()) < 0 or max(xs.max(), xrs.max()) >= w):
+            raise InvalidInputError(f"candidates: expected coordinates inside the {w}x{h} image")
+        self.shape = (h, w)
+        self.winner = np.zeros(c.shape, np.bool_)
+        self._table = (xs, xrs, c, *_rows(ys, h))
+        self._margin = float(margin)
+
+    def n_candidates(self, lo: int, hi: int) -> int:
+        """Number of candidates in rows ``[lo, hi)``."""
+        row_start = self._table[3]
+        return int(row_start[hi] - row_start[lo])
+
+    def match_rows(self, lo: int, hi: int) -> None:
+        """Match the candidates of rows ``[lo, hi)`` (their winners go to :attr:`winner`)."""
+        h, w = self.shape
+        if not 0 <= lo <= hi <= h:
+            raise InvalidInputError(f"lo, hi: expected 0 <= lo <= hi <= {h}, got {lo}, {hi}")
+        _stable_matching_kernel(*self._table, w, self._margin, int(lo), int(hi), self.winner)
+
+
+def stable_matching(y: np.ndarray, x: np.ndarray, x_right: np.ndarray, similarity: np.ndarray,
+                    shape: tuple[int, int], *, margin: float = 0.1) -> np.ndarray:
+    """Which candidates win the confidently stable matching (every row at once; the parameters
+    are those of :class:`RowMatching`).
 
     Returns
     -------
@@ -54,14 +98,6 @@ def stable_matching(y: np.ndarray, x: np.ndarray, x_right: np.ndarray, similarit
     ...                 np.array([0.9, 0.5]), (1, 8)).tolist()
     [True, False]
     """
-    h, w = shape
-    arrays = [np.ascontiguousarray(a, np.int32) for a in (y, x, x_right)]
-    c = np.ascontiguousarray(similarity, np.float32)
-    if any(a.shape != c.shape or a.ndim != 1 for a in arrays):
-        raise InvalidInputError("y, x, x_right, similarity: expected 1-D arrays of one length")
-    if not margin >= 0.0:
-        raise InvalidInputError(f"margin: expected >= 0, got {margin}")
-    if c.size and (arrays[0].min() < 0 or arrays[0].max() >= h
-                   or min(arrays[1].min(), arrays[2].min()) < 0 or max(arrays[1].max(), arrays[2].max()) >= w):
-        raise InvalidInputError(f"candidates: expected coordinates inside the {w}x{h} image")
-    return _stable_matching_kernel(*arrays, c, h, w, float(margin))
+    matching = RowMatching(y, x, x_right, similarity, shape, margin=margin)
+    matching.match_rows(0, matching.shape[0])
+    return matching.winner
