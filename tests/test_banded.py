@@ -55,6 +55,9 @@ def test_one_band_is_the_single_growth():
     won = stable_matching(growth.y, growth.x, growth.x_right, growth.similarity, left.shape, margin=0.1)
     y, x, xr, c = growth.y[won], growth.x[won], growth.x_right[won], growth.similarity[won]
     c_minus, c_plus = growth.side_similarities(y, x, x - xr)
+    assert np.all(np.diff(banded.y) >= 0)  # the bands give their matches row by row
+    in_rows = np.argsort(y, kind="stable")  # and, inside a row, in table order
+    y, x, xr, c, c_minus, c_plus = (a[in_rows] for a in (y, x, xr, c, c_minus, c_plus))
     np.testing.assert_array_equal(banded.y, y)
     np.testing.assert_array_equal(banded.x, x)
     np.testing.assert_array_equal(banded.x_right, xr)

@@ -49,7 +49,7 @@ class BandedMatch:
     Attributes
     ----------
     y, x, x_right : ndarray of int32, shape (M,)
-        Matches: left ``(x, y)`` with right ``(x_right, y)``.
+        Matches: left ``(x, y)`` with right ``(x_right, y)``, row by row.
     similarity : ndarray of float32, shape (M,)
         Similarity of each match (as stored by the growth).
     offset : ndarray of float32, shape (M,)
@@ -161,20 +161,26 @@ class _SharedWork:
             with self._changed:
                 self._changed.notify_all()
 
-    def final_matching(self, band: int, y, x, xr, c, shape, rows, margin: float) -> tuple[np.ndarray, int]:
-        """Winners of the stable matching of a band's candidates (band coordinates) in rows
-        ``rows = (lo, hi)`` (indices into the candidates) and the number of candidates in those
-        rows. The rows are matched in :data:`FINAL_PIECES` pieces that idle threads may take; the
-        calling thread runs the pieces nobody took and waits for the others."""
+    def final_matching(self, band: int, y, x, xr, c, shape, rows, margin: float,
+                       row_offset: int) -> tuple[np.ndarray, int]:
+        """Winners of the stable matching of a band's candidates (band coordinates, image row =
+        band row + ``row_offset``) in rows ``rows = (lo, hi)``, as indices into the candidates in
+        row order, and the number of candidates in those rows. The rows are matched in
+        :data:`FINAL_PIECES` pieces that idle threads may take, each adding its winners to the
+        check; the calling thread runs the pieces nobody took and waits for the others."""
         matching = RowMatching(y, x, xr, c, shape, margin=margin)
         lo, hi = rows
         edges = [lo + round(i * (hi - lo) / FINAL_PIECES) for i in range(FINAL_PIECES + 1)]
-        outcome = [None] * FINAL_PIECES  # True, or the error a piece raised (re-raised here)
+        outcome = [None] * FINAL_PIECES  # the piece's winners, or the error it raised (re-raised here)
 
         def piece(k):
             try:
                 matching.match_rows(edges[k], edges[k + 1])
-                outcome[k] = True
+                won = matching.winners(edges[k], edges[k + 1])
+                if self.check is not None:
+                    won_x = x.take(won)
+                    self.check.add(y.take(won) + row_offset, won_x, won_x - xr.take(won))
+                outcome[k] = won
             except BaseException as error:
                 outcome[k] = error
 
@@ -184,7 +190,7 @@ class _SharedWork:
         while True:
             with self._changed:
                 task = self._take(band)
-                while task is None and None in outcome:
+                while task is None and any(result is None for result in outcome):
                     self._changed.wait()
                     task = self._take(band)
             if task is None:
@@ -193,12 +199,13 @@ class _SharedWork:
         for result in outcome:
             if isinstance(result, BaseException):
                 raise result
-        return np.flatnonzero(matching.winner), matching.n_candidates(lo, hi)
+        if self.check is not None:
+            self.added(band)
+        return np.concatenate(outcome), matching.n_candidates(lo, hi)
 
-    def add(self, band: int, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> None:
-        """Add a band's final matches (image rows) to the check and hand out the strips that
+    def added(self, band: int) -> None:
+        """Note that every final match of a band is in the check, and hand out the strips that
         became ready."""
-        self.check.add(y, x, d)
         with self._changed:
             self._added.add(band)
             ready = [strip for strip in self._strips if strip[2] <= self._added]
@@ -243,14 +250,15 @@ def _match_band(inputs, seeds, scanned_hi, band, rows, options, work, t_start):
             n_own = kept.size
         else:
             kept, n_own = work.final_matching(band, *table, (hi - lo, inputs.shape[1]), own_rows,
-                                              options["final_margin"])
+                                              options["final_margin"], lo)
+        t_matched = time.perf_counter() - t_start
         # index lists and take(): a boolean mask that keeps ~60 % of the entries at random (the
         # winners) indexes several times slower, 0.8 ms per array on Teddy
         y, x, xr, c = (a.take(kept) for a in table)
-        t_matched = time.perf_counter() - t_start
         y_image = (y + lo).astype(np.int32)
-        if work.check is not None:
-            work.add(band, y_image, x, x - xr)
+        if work.check is not None and options["greedy"]:
+            work.check.add(y_image, x, x - xr)
+            work.added(band)
     except BaseException:
         work.set_state(band, "failed")
         raise

@@ -70,8 +70,12 @@ class RowMatching:
 
     def n_candidates(self, lo: int, hi: int) -> int:
         """Number of candidates in rows ``[lo, hi)``."""
-        row_start = self._table[3]
-        return int(row_start[hi] - row_start[lo])
+        return int(self._table[3][hi] - self._table[3][lo])
+
+    def winners(self, lo: int, hi: int) -> np.ndarray:
+        """Indices (int64) of the winners in rows ``[lo, hi)`` matched so far, row by row."""
+        in_rows = self._table[4][self._table[3][lo]:self._table[3][hi]]
+        return in_rows.take(np.flatnonzero(self.winner.take(in_rows)))
 
     def match_rows(self, lo: int, hi: int) -> None:
         """Match the candidates of rows ``[lo, hi)`` (their winners go to :attr:`winner`)."""
