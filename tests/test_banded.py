@@ -164,3 +164,64 @@ def test_a_failing_band_ends_the_call(monkeypatch):
     monkeypatch.setattr(RowMatching, "match_rows", failing_on_the_pool)
     with pytest.raises(RuntimeError, match="piece failed"):
         _within(120, lambda: _checked_bands(2))
+
+
+def _slow_pool_band(monkeypatch):
+    """The band on the pool thread grows 0.3 s later and matches each piece of rows 0.05 s
+    later, so that the caller's band waits for it and sees its pieces handed out."""
+    import time
+
+    import stereo_obstacles.banded as banded
+    from stereo_obstacles.stable_matching import RowMatching
+    grow, match_rows = banded.grow, RowMatching.match_rows
+
+    def on_the_pool_later(function, seconds):
+        def later(*args, **kwargs):
+            if threading.current_thread().name.startswith("gcs-band"):
+                time.sleep(seconds)
+            return function(*args, **kwargs)
+        return later
+
+    monkeypatch.setattr(banded, "grow", on_the_pool_later(grow, 0.3))
+    monkeypatch.setattr(RowMatching, "match_rows", on_the_pool_later(match_rows, 0.05))
+
+
+def test_an_interrupt_after_taking_another_bands_piece_ends_the_call(monkeypatch):
+    """Ctrl-C may land after a thread has taken a piece of another band's final matching and
+    before it runs it: the band waiting for that piece must not wait for ever."""
+    from stereo_obstacles.banded import _SharedWork
+    _slow_pool_band(monkeypatch)
+    caller = {}
+
+    def interrupted_help(self):
+        if threading.current_thread() is not caller["thread"]:
+            return help_others(self)
+        with self._changed:
+            assert self._changed.wait_for(lambda: any(owner == 1 for owner, _ in self._pending), timeout=30)
+            assert self._take(1) is not None  # a piece of band 1's final matching, now never run
+        raise KeyboardInterrupt("Ctrl-C after taking a piece")
+
+    help_others = _SharedWork.help_others
+    monkeypatch.setattr(_SharedWork, "help_others", interrupted_help)
+
+    def run():
+        caller["thread"] = threading.current_thread()
+        return _checked_bands(2)
+
+    with pytest.raises(KeyboardInterrupt, match="after taking a piece"):
+        _within(60, run)
+
+
+def test_an_interrupt_while_marking_a_band_done_ends_the_call(monkeypatch):
+    from stereo_obstacles.banded import _SharedWork
+    _slow_pool_band(monkeypatch)
+    set_state = _SharedWork.set_state
+
+    def interrupted_set_state(self, band, state):
+        if state == "done" and band == 0:
+            raise KeyboardInterrupt("Ctrl-C while marking band 0 done")
+        return set_state(self, band, state)
+
+    monkeypatch.setattr(_SharedWork, "set_state", interrupted_set_state)
+    with pytest.raises(KeyboardInterrupt, match="marking band 0 done"):
+        _within(60, lambda: _checked_bands(2))

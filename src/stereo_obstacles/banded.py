@@ -12,9 +12,11 @@ cut into pieces any thread may take (:class:`_SharedWork`): a band's final match
 :data:`FINAL_PIECES` pieces of rows, and the check in strips of rows handed out as soon as the
 final matches around a strip are in. A thread that has finished its band takes the pieces and
 strips of the band still running, and does its own subpixel look-ups last. Neither the winners
-nor the verdicts depend on who runs what. A band sees neither the candidates nor the ``mu`` and
-cap bookkeeping of the other band beyond the overlap: the result is close to, not equal to, one growth over the whole image
-(measured in ``docs/matching.md``). One band is the published single-queue growth.
+nor the verdicts depend on who runs what.
+
+A band sees neither the candidates nor the ``mu`` and cap bookkeeping of the other band beyond
+the overlap: the result is close to, not equal to, one growth over the whole image (measured in
+``docs/matching.md``). One band is the published single-queue growth.
 
 The kernels release the GIL (``nogil``); the first band runs on the calling thread and the
 others on a persistent pool, so a call wakes ``n_bands - 1`` idle threads.
@@ -115,6 +117,11 @@ FINAL_PIECES = 4
 takes pieces of a band still matching (Teddy: the band grown last matched in 2.6 ms alone)."""
 
 
+_POLL_S = 0.05
+"""A thread waiting for work wakes at least this often (seconds) to see whether another band has
+failed or was interrupted (a ``KeyboardInterrupt`` may land where no notification follows)."""
+
+
 class _SharedWork:
     """Work the band threads hand each other once their growth is done.
 
@@ -123,28 +130,44 @@ class _SharedWork:
     per band; a strip is handed out once every band owning one of its rows or of the ``RADIUS``
     rows around it has added its final matches). A thread waits for work only while a band is
     still running, so that a call whose bands run one after the other on one thread never waits.
+    A band that fails (or is interrupted) calls :meth:`abort`: no thread waits any longer, and a
+    band waiting for a piece that will not be run raises the first band's error.
     """
 
-    def __init__(self, inputs: SimilarityInputs, bands: list[tuple[int, int, int, int]], check: bool) -> None:
+    def __init__(self, inputs: SimilarityInputs, bands: list[tuple[int, int, int, int]], *, check: bool,
+                 greedy: bool) -> None:
         self.check = ShiftedWindowCheck(inputs) if check else None
         self._strips = []
-        for own_lo, own_hi, _, _ in bands if check else []:
-            edges = [own_lo + round(i * (own_hi - own_lo) / STRIPS_PER_THREAD) for i in range(STRIPS_PER_THREAD + 1)]
-            for lo, hi in zip(edges[:-1], edges[1:]):
-                if hi > lo:
-                    needs = {b for b, rows in enumerate(bands) if rows[0] < hi + RADIUS and rows[1] > lo - RADIUS}
-                    self._strips.append((lo, hi, needs))
+        if check:
+            for own_lo, own_hi, _, _ in bands:
+                edges = [own_lo + round(i * (own_hi - own_lo) / STRIPS_PER_THREAD)
+                         for i in range(STRIPS_PER_THREAD + 1)]
+                for lo, hi in zip(edges[:-1], edges[1:]):
+                    if hi > lo:
+                        needs = {b for b, rows in enumerate(bands)
+                                 if rows[0] < hi + RADIUS and rows[1] > lo - RADIUS}
+                        self._strips.append((lo, hi, needs))
+        self._hands_out = check or not greedy  # otherwise there is never anything to share
         self.state = ["waiting"] * len(bands)
         self._added = set()
         self._pending = []  # (owning band or None, task)
+        self._error = None
         self.n_checked = 0
         self.last_check_end = 0.0
         self._changed = threading.Condition()
 
     def set_state(self, band: int, state: str) -> None:
-        """Mark a band ``"running"`` (it may hand out more work), ``"done"`` or ``"failed"``."""
+        """Mark a band ``"running"`` (it may hand out more work) or ``"done"``."""
         with self._changed:
             self.state[band] = state
+            self._changed.notify_all()
+
+    def abort(self, error: BaseException) -> None:
+        """A band failed with ``error``: stop every wait (plain assignments first: taking the lock
+        may itself be interrupted, and waiting threads poll)."""
+        if self._error is None:
+            self._error = error
+        with self._changed:
             self._changed.notify_all()
 
     def _take(self, owner):
@@ -171,7 +194,7 @@ class _SharedWork:
         matching = RowMatching(y, x, xr, c, shape, margin=margin)
         lo, hi = rows
         edges = [lo + round(i * (hi - lo) / FINAL_PIECES) for i in range(FINAL_PIECES + 1)]
-        outcome = [None] * FINAL_PIECES  # the piece's winners, or the error it raised (re-raised here)
+        outcome = [None] * FINAL_PIECES  # the piece's winners, or the error it raised (raised here)
 
         def piece(k):
             try:
@@ -183,6 +206,8 @@ class _SharedWork:
                 outcome[k] = won
             except BaseException as error:
                 outcome[k] = error
+                if not isinstance(error, Exception):
+                    raise  # an interrupt also stops the thread it landed on
 
         with self._changed:
             self._pending.extend((band, lambda k=k: piece(k)) for k in range(FINAL_PIECES))
@@ -190,8 +215,8 @@ class _SharedWork:
         while True:
             with self._changed:
                 task = self._take(band)
-                while task is None and any(result is None for result in outcome):
-                    self._changed.wait()
+                while task is None and any(result is None for result in outcome) and self._error is None:
+                    self._changed.wait(_POLL_S)
                     task = self._take(band)
             if task is None:
                 break
@@ -199,6 +224,8 @@ class _SharedWork:
         for result in outcome:
             if isinstance(result, BaseException):
                 raise result
+        if any(result is None for result in outcome):
+            raise self._error  # a piece another thread took was never run: that thread failed
         if self.check is not None:
             self.added(band)
         return np.concatenate(outcome), matching.n_candidates(lo, hi)
@@ -219,13 +246,15 @@ class _SharedWork:
             self.n_checked += n
             self.last_check_end = max(self.last_check_end, time.perf_counter())
 
-    def help(self, *, wait: bool) -> None:
-        """Run handed-out work of any band; with ``wait``, also what bands still running hand out."""
+    def help_others(self) -> None:
+        """Run the work any band hands out, waiting for more while a band that may hand some out
+        is still running."""
         while True:
             with self._changed:
                 task = self._take(None)
-                while task is None and wait and "running" in self.state:
-                    self._changed.wait()
+                while (task is None and self._hands_out and "running" in self.state
+                       and self._error is None):
+                    self._changed.wait(_POLL_S)
                     task = self._take(None)
             if task is None:
                 return
@@ -236,8 +265,8 @@ def _match_band(inputs, seeds, scanned_hi, band, rows, options, work, t_start):
     """Grow one band, match its own rows, hand the matches to the check; returns arrays in
     image rows, counters and stage end times."""
     own_lo, own_hi, lo, hi = rows
-    work.set_state(band, "running")
     try:
+        work.set_state(band, "running")
         inside = (seeds.y >= lo) & (seeds.y < hi)
         band_seeds = Seeds(seeds.y[inside] - lo, seeds.x[inside], seeds.x_right[inside], seeds.similarity[inside],
                            0, 0)
@@ -259,11 +288,11 @@ def _match_band(inputs, seeds, scanned_hi, band, rows, options, work, t_start):
         if work.check is not None and options["greedy"]:
             work.check.add(y_image, x, x - xr)
             work.added(band)
-    except BaseException:
-        work.set_state(band, "failed")
+        work.set_state(band, "done")
+        work.help_others()  # the band's own subpixel look-ups wait: they are not matching time
+    except BaseException as error:
+        work.abort(error)
         raise
-    work.set_state(band, "done")
-    work.help(wait=True)  # and what the bands still running hand out (their subpixel look-ups wait)
     c_minus, c_plus = growth.side_similarities(y, x, x - xr)
     offset = parabola_offset(c_minus, c, c_plus)
     counts = (n_own, growth.n_computed, growth.n_rescanned, growth.n_overflow)
@@ -293,8 +322,8 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     final_margin : float
         Margin of :func:`stereo_obstacles.stable_matching.stable_matching` (ignored when greedy).
     shifted_windows : bool
-        Run the shifted-window check (:func:`stereo_obstacles.shifted_windows.shifted_window_check`)
-        and drop the matches it rejects.
+        Run the shifted-window check (:class:`stereo_obstacles.shifted_windows.ShiftedWindowCheck`,
+        strip by strip) and drop the matches it rejects.
 
     Returns
     -------
@@ -307,7 +336,7 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     options = {"grow": dict(d_min=d_min, d_max=d_max, tau=tau, mu=mu, max_candidates=max_candidates,
                             margin_reference=margin_reference, greedy=greedy),
                "greedy": greedy, "final_margin": final_margin}
-    work = _SharedWork(inputs, bands, bool(shifted_windows))
+    work = _SharedWork(inputs, bands, check=bool(shifted_windows), greedy=bool(greedy))
     t_start = time.perf_counter()
     parts = run_in_threads(_match_band, [(inputs, seeds, scanned_hi, band, rows, options, work, t_start)
                                          for band, rows in enumerate(bands)])

@@ -109,8 +109,8 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     d : ndarray of int, shape (N,)
         Integer disparities in pixels (>= 0; the right pixel ``x - d`` inside the image).
     n_threads : int
-        The rows are checked in :data:`STRIPS_PER_THREAD` strips per thread, in up to this many
-        threads (the result does not depend on it).
+        Threads; with more than one, the rows are checked in :data:`STRIPS_PER_THREAD` strips per
+        thread, dealt out in turn (the result does not depend on it).
 
     Returns
     -------
@@ -138,7 +138,7 @@ def shifted_window_check(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray,
     n_strips = 1 if n_threads == 1 else STRIPS_PER_THREAD * n_threads
     edges = [round(i * h / n_strips) for i in range(n_strips + 1)]
     strips = list(zip(edges[:-1], edges[1:]))
-    counts = run_in_threads(_check_strips, [(check, strips[t::n_threads]) for t in range(min(n_threads, n_strips))])
+    counts = run_in_threads(_check_strips, [(check, strips[t::n_threads]) for t in range(n_threads)])
     return check.keep(np.asarray(y).ravel(), np.asarray(x).ravel()), sum(counts)
 
 
