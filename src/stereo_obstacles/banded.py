@@ -179,12 +179,22 @@ class _SharedWork:
                 return task
         return None
 
-    def _run(self, task) -> None:
-        try:
-            task()
-        finally:
+    def _run_tasks(self, owner, more_may_come) -> None:
+        """Run the pending tasks of band ``owner`` (of any band when None) until none is left and
+        ``more_may_come()`` (called under the lock) is false, or a band has failed."""
+        while True:
             with self._changed:
-                self._changed.notify_all()
+                task = self._take(owner)
+                while task is None and more_may_come() and self._error is None:
+                    self._changed.wait(_POLL_S)
+                    task = self._take(owner)
+            if task is None:
+                return
+            try:
+                task()
+            finally:
+                with self._changed:
+                    self._changed.notify_all()
 
     def final_matching(self, band: int, y, x, xr, c, shape, rows, margin: float,
                        row_offset: int) -> tuple[np.ndarray, int]:
@@ -214,15 +224,7 @@ class _SharedWork:
         with self._changed:
             self._pending.extend((band, lambda k=k: piece(k)) for k in range(FINAL_PIECES))
             self._changed.notify_all()
-        while True:
-            with self._changed:
-                task = self._take(band)
-                while task is None and any(result is None for result in outcome) and self._error is None:
-                    self._changed.wait(_POLL_S)
-                    task = self._take(band)
-            if task is None:
-                break
-            self._run(task)
+        self._run_tasks(band, lambda: any(result is None for result in outcome))
         for result in outcome:
             if isinstance(result, BaseException):
                 raise result
@@ -251,16 +253,7 @@ class _SharedWork:
     def help_others(self) -> None:
         """Run the work any band hands out, waiting for more while a band that may hand some out
         is still running."""
-        while True:
-            with self._changed:
-                task = self._take(None)
-                while (task is None and self._hands_out and "running" in self.state
-                       and self._error is None):
-                    self._changed.wait(_POLL_S)
-                    task = self._take(None)
-            if task is None:
-                return
-            self._run(task)
+        self._run_tasks(None, lambda: self._hands_out and "running" in self.state)
 
 
 def _match_band(inputs, seeds, scanned_hi, band, rows, options, work, t_start):
