@@ -98,7 +98,7 @@ def _run_ncc_wta(left: np.ndarray, right: np.ndarray, max_disparity: int) -> Met
 
 
 METHODS: dict[str, Method] = {m.name: m for m in (
-    Method("gcs", "Growing Correspondence Seeds, Canny seeds (ours)", _run_gcs,
+    Method("gcs", "Growing Correspondence Seeds, Sobel edge seeds (ours)", _run_gcs,
            "stereo_obstacles.matching"),
     Method("sgbm", "OpenCV StereoSGBM, published settings", _run_sgbm, "stereo_obstacles.peers"),
     Method("bm", "OpenCV StereoBM, published settings", _run_bm, "stereo_obstacles.peers"),

@@ -23,7 +23,7 @@ from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.banded import match_bands
 from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
-from stereo_obstacles.seeds import SEED_SOURCES, find_seeds, user_seeds
+from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.speckles import speckle_mask
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 
@@ -240,7 +240,7 @@ def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | Non
     return d_min, d_max
 
 
-def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disparity: int | None = None,
+def match(left: np.ndarray, right: np.ndarray, *, seeds: str = DEFAULT_SEEDS, max_disparity: int | None = None,
           min_disparity: int = 0, tau: float = 0.55, mu: float = 0.05, max_candidates: int = 4,
           final_margin: float = 0.1, similarity: str = "ncc", variant: str = "stable", rng_seed: int = 0,
           seed_points: np.ndarray | None = None, margin_reference: str = "max", min_std: float = 1.0,
@@ -253,8 +253,9 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = "canny", max_disp
     ----------
     left, right : ndarray, shape (H, W) or (H, W, 3)
         Rectified grey or RGB images, any integer or float dtype, same shape, at least 5 x 5.
-    seeds : {"canny", "sobel", "random"}
-        Where seeds come from (ignored when ``seed_points`` is given).
+    seeds : {"sobel", "canny", "random"}
+        Where seeds come from (ignored when ``seed_points`` is given): edge pixels of the left
+        image by a Sobel magnitude threshold (default) or Canny, or random pixels.
     max_disparity : int, optional
         Largest disparity in pixels. Default: a third of the width (the growth itself needs
         no range; the bound limits seed searches and admissible points).

@@ -13,7 +13,7 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--max-disparity", type=int, default=None, metavar="PX",
                        help="largest disparity to search, pixels (default: a third of the width)")
     group.add_argument("--seeds", choices=("canny", "sobel", "random"), default=None,
-                       help="where the matcher's seeds come from (default canny)")
+                       help="where the matcher's seeds come from (default sobel)")
     group.add_argument("--reference", default=None, metavar="X0,Y0,X1,Y1",
                        help="rectangle assumed to be ground, in fractions of the image (all <= 1) "
                             "or pixels (default: the full-width bottom 15 %%, 0,0.85,1,1)")

@@ -16,8 +16,8 @@ def register(subparsers) -> None:
     p.add_argument("left", help="left (reference) image")
     p.add_argument("right", help="right image")
     p.add_argument("-o", "--output", required=True, metavar="OUT", help="disparity file (.npy, .pfm or .png)")
-    p.add_argument("--seeds", default="canny", metavar="SEEDS",
-                   help="canny, sobel, random, or a text/.npy file of 'x y d' rows (default canny)")
+    p.add_argument("--seeds", default="sobel", metavar="SEEDS",
+                   help="sobel, canny, random, or a text/.npy file of 'x y d' rows (default sobel)")
     p.add_argument("--max-disparity", type=int, default=None, metavar="PX",
                    help="largest disparity, px (default width/3)")
     p.add_argument("--min-disparity", type=int, default=0, metavar="PX",
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.colorize import colorize_disparity
     from stereo_obstacles.fileio import read_image, write_disparity, write_image
     from stereo_obstacles.matching import match
-    from stereo_obstacles.seeds import SEED_SOURCES
+    from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES
 
     left = read_image(args.left)
     right = read_image(args.right)
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
 
     left, right, _, rectification = prepare_pair(args, left, right)
     named = args.seeds in SEED_SOURCES
-    result = match(left, right, seeds=args.seeds if named else "canny",
+    result = match(left, right, seeds=args.seeds if named else DEFAULT_SEEDS,
                    seed_points=None if named else _seed_points(args.seeds),
                    max_disparity=args.max_disparity, min_disparity=args.min_disparity, tau=args.tau, mu=args.mu,
                    max_candidates=args.max_candidates, final_margin=args.final_margin, similarity=args.similarity,
