@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import example, given
+from hypothesis import strategies as st
 
 import gcs_reference as ref
 from stereo_obstacles.growing import QUEUE_BUCKETS, grow
@@ -191,6 +193,24 @@ def test_row_ranges_matched_in_any_order_give_the_whole_matching():
         part.match_rows(9, 5)
     with pytest.raises(ValueError, match="lo, hi"):
         part.match_rows(0, 25)
+
+
+@given(rows=st.lists(st.integers(0, 6), min_size=1, max_size=12), n_pieces=st.integers(1, 5),
+       ends=st.tuples(st.integers(0, 12), st.integers(0, 12)))
+@example(rows=[6, 6, 0, 0], n_pieces=2, ends=(0, 4))  # equal row counts would put all 12 in one piece
+def test_row_cuts_split_rows_into_pieces_of_about_equal_candidate_counts(rows, n_pieces, ends):
+    ys = np.repeat(np.arange(len(rows)), rows)  # rows[r] candidates on row r, at distinct columns
+    xs = np.concatenate([np.arange(n) for n in rows]).astype(np.int64)
+    matching = RowMatching(ys, xs, xs, np.full(ys.size, 0.9), (len(rows), 8))
+    lo, hi = sorted(min(e, len(rows)) for e in ends)
+    cuts = matching.row_cuts(lo, hi, n_pieces)
+    assert len(cuts) == n_pieces + 1 and cuts[0] == lo and cuts[-1] == hi
+    assert all(a <= b for a, b in zip(cuts[:-1], cuts[1:]))
+    share = matching.n_candidates(lo, hi) / n_pieces
+    largest_row = max(rows[lo:hi], default=0)
+    for a, b in zip(cuts[:-1], cuts[1:]):  # a piece exceeds its share by less than one row
+        n = matching.n_candidates(a, b)
+        assert n == 0 or n < share + largest_row
 
 
 def test_points_of_seed_scanlines_are_not_counted_twice():

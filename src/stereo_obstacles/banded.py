@@ -115,8 +115,10 @@ def band_rows(h: int, n_bands: int, overlap: int) -> list[tuple[int, int, int, i
 
 
 FINAL_PIECES = 4
-"""Pieces of rows a band's final matching is cut into; a thread that has finished its own band
-takes pieces of a band still matching (Teddy: the band grown last matched in 2.6 ms alone)."""
+"""Pieces of rows a band's final matching is cut into, of about equal candidate counts; a thread
+that has finished its own band takes pieces of a band still matching (Teddy: the band grown last
+matched in 2.6 ms alone; cut into equal row counts, its bottom piece held 1.9x the candidates of
+its top one and took 2.8x the time)."""
 
 
 _POLL_S = 0.05
@@ -205,7 +207,7 @@ class _SharedWork:
         check; the calling thread runs the pieces nobody took and waits for the others."""
         matching = RowMatching(y, x, xr, c, shape, margin=margin)
         lo, hi = rows
-        edges = [lo + round(i * (hi - lo) / FINAL_PIECES) for i in range(FINAL_PIECES + 1)]
+        edges = matching.row_cuts(lo, hi, FINAL_PIECES)
         outcome = [None] * FINAL_PIECES  # the piece's winners, or the error it raised (raised here)
 
         def piece(k):

@@ -72,6 +72,16 @@ class RowMatching:
         """Number of candidates in rows ``[lo, hi)``."""
         return int(self._table[3][hi] - self._table[3][lo])
 
+    def row_cuts(self, lo: int, hi: int, n_pieces: int) -> list[int]:
+        """Row edges ``lo = e0 <= e1 <= ... <= e_n = hi`` cutting rows ``[lo, hi)`` into ``n_pieces``
+        ranges of about equal candidate counts (whole rows; empty ranges where one row holds more
+        than a share)."""
+        row_start = self._table[3]
+        first, last = row_start[lo], row_start[hi]
+        targets = first + (last - first) * np.arange(1, n_pieces) / n_pieces
+        inner = np.clip(np.searchsorted(row_start[lo:hi + 1], targets), 0, hi - lo) + lo
+        return [int(lo), *(int(e) for e in inner), int(hi)]
+
     def winners(self, lo: int, hi: int) -> np.ndarray:
         """Indices (int64) of the winners in rows ``[lo, hi)`` matched so far, row by row."""
         in_rows = self._table[4][self._table[3][lo]:self._table[3][hi]]
