@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stereo_obstacles._speckle_kernel import speckle_kernel
+from stereo_obstacles._speckle_kernel import link_kernel, speckle_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import is_finite_real
 
@@ -59,5 +59,7 @@ def speckle_mask(disparity: np.ndarray, *, max_size_px: int, max_difference_px: 
     removed = np.zeros(d.shape, np.bool_)
     if max_size_px > 0 and d.size:
         # a size beyond the pixel count removes every region, as any larger one would
-        speckle_kernel(d, min(int(max_size_px), d.size), float(max_difference_px), removed)
+        links = np.empty(d.shape, np.uint8)
+        link_kernel(d, float(max_difference_px), links)
+        speckle_kernel(links, min(int(max_size_px), d.size), removed)
     return removed
