@@ -127,9 +127,13 @@ def test_strips_of_rows_give_the_verdicts_of_the_whole_image():
     h = inputs.shape[0]
     for cuts in ([0, h], [0, 11, 12, 29, h], [0, 1, 2, 3, 20, 21, h]):
         check = ShiftedWindowCheck(inputs)
-        top = ys < 20  # matches added in two parts, as two bands add theirs
+        top = ys < 20  # matches added in two parts, as two bands add theirs, the second from a table
         check.add(ys[top], xs[top], ds[top])
-        check.add(ys[~top], xs[~top], ds[~top])
+        band = np.flatnonzero(~top)  # band rows start at image row 15, one extra candidate per match
+        table_y = np.concatenate([ys[band], ys[band]]) - 15
+        table_x = np.concatenate([xs[band], xs[band]])
+        table_xr = np.concatenate([xs[band] - ds[band], xs[band]])
+        check.add_from_table(table_y, table_x, table_xr, np.arange(band.size)[::-1], row_offset=15)
         n_checked = sum(check.check_rows(lo, hi) for lo, hi in reversed(list(zip(cuts[:-1], cuts[1:]))))
         np.testing.assert_array_equal(check.keep(ys, xs), expected)
         assert n_checked == expected_checked
@@ -141,6 +145,11 @@ def test_strip_check_refuses_bad_rows_and_repeated_pixels():
     check.add(np.array([3]), np.array([9]), np.array([1]))
     with pytest.raises(InvalidInputError, match="each left pixel at most once"):
         check.add(np.array([3]), np.array([9]), np.array([2]))
+    table = np.array([4, 5]), np.array([9, 9]), np.array([8, 10])  # the second has x_right > x
+    with pytest.raises(InvalidInputError, match=r"index: expected entries in \[0, 2\)"):
+        check.add_from_table(*table, np.array([0, 2]))
+    with pytest.raises(InvalidInputError, match="inside"):
+        check.add_from_table(*table, np.array([0, 1]))
     with pytest.raises(InvalidInputError, match="lo, hi"):
         check.check_rows(5, 41)
     with pytest.raises(InvalidInputError, match="lo, hi"):

@@ -76,16 +76,17 @@ MAPS_OK, MAPS_OUTSIDE, MAPS_REPEATED = 0, 1, 2
 
 
 @njit(cache=CACHE, nogil=True)
-def _add_matches(ys, xs, ds, d_map, for_max, for_min):
-    """Write the integer disparities ``ds`` of left pixels ``(xs, ys)`` into the ``(h, w)`` maps:
-    ``d_map`` (int32, -1 where unmatched) and two float32 copies for OpenCV's square max and min
-    (-1 and +inf where unmatched). Returns :data:`MAPS_OK` or the status of the first invalid
-    match (the maps then hold the matches before it)."""
+def _add_matches(ys, xs, xrs, index, row_offset, d_map, for_max, for_min):
+    """Write the matches ``index`` of a table of left pixels ``(xs, ys + row_offset)`` and right
+    columns ``xrs`` into the ``(h, w)`` maps: ``d_map`` (int32 disparities ``x - x_right``, -1 where
+    unmatched) and two float32 copies for OpenCV's square max and min (-1 and +inf where
+    unmatched). Returns :data:`MAPS_OK` or the status of the first invalid match (the maps then
+    hold the matches before it)."""
     h, w = d_map.shape
-    for i in range(ys.shape[0]):
-        y = ys[i]
+    for i in index:
+        y = ys[i] + row_offset
         x = xs[i]
-        d = ds[i]
+        d = x - xrs[i]
         if y < 0 or y >= h or x < 0 or x >= w or d < 0 or x - d < 0:
             return MAPS_OUTSIDE
         if d_map[y, x] >= 0:

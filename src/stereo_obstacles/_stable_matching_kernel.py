@@ -80,7 +80,8 @@ def _link_by(col, head, link):
 @njit(cache=CACHE, nogil=True)
 def _stable_matching_kernel(t_x, t_xr, t_c, row_start, by_row, w, margin, row_lo, row_hi, winner):
     """Winners of the confidently stable matching (see ``stable_matching.py``) of rows
-    ``[row_lo, row_hi)``, written into ``winner`` (bool (N,), False on entry); the candidates of
+    ``[row_lo, row_hi)``, written into ``winner`` (bool (N,), False on entry) and returned as
+    candidate indices (int64), row by row and in ``by_row`` order inside a row; the candidates of
     row y are ``by_row[row_start[y]:row_start[y + 1]]`` (:func:`_rows`).
 
     Each row's candidates are copied, best first, into small local arrays (the table is in
@@ -97,6 +98,8 @@ def _stable_matching_kernel(t_x, t_xr, t_c, row_start, by_row, w, margin, row_lo
     head_r = np.full(w, -1, np.int64)
     link_l = np.empty(n, np.int64)
     link_r = np.empty(n, np.int64)
+    won = np.empty(row_start[row_hi] - row_start[row_lo], np.int64)
+    n_won = 0
     for y in range(row_lo, row_hi):
         cand = by_row[row_start[y]:row_start[y + 1]]
         m = cand.shape[0]
@@ -135,3 +138,8 @@ def _stable_matching_kernel(t_x, t_xr, t_c, row_start, by_row, w, margin, row_lo
             done_r[lxr[k]] = False
             head_l[lx[k]] = -1
             head_r[lxr[k]] = -1
+        for i in cand:
+            if winner[i]:
+                won[n_won] = i
+                n_won += 1
+    return won[:n_won]

@@ -212,11 +212,9 @@ class _SharedWork:
 
         def piece(k):
             try:
-                matching.match_rows(edges[k], edges[k + 1])
-                won = matching.winners(edges[k], edges[k + 1])
+                won = matching.match_rows(edges[k], edges[k + 1])
                 if self.check is not None:
-                    won_x = x.take(won)
-                    self.check.add(y.take(won) + row_offset, won_x, won_x - xr.take(won))
+                    self.check.add_from_table(y, x, xr, won, row_offset)
                 outcome[k] = won
             except BaseException as error:
                 outcome[k] = error

@@ -69,7 +69,19 @@ class ShiftedWindowCheck:
         ys, xs, ds = (np.ascontiguousarray(a, np.int64).ravel() for a in (y, x, d))
         if not ys.shape == xs.shape == ds.shape:
             raise InvalidInputError(f"y, x, d: expected one length, got {ys.shape}, {xs.shape}, {ds.shape}")
-        status = _add_matches(ys, xs, ds, self.d_map, self._for_max, self._for_min)
+        self.add_from_table(ys, xs, xs - ds, np.arange(ys.size))
+
+    def add_from_table(self, y: np.ndarray, x: np.ndarray, x_right: np.ndarray, index: np.ndarray,
+                       row_offset: int = 0) -> None:
+        """Add the matches ``index`` (int, shape (M,)) of a table of correspondences: left pixels
+        ``(x, y + row_offset)`` and right columns ``x_right`` (1-D int arrays of one length), with
+        the conditions of :meth:`add`. Reads the table in place (the final matching's pieces add
+        their winners so, without gathering them first)."""
+        if not (y.ndim == 1 and y.shape == x.shape == x_right.shape and index.ndim == 1):
+            raise InvalidInputError("y, x, x_right, index: expected 1-D arrays, the first three of one length")
+        if index.size and not (0 <= index.min() and index.max() < y.size):
+            raise InvalidInputError(f"index: expected entries in [0, {y.size})")
+        status = _add_matches(y, x, x_right, index, int(row_offset), self.d_map, self._for_max, self._for_min)
         if status == MAPS_OUTSIDE:
             h, w = self.d_map.shape
             raise InvalidInputError(f"y, x, d: expected matches inside the {w}x{h} image with d >= 0 and x - d >= 0")

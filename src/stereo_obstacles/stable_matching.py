@@ -82,17 +82,13 @@ class RowMatching:
         inner = np.clip(np.searchsorted(row_start[lo:hi + 1], targets), 0, hi - lo) + lo
         return [int(lo), *(int(e) for e in inner), int(hi)]
 
-    def winners(self, lo: int, hi: int) -> np.ndarray:
-        """Indices (int64) of the winners in rows ``[lo, hi)`` matched so far, row by row."""
-        in_rows = self._table[4][self._table[3][lo]:self._table[3][hi]]
-        return in_rows.take(np.flatnonzero(self.winner.take(in_rows)))
-
-    def match_rows(self, lo: int, hi: int) -> None:
-        """Match the candidates of rows ``[lo, hi)`` (their winners go to :attr:`winner`)."""
+    def match_rows(self, lo: int, hi: int) -> np.ndarray:
+        """Match the candidates of rows ``[lo, hi)``: their winners go to :attr:`winner` and are
+        returned as indices (int64), row by row (in table order inside a row)."""
         h, w = self.shape
         if not 0 <= lo <= hi <= h:
             raise InvalidInputError(f"lo, hi: expected 0 <= lo <= hi <= {h}, got {lo}, {hi}")
-        _stable_matching_kernel(*self._table, w, self._margin, int(lo), int(hi), self.winner)
+        return _stable_matching_kernel(*self._table, w, self._margin, int(lo), int(hi), self.winner)
 
 
 def stable_matching(y: np.ndarray, x: np.ndarray, x_right: np.ndarray, similarity: np.ndarray,
