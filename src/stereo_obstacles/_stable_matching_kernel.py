@@ -12,22 +12,6 @@ from stereo_obstacles._similarity_kernel import CACHE
 
 
 @njit(cache=CACHE, nogil=True)
-def _bucket_by(col, idx, w):
-    """CSR lists of the candidate indices ``idx`` by column value ``col[idx]`` in ``[0, w)``."""
-    start = np.zeros(w + 1, np.int64)
-    for i in idx:
-        start[col[i] + 1] += 1
-    for x in range(w):
-        start[x + 1] += start[x]
-    pos = start[:-1].copy()
-    items = np.empty(idx.shape[0], np.int64)
-    for i in idx:
-        items[pos[col[i]]] = i
-        pos[col[i]] += 1
-    return start, items
-
-
-@njit(cache=CACHE, nogil=True)
 def _best_first(c):
     """Stable order of ``c`` by decreasing value: a counting sort on ``2 * len(c)`` value bins,
     then an insertion sort that only moves items inside their bin. O(n) for spread values
@@ -64,8 +48,19 @@ def _best_first(c):
 
 @njit(cache=CACHE, nogil=True)
 def _rows(t_y, h):
-    """Candidate indices grouped by row (counting sort): ``(start, items)``, row y is ``items[start[y]:start[y+1]]``."""
-    return _bucket_by(t_y, np.arange(t_y.shape[0]), h)
+    """Candidate indices grouped by row ``t_y`` in ``[0, h)`` (counting sort, table order inside a
+    row): ``(start, items)``, row y is ``items[start[y]:start[y+1]]``."""
+    start = np.zeros(h + 1, np.int64)
+    for y in t_y:
+        start[y + 1] += 1
+    for y in range(h):
+        start[y + 1] += start[y]
+    pos = start[:-1].copy()
+    items = np.empty(t_y.shape[0], np.int64)
+    for i in range(t_y.shape[0]):
+        items[pos[t_y[i]]] = i
+        pos[t_y[i]] += 1
+    return start, items
 
 
 @njit(cache=CACHE, nogil=True)
