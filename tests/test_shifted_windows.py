@@ -155,3 +155,15 @@ def test_strip_check_refuses_bad_rows_and_repeated_pixels():
     with pytest.raises(InvalidInputError, match="lo, hi"):
         check.check_rows(6, 5)
     assert check.check_rows(7, 7) == 0
+
+
+def test_jumps_near_counts_neighbouring_matches_apart_by_more_than_one_pixel():
+    inputs = prepare_similarity(*_fattening_scene()[:2])
+    check = ShiftedWindowCheck(inputs)
+    # row 10: disparities 3, 5 (a jump), 6 (none), unmatched, 9 (none: no neighbour); row 20: 2, 4
+    check.add(np.array([10, 10, 10, 10, 20, 20]), np.array([14, 15, 16, 18, 14, 15]), np.array([3, 5, 6, 9, 2, 4]))
+    check.count_jumps(0, 15)
+    assert check.jumps_near(10, 11) == 1 and check.jumps_near(13, 14) == 0  # row 10 lies within RADIUS of 12
+    assert check.jumps_near(19, 21) == 0  # rows 15 and on not counted yet
+    check.count_jumps(15, inputs.shape[0])
+    assert check.jumps_near(0, inputs.shape[0]) == 2 and check.jumps_near(22, 23) == 1

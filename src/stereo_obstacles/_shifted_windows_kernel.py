@@ -98,6 +98,22 @@ def _add_matches(ys, xs, xrs, index, row_offset, d_map, for_max, for_min):
 
 
 @njit(cache=CACHE, nogil=True)
+def _count_jumps(d_map, lo, hi, jumps):
+    """Write into ``jumps[y]`` (int64) for each image row y in ``[lo, hi)`` the number of pairs of
+    horizontally neighbouring matches of ``d_map`` (int32 ``(h, w)``, -1 where unmatched) whose
+    disparities differ by more than 1."""
+    w = d_map.shape[1]
+    for y in range(lo, hi):
+        n = 0
+        for x in range(w - 1):
+            a = d_map[y, x]
+            b = d_map[y, x + 1]
+            if a >= 0 and b >= 0 and abs(a - b) > 1:
+                n += 1
+        jumps[y] = n
+
+
+@njit(cache=CACHE, nogil=True)
 def _check_rows_kernel(lp, rp, ml, nl, mr, nr, kind, d_map, sq_lo, sq_hi, top, lo, hi, rejected):
     """Check the matches of image rows ``[lo, hi)``: set ``rejected[y, x]`` where a neighbouring
     disparity beats the match's own; returns the number of matches compared.

@@ -24,7 +24,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from stereo_obstacles._shifted_windows_kernel import MAPS_OUTSIDE, MAPS_REPEATED, _add_matches, _check_rows_kernel
+from stereo_obstacles._shifted_windows_kernel import (MAPS_OUTSIDE, MAPS_REPEATED, _add_matches, _check_rows_kernel,
+                                                       _count_jumps)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.similarity import RADIUS, SimilarityInputs
 from stereo_obstacles.thread_pool import run_in_threads
@@ -62,6 +63,7 @@ class ShiftedWindowCheck:
         self._for_max = np.full((h, w), -1.0, np.float32)
         self._for_min = np.full((h, w), np.inf, np.float32)
         self.rejected = np.zeros((h, w), np.bool_)
+        self._jumps = np.zeros(h, np.int64)
 
     def add(self, y: np.ndarray, x: np.ndarray, d: np.ndarray) -> None:
         """Add matches: left pixels ``(x, y)`` (int, shape (N,), each at most once over all calls)
@@ -87,6 +89,18 @@ class ShiftedWindowCheck:
             raise InvalidInputError(f"y, x, d: expected matches inside the {w}x{h} image with d >= 0 and x - d >= 0")
         if status == MAPS_REPEATED:
             raise InvalidInputError("y, x: expected each left pixel at most once")
+
+    def count_jumps(self, lo: int, hi: int) -> None:
+        """Count, for :meth:`jumps_near`, the disparity jumps of image rows ``[lo, hi)`` once all their
+        matches are added."""
+        _count_jumps(self.d_map, int(lo), int(hi), self._jumps)
+
+    def jumps_near(self, lo: int, hi: int) -> int:
+        """Pairs of horizontally neighbouring matches more than 1 px of disparity apart in image rows
+        ``[lo - RADIUS, hi + RADIUS)`` (rows counted by :meth:`count_jumps`): a measure of the work of
+        :meth:`check_rows`, which compares only matches next to a disparity jump (on Teddy's lower
+        band the strips' check times follow it, 0.2 ms at 26 such pairs to 1.05 ms at 107)."""
+        return int(self._jumps[max(0, lo - RADIUS):hi + RADIUS].sum())
 
     def check_rows(self, lo: int, hi: int) -> int:
         """Check the matches of image rows ``[lo, hi)`` (their verdicts go to :attr:`rejected`);
