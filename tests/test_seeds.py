@@ -126,6 +126,20 @@ def test_strongest_per_cell_kernel_agrees_with_a_plain_loop(h, w, spacing, rng_s
     assert list(zip(ys.tolist(), xs.tolist())) == expected
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 30), st.integers(1, 30), st.integers(1, 9), st.integers(0, 2 ** 31 - 1))
+def test_thinned_sobel_edges_are_the_strongest_sobel_edge_pixel_of_each_cell(h, w, spacing, rng_seed):
+    img = (np.random.default_rng(rng_seed).integers(0, 4, (h, w)) * 60).astype(np.float32)  # many ties
+    gx = cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=3)
+    edges = np.zeros((h, w), bool)
+    edges[edge_pixels(img, "sobel")] = True
+    expected = strongest_per_cell(edges, np.sqrt(gx * gx + gy * gy), spacing)
+    ys, xs = edge_pixels(img, "sobel", spacing)
+    np.testing.assert_array_equal(ys, expected[0])
+    np.testing.assert_array_equal(xs, expected[1])
+
+
 def test_scanned_pixels_are_recorded_for_visit_counting():
     left, right = _pair(shift=4)
     inputs = prepare_similarity(left, right)

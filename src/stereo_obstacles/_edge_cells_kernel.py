@@ -1,4 +1,5 @@
-"""Compiled thinning of edge pixels to the strongest one per square cell (private).
+"""Compiled gradient magnitudes and thinning of edge pixels to the strongest one per square cell
+(private).
 
 The public entry point is :func:`stereo_obstacles.seeds.edge_pixels`.
 """
@@ -34,3 +35,34 @@ def strongest_per_cell(edges, magnitude, spacing):
                 n += 1
     flat = np.sort(flat[:n])
     return (flat // w).astype(np.int32), (flat % w).astype(np.int32)
+
+
+@njit(cache=CACHE, nogil=True)
+def magnitude_and_cells(gx, gy, spacing, cell_lo, cell_hi, magnitude, cell_max, cell_pos):
+    """Gradient magnitude and the strongest pixel of each cell, for the rows of cell rows
+    ``[cell_lo, cell_hi)`` (image rows ``cell_lo * spacing`` up to ``cell_hi * spacing``).
+
+    Writes ``magnitude = sqrt(gx^2 + gy^2)`` (float32, ``(H, W)``, rounded as NumPy rounds it:
+    no fast-math contraction here) and, per ``spacing x spacing`` cell, the largest magnitude
+    ``cell_max`` (float32) and its flat pixel index ``cell_pos`` (int64), ties to the first pixel
+    in raster order; both ``(ceil(H / spacing), ceil(W / spacing))``.
+    """
+    h, w = gx.shape
+    n_cols = cell_max.shape[1]
+    for cy in range(cell_lo, cell_hi):
+        for cx in range(n_cols):
+            cell_max[cy, cx] = np.float32(-1.0)
+            cell_pos[cy, cx] = -1
+        for y in range(cy * spacing, min(h, (cy + 1) * spacing)):
+            for x in range(w):  # apart from the maxima below, so that it vectorises
+                magnitude[y, x] = np.sqrt(gx[y, x] * gx[y, x] + gy[y, x] * gy[y, x])
+            for cx in range(n_cols):
+                best = cell_max[cy, cx]
+                at = -1
+                for x in range(cx * spacing, min(w, (cx + 1) * spacing)):
+                    if magnitude[y, x] > best:
+                        best = magnitude[y, x]
+                        at = x
+                if at >= 0:
+                    cell_max[cy, cx] = best
+                    cell_pos[cy, cx] = y * w + at

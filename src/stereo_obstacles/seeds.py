@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from stereo_obstacles._edge_cells_kernel import strongest_per_cell
+from stereo_obstacles._edge_cells_kernel import magnitude_and_cells, strongest_per_cell
 from stereo_obstacles._similarity_kernel import _scan_best
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.quantiles import percentile
@@ -75,10 +75,18 @@ class Seeds:
         return int(self.y.shape[0])
 
 
-def _gradient_magnitude(grey: np.ndarray) -> np.ndarray:
+def _gradient_cells(grey: np.ndarray, spacing: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sobel gradient magnitude ``(H, W)`` of a grey image, and the largest magnitude and its flat
+    pixel index per ``spacing x spacing`` cell (:func:`magnitude_and_cells`; one thread: two took
+    longer on Teddy, 0.27 ms of work against the hand-over to the pool)."""
     gx = cv2.Sobel(grey, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(grey, cv2.CV_32F, 0, 1, ksize=3)
-    return np.sqrt(gx * gx + gy * gy)
+    h, w = grey.shape
+    magnitude = np.empty((h, w), np.float32)
+    cell_max = np.empty((-(-h // spacing), -(-w // spacing)), np.float32)
+    cell_pos = np.empty(cell_max.shape, np.int64)
+    magnitude_and_cells(gx, gy, spacing, 0, cell_max.shape[0], magnitude, cell_max, cell_pos)
+    return magnitude, cell_max, cell_pos
 
 
 def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
@@ -102,8 +110,9 @@ def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tu
     """
     if int(spacing) != spacing or spacing < 1:
         raise InvalidInputError(f"spacing: expected an integer >= 1, got {spacing}")
-    mag = _gradient_magnitude(grey)
-    textured = mag[mag > 1e-3 * max(float(mag.max()), 1e-12)]
+    spacing = int(spacing)
+    mag, cell_max, cell_pos = _gradient_cells(grey, spacing)
+    textured = mag[mag > 1e-3 * max(float(cell_max.max()), 1e-12)]
     if textured.size == 0:
         return np.empty(0, np.int32), np.empty(0, np.int32)
     high = percentile(textured, EDGE_PERCENTILE)   # one partial sort: 8x faster than np.percentile on 170 k values
@@ -113,11 +122,14 @@ def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tu
         image8 = np.clip((grey - lo) * scale, 0, 255).astype(np.uint8)
         edges = cv2.Canny(image8, 0.5 * high * scale, high * scale, L2gradient=True) > 0
     elif method == "sobel":
+        if spacing > 1:  # a cell holds an edge pixel when its strongest pixel is one
+            flat = np.sort(cell_pos[cell_max >= high])
+            return (flat // grey.shape[1]).astype(np.int32), (flat % grey.shape[1]).astype(np.int32)
         edges = mag >= high
     else:
         raise InvalidInputError(f"method: expected 'canny' or 'sobel', got {method!r}")
     if spacing > 1:
-        return strongest_per_cell(edges, mag, int(spacing))
+        return strongest_per_cell(edges, mag, spacing)
     ys, xs = np.nonzero(edges)
     return ys.astype(np.int32), xs.astype(np.int32)
 
