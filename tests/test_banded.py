@@ -7,7 +7,7 @@ import threading
 import numpy as np
 import pytest
 
-from stereo_obstacles.banded import band_rows, match_bands
+from stereo_obstacles.banded import LOWER_ROWS_COST, band_rows, match_bands
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.growing import grow
 from stereo_obstacles.matching import match
@@ -44,6 +44,19 @@ def test_band_rows_cover_the_image_once():
         band_rows(10, 0, 4)
     with pytest.raises(InvalidInputError, match="overlap"):
         band_rows(10, 2, -1)
+
+
+def test_lower_bands_are_thinner_with_equal_shares_of_the_modelled_cost():
+    h = 375
+    for n in (2, 3, 5):
+        rows = band_rows(h, n, 8)
+        heights = [hi - lo for lo, hi, _, _ in rows]
+        assert heights == sorted(heights, reverse=True) and heights[0] > heights[-1]
+        y = np.arange(h)
+        cost = 1 + (LOWER_ROWS_COST - 1) * y / (h - 1)  # the model: linear from top to bottom row
+        shares = [cost[lo:hi].sum() / cost.sum() for lo, hi, _, _ in rows]
+        assert max(shares) - min(shares) < 2.5 * cost.max() / cost.sum()  # equal to a row or two
+    assert [r[:2] for r in band_rows(375, 2, 8)] == [(0, 202), (202, 375)]  # 54 % of the rows on top
 
 
 def test_one_band_is_the_single_growth():
