@@ -375,7 +375,10 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = DEFAULT_SEEDS, ma
     if n_speckle:
         disparity[speckles] = np.nan
         sim[speckles] = np.nan
-        md = md[~speckles.ravel()[flat]]
+    # matches left, and those at disparity 0 (for the warning), without filtering every match
+    at_zero = flat[md == 0]
+    n_matched = md.size - n_speckle
+    n_zero = at_zero.size - (int(np.count_nonzero(speckles.ravel()[at_zero])) if n_speckle else 0)
     t5 = time.perf_counter()
 
     n_visited = found.n_evaluated + banded.n_computed - banded.n_rescanned
@@ -384,7 +387,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = DEFAULT_SEEDS, ma
         n_seeds=int(np.count_nonzero(found.similarity >= tau)), n_seed_pixels=found.n_candidates,
         n_candidates=banded.n_candidates, n_visited=int(n_visited), n_memo_overflow=banded.n_overflow,
         visited_fraction_full=n_visited / (w * w * h), visited_fraction_range=n_visited / (w * h * n_range),
-        density=float(md.shape[0]) / (w * h), d_min=d_min, d_max=d_max,
+        density=n_matched / (w * h), d_min=d_min, d_max=d_max,
         prepare_seconds=t1 - t0, seeds_seconds=t2 - t1, growth_seconds=banded.growth_seconds,
         final_seconds=banded.matched_seconds - banded.growth_seconds,
         subpixel_seconds=t_filled - t2 - banded.checked_seconds,
@@ -393,7 +396,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = DEFAULT_SEEDS, ma
         edge_check_seconds=banded.checked_seconds - banded.matched_seconds,
         n_speckle_removed=n_speckle, speckle_seconds=t5 - t_filled)
     _warn_if_doubtful(stats.density, stats.n_seed_pixels, stats.n_seeds,
-                      float(np.mean(md == 0)) if md.size else 0.0, d_min, tau, seed_points is not None)
+                      n_zero / n_matched if n_matched else 0.0, d_min, tau, seed_points is not None)
     logger.info("GCS: %d seeds, %d candidates, density %.1f %%, match %.1f ms", stats.n_seeds,
                 stats.n_candidates, 100 * stats.density, 1e3 * stats.match_seconds)
     return MatchResult(disparity, sim, stats)
