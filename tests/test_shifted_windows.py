@@ -155,6 +155,9 @@ def test_strip_check_refuses_bad_rows_and_repeated_pixels():
     with pytest.raises(InvalidInputError, match="lo, hi"):
         check.check_rows(6, 5)
     assert check.check_rows(7, 7) == 0
+    assert check.keep(np.array([3, 39]), np.array([9, 79])).tolist() == [True, True]
+    with pytest.raises(InvalidInputError, match="inside the 80x40 image"):
+        check.keep(np.array([0]), np.array([80]))  # not the first pixel of row 1
 
 
 def test_jumps_near_counts_neighbouring_matches_apart_by_more_than_one_pixel():
