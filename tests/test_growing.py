@@ -193,6 +193,10 @@ def test_row_ranges_matched_in_any_order_give_the_whole_matching():
         part.match_rows(9, 5)
     with pytest.raises(ValueError, match="lo, hi"):
         part.match_rows(0, 25)
+    with pytest.raises(ValueError, match="lo, hi"):
+        part.row_cuts(5, 2, 4)
+    with pytest.raises(ValueError, match="n_pieces"):
+        part.row_cuts(0, 24, 0)
 
 
 @given(rows=st.lists(st.integers(0, 6), min_size=1, max_size=12), n_pieces=st.integers(1, 5),

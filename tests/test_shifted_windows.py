@@ -150,6 +150,12 @@ def test_strip_check_refuses_bad_rows_and_repeated_pixels():
         check.add_from_table(*table, np.array([0, 2]))
     with pytest.raises(InvalidInputError, match="inside"):
         check.add_from_table(*table, np.array([0, 1]))
+    with pytest.raises(InvalidInputError, match="signed integer"):  # unsigned columns would wrap around
+        check.add_from_table(*(a.astype(np.uint32) for a in table), np.array([1]))
+    with pytest.raises(InvalidInputError, match="signed integer"):
+        check.add_from_table(*table, np.array([0.0]))
+    with pytest.raises(InvalidInputError, match="lo, hi"):
+        check.count_jumps(0, 41)
     with pytest.raises(InvalidInputError, match="lo, hi"):
         check.check_rows(5, 41)
     with pytest.raises(InvalidInputError, match="lo, hi"):

@@ -33,14 +33,18 @@ def strongest_per_cell(edges, magnitude, spacing):
             if best >= 0:
                 flat[n] = best
                 n += 1
-    flat = np.sort(flat[:n])
+    return rows_and_columns(np.sort(flat[:n]), w)
+
+
+@njit(cache=CACHE, nogil=True)
+def rows_and_columns(flat, w):
+    """Rows and columns (int32) of flat pixel indices ``flat`` of an image ``w`` pixels wide."""
     return (flat // w).astype(np.int32), (flat % w).astype(np.int32)
 
 
 @njit(cache=CACHE, nogil=True)
-def magnitude_and_cells(gx, gy, spacing, cell_lo, cell_hi, magnitude, cell_max, cell_pos):
-    """Gradient magnitude and the strongest pixel of each cell, for the rows of cell rows
-    ``[cell_lo, cell_hi)`` (image rows ``cell_lo * spacing`` up to ``cell_hi * spacing``).
+def magnitude_and_cells(gx, gy, spacing, magnitude, cell_max, cell_pos):
+    """Gradient magnitude and the strongest pixel of each cell.
 
     Writes ``magnitude = sqrt(gx^2 + gy^2)`` (float32, ``(H, W)``, rounded as NumPy rounds it:
     no fast-math contraction here) and, per ``spacing x spacing`` cell, the largest magnitude
@@ -49,7 +53,7 @@ def magnitude_and_cells(gx, gy, spacing, cell_lo, cell_hi, magnitude, cell_max, 
     """
     h, w = gx.shape
     n_cols = cell_max.shape[1]
-    for cy in range(cell_lo, cell_hi):
+    for cy in range(cell_max.shape[0]):
         for cx in range(n_cols):
             cell_max[cy, cx] = np.float32(-1.0)
             cell_pos[cy, cx] = -1

@@ -8,10 +8,10 @@ band from a seed just across the border is still grown. The candidates of the ro
 then go through the (row-independent) confidently stable matching, the shifted-window check
 (:mod:`stereo_obstacles.shifted_windows`) and the subpixel look-ups of that band.
 
-The growth of the bands takes unequal times (Teddy: 13.6 and 19.8 ms), so the work after it is
-cut into pieces any thread may take (:class:`_SharedWork`): a band's final matching in
-:data:`FINAL_PIECES` pieces of rows, and the check in strips of rows handed out as soon as the
-final matches around a strip are in. A thread that has finished its band takes the pieces and
+The growth of the bands still takes unequal times (Teddy, bands at 54 % of the rows: about 15 and
+18 ms), so the work after it is cut into pieces any thread may take (:class:`_SharedWork`): a
+band's final matching in :data:`FINAL_PIECES` pieces of rows, and the check in strips of rows
+handed out as soon as the final matches around a strip are in. A thread that has finished its band takes the pieces and
 strips of the band still running, and does its own subpixel look-ups last. Neither the winners
 nor the verdicts depend on who runs what.
 

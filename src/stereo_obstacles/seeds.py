@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from stereo_obstacles._edge_cells_kernel import magnitude_and_cells, strongest_per_cell
+from stereo_obstacles._edge_cells_kernel import magnitude_and_cells, rows_and_columns, strongest_per_cell
 from stereo_obstacles._similarity_kernel import _scan_best
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.quantiles import percentile
@@ -85,20 +85,20 @@ def _gradient_cells(grey: np.ndarray, spacing: int) -> tuple[np.ndarray, np.ndar
     magnitude = np.empty((h, w), np.float32)
     cell_max = np.empty((-(-h // spacing), -(-w // spacing)), np.float32)
     cell_pos = np.empty(cell_max.shape, np.int64)
-    magnitude_and_cells(gx, gy, spacing, 0, cell_max.shape[0], magnitude, cell_max, cell_pos)
+    magnitude_and_cells(gx, gy, spacing, magnitude, cell_max, cell_pos)
     return magnitude, cell_max, cell_pos
 
 
-def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def edge_pixels(grey: np.ndarray, method: str = DEFAULT_SEEDS, spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Rows and columns of the edge pixels of a grey image.
 
     Parameters
     ----------
     grey : ndarray of float32, shape (H, W)
-    method : {"canny", "sobel"}
-        ``"canny"``: Canny edges (L2 gradient, high threshold the :data:`EDGE_PERCENTILE`
-        percentile of the non-zero Sobel magnitudes, low threshold half of it). ``"sobel"``: every
-        pixel whose Sobel magnitude reaches that percentile (thicker, more pixels).
+    method : {"sobel", "canny"}
+        ``"sobel"`` (:data:`DEFAULT_SEEDS`): every pixel whose Sobel magnitude reaches the
+        :data:`EDGE_PERCENTILE` percentile of the non-zero magnitudes. ``"canny"``: Canny edges (L2
+        gradient, that percentile as the high threshold, half of it as the low one; thinner).
     spacing : int
         Keep at most one edge pixel, the one of strongest gradient, per ``spacing x spacing``
         cell of the image (1: every edge pixel).
@@ -123,8 +123,7 @@ def edge_pixels(grey: np.ndarray, method: str = "canny", spacing: int = 1) -> tu
         edges = cv2.Canny(image8, 0.5 * high * scale, high * scale, L2gradient=True) > 0
     elif method == "sobel":
         if spacing > 1:  # a cell holds an edge pixel when its strongest pixel is one
-            flat = np.sort(cell_pos[cell_max >= high])
-            return (flat // grey.shape[1]).astype(np.int32), (flat % grey.shape[1]).astype(np.int32)
+            return rows_and_columns(np.sort(cell_pos[cell_max >= high]), grey.shape[1])
         edges = mag >= high
     else:
         raise InvalidInputError(f"method: expected 'canny' or 'sobel', got {method!r}")
@@ -213,7 +212,7 @@ def find_seeds(inputs: SimilarityInputs, left_grey: np.ndarray, source: str, *, 
 
     Edge seeds keep at most one pixel per ``spacing x spacing`` cell (see :func:`edge_pixels`);
     ``"random"`` matches ``random_fraction / spacing`` of all pixels, chosen with ``rng_seed``
-    (with the defaults, about as many pixels as the thinned Canny edges of the Middlebury pairs).
+    (with the defaults, about as many pixels as the thinned edge pixels of the Middlebury pairs).
     The scanline searches run in ``n_threads`` threads (:func:`match_pixels`).
     """
     if source in ("canny", "sobel"):

@@ -79,20 +79,27 @@ class ShiftedWindowCheck:
         ``(x, y + row_offset)`` and right columns ``x_right`` (1-D int arrays of one length), with
         the conditions of :meth:`add`. Reads the table in place (the final matching's pieces add
         their winners so, without gathering them first)."""
+        y, x, x_right, index = (np.asarray(a) for a in (y, x, x_right, index))
         if not (y.ndim == 1 and y.shape == x.shape == x_right.shape and index.ndim == 1):
             raise InvalidInputError("y, x, x_right, index: expected 1-D arrays, the first three of one length")
+        if any(a.dtype.kind != "i" for a in (y, x, x_right)) or index.dtype.kind not in "iu":
+            raise InvalidInputError("y, x, x_right, index: expected signed integer arrays (index: any integers)")
         if index.size and not (0 <= index.min() and index.max() < y.size):
             raise InvalidInputError(f"index: expected entries in [0, {y.size})")
         status = _add_matches(y, x, x_right, index, int(row_offset), self.d_map, self._for_max, self._for_min)
         if status == MAPS_OUTSIDE:
             h, w = self.d_map.shape
-            raise InvalidInputError(f"y, x, d: expected matches inside the {w}x{h} image with d >= 0 and x - d >= 0")
+            raise InvalidInputError(f"matches: expected left and right pixels inside the {w}x{h} image, the right one "
+                                    f"not right of the left one (disparity >= 0)")
         if status == MAPS_REPEATED:
             raise InvalidInputError("y, x: expected each left pixel at most once")
 
     def count_jumps(self, lo: int, hi: int) -> None:
         """Count, for :meth:`jumps_near`, the disparity jumps of image rows ``[lo, hi)`` once all their
         matches are added."""
+        h = self.d_map.shape[0]
+        if not 0 <= lo <= hi <= h:
+            raise InvalidInputError(f"lo, hi: expected 0 <= lo <= hi <= {h}, got {lo}, {hi}")
         _count_jumps(self.d_map, int(lo), int(hi), self._jumps)
 
     def jumps_near(self, lo: int, hi: int) -> int:

@@ -76,6 +76,11 @@ class RowMatching:
         """Row edges ``lo = e0 <= e1 <= ... <= e_n = hi`` cutting rows ``[lo, hi)`` into ``n_pieces``
         ranges of about equal candidate counts (whole rows; empty ranges where one row holds more
         than a share)."""
+        h = self.shape[0]
+        if not 0 <= lo <= hi <= h:
+            raise InvalidInputError(f"lo, hi: expected 0 <= lo <= hi <= {h}, got {lo}, {hi}")
+        if int(n_pieces) != n_pieces or n_pieces < 1:
+            raise InvalidInputError(f"n_pieces: expected an integer >= 1, got {n_pieces}")
         row_start = self._table[3]
         first, last = row_start[lo], row_start[hi]
         targets = first + (last - first) * np.arange(1, n_pieces) / n_pieces
