@@ -309,7 +309,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
                                 blk = n_blocks
                                 n_blocks += 1
                             base = (n_px + blk) * REC
-                            j = buf[base + FILL]
+                            j = np.int64(buf[base + FILL])  # an int16 index term overflows without the JIT
                             buf[base + FILL] = j + 1
                             buf[base + KEY + j] = code * 2
                             s = base + KEY + SLOTS + j
