@@ -54,11 +54,12 @@ def test_seed_sources(seeds):
     assert np.nanmedian(result.disparity) == pytest.approx(4, abs=0.1)
 
 
-def test_user_seed_points_grow_from_one_seed():
-    left, right = _shifted_pair(shift=4, seed=4)
-    result = match(left, right, max_disparity=8, seed_points=np.array([[40, 20, 4]]))
+@pytest.mark.parametrize("seed_row", [2, 20, 45])
+def test_user_seed_points_grow_from_one_seed(seed_row):
+    left, right = _shifted_pair(shift=4, seed=4)  # 48 rows: the two default bands meet at row 26
+    result = match(left, right, max_disparity=8, seed_points=np.array([[40, seed_row, 4]]))
     assert result.stats.n_seeds == 1
-    assert np.isfinite(result.disparity).mean() > 0.8
+    assert np.isfinite(result.disparity).mean() > 0.8  # the band without the seed is grown too
 
 
 def test_colour_and_uint8_input_accepted():

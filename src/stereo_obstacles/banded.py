@@ -334,7 +334,9 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     scanned_hi : ndarray of int32, shape (H, W)
         Largest disparity a seed search evaluated per pixel (-1: none), for the visited count.
     n_bands : int
-        Bands (threads), >= 1; 1 is one growth over the whole image.
+        Bands (threads), >= 1; 1 is one growth over the whole image. When a band would hold no seed
+        (a few user seeds), the image is grown as one band: the growth of a band starts only from
+        the seeds in its rows and overlap.
     overlap : int
         Rows of each neighbour a band grows over, >= 0.
     d_min, d_max, tau, mu, max_candidates, margin_reference, greedy
@@ -353,6 +355,8 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     if scanned_hi.shape != inputs.shape:
         raise InvalidInputError(f"scanned_hi: expected shape {inputs.shape}, got {scanned_hi.shape}")
     bands = band_rows(h, n_bands, overlap)
+    if len(bands) > 1 and not all(np.any((seeds.y >= lo) & (seeds.y < hi)) for _, _, lo, hi in bands):
+        bands = band_rows(h, 1, overlap)  # a band without a seed would grow nothing: one growth instead
     options = {"grow": dict(d_min=d_min, d_max=d_max, tau=tau, mu=mu, max_candidates=max_candidates,
                             margin_reference=margin_reference, greedy=greedy),
                "greedy": greedy, "final_margin": final_margin}
