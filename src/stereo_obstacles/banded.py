@@ -43,10 +43,10 @@ from stereo_obstacles.thread_pool import run_in_threads
 
 __all__ = ["BandedMatch", "BAND_OVERLAP", "FINAL_PIECES", "LOWER_ROWS_COST", "band_rows", "match_bands"]
 
-BAND_OVERLAP = 8
+BAND_OVERLAP = 4
 """Rows of each neighbouring band a band also grows over (see ``docs/matching.md``): 16 until
-session 14; 8 gave the same accuracy (Middlebury, KITTI, 90 synthetic scenes) and 2-3 % less
-match time once the work after the growth was shared."""
+session 14, 8 until session 15; each halving gave the same accuracy (Middlebury, Aloe, KITTI, 90
+synthetic scenes) and 1-3 % less match time."""
 
 @dataclass(frozen=True)
 class BandedMatch:
