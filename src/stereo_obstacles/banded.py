@@ -1,19 +1,18 @@
 """Growth and final matching on horizontal row bands, one thread per band.
 
 The image is cut into ``n_bands`` bands of rows, the lower ones thinner (:data:`LOWER_ROWS_COST`).
-Each band is grown on its own
-(:func:`stereo_obstacles.growing.grow` on a view of the prepared images) from the seeds inside
-it, over its own rows plus ``overlap`` rows of each neighbour, so that a surface reaching into a
-band from a seed just across the border is still grown. The candidates of the rows a band owns
+Each band is grown on its own (:func:`stereo_obstacles.growing.grow` on a view of the prepared
+images) from the seeds inside it, over its own rows plus ``overlap`` rows of each neighbour, so
+that a surface reaching into a band from a seed just across the border is still grown. The candidates of the rows a band owns
 then go through the (row-independent) confidently stable matching, the shifted-window check
 (:mod:`stereo_obstacles.shifted_windows`) and the subpixel look-ups of that band.
 
 The growth of the bands still takes unequal times (Teddy, bands at 54 % of the rows: about 15 and
 18 ms), so the work after it is cut into pieces any thread may take (:class:`_SharedWork`): a
 band's final matching in :data:`FINAL_PIECES` pieces of rows, and the check in strips of rows
-handed out as soon as the final matches around a strip are in. A thread that has finished its band takes the pieces and
-strips of the band still running, and does its own subpixel look-ups last. Neither the winners
-nor the verdicts depend on who runs what.
+handed out as soon as the final matches around a strip are in. A thread that has finished its
+band takes the pieces and strips of the band still running, and does its own subpixel look-ups
+last. Neither the winners nor the verdicts depend on who runs what.
 
 A band sees neither the candidates nor the ``mu`` and cap bookkeeping of the other band beyond
 the overlap: the result is close to, not equal to, one growth over the whole image (measured in

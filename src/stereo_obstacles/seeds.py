@@ -22,8 +22,8 @@ from stereo_obstacles.quantiles import percentile
 from stereo_obstacles.similarity import SimilarityInputs, similarity_at
 from stereo_obstacles.thread_pool import run_in_threads
 
-__all__ = ["DEFAULT_SEEDS", "EDGE_PERCENTILE", "SEED_SOURCES", "Seeds", "edge_pixels", "find_seeds", "match_pixels",
-           "random_pixels", "user_seeds"]
+__all__ = ["DEFAULT_SEEDS", "EDGE_PERCENTILE", "SEED_SOURCES", "Seeds", "edge_pixels", "find_seeds",
+           "match_pixels", "random_pixels", "user_seeds"]
 
 logger = logging.getLogger(__name__)
 
@@ -89,7 +89,8 @@ def _gradient_cells(grey: np.ndarray, spacing: int) -> tuple[np.ndarray, np.ndar
     return magnitude, cell_max, cell_pos
 
 
-def edge_pixels(grey: np.ndarray, method: str = DEFAULT_SEEDS, spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def edge_pixels(grey: np.ndarray, method: str = DEFAULT_SEEDS,
+                spacing: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Rows and columns of the edge pixels of a grey image.
 
     Parameters

@@ -81,16 +81,18 @@ class ShiftedWindowCheck:
         their winners so, without gathering them first)."""
         y, x, x_right, index = (np.asarray(a) for a in (y, x, x_right, index))
         if not (y.ndim == 1 and y.shape == x.shape == x_right.shape and index.ndim == 1):
-            raise InvalidInputError("y, x, x_right, index: expected 1-D arrays, the first three of one length")
+            raise InvalidInputError("y, x, x_right, index: expected 1-D arrays, the first three of "
+                                    "one length")
         if any(a.dtype.kind != "i" for a in (y, x, x_right)) or index.dtype.kind not in "iu":
-            raise InvalidInputError("y, x, x_right, index: expected signed integer arrays (index: any integers)")
+            raise InvalidInputError("y, x, x_right, index: expected signed integer arrays (index: "
+                                    "any integers)")
         if index.size and not (0 <= index.min() and index.max() < y.size):
             raise InvalidInputError(f"index: expected entries in [0, {y.size})")
         status = _add_matches(y, x, x_right, index, int(row_offset), self.d_map, self._for_max, self._for_min)
         if status == MAPS_OUTSIDE:
             h, w = self.d_map.shape
-            raise InvalidInputError(f"matches: expected left and right pixels inside the {w}x{h} image, the right one "
-                                    f"not right of the left one (disparity >= 0)")
+            raise InvalidInputError(f"matches: expected left and right pixels inside the {w}x{h} image, "
+                                    f"the right one not right of the left one (disparity >= 0)")
         if status == MAPS_REPEATED:
             raise InvalidInputError("y, x: expected each left pixel at most once")
 
