@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.plane_fit import least_squares_plane
 
 __all__ = ["BlindStripParameters", "extend_into_blind_strip"]
 
@@ -48,21 +49,6 @@ class BlindStripParameters:
     def __post_init__(self) -> None:
         if self.fit_width_px < 2 or self.min_fit_pixels < 3 or not self.reach_px >= 0:
             raise InvalidInputError("fit_width_px must be >= 2, min_fit_pixels >= 3 and reach_px >= 0")
-
-
-def _plane(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> tuple[float, float, float] | None:
-    """Least-squares ``(a, b, c)`` of ``d = a x + b y + c``, or None when the pixels do not pin a
-    plane down (all in one row or one column). Centred 2 x 2 normal equations, written out (no
-    BLAS call per frame)."""
-    x, y, d = xs - xs.mean(), ys - ys.mean(), ds - ds.mean()
-    sxx, syy, sxy = float((x * x).sum()), float((y * y).sum()), float((x * y).sum())
-    det = sxx * syy - sxy * sxy
-    if det <= 1e-6 * sxx * syy or sxx == 0 or syy == 0:
-        return None
-    sxd, syd = float((x * d).sum()), float((y * d).sum())
-    a = (sxd * syy - syd * sxy) / det
-    b = (syd * sxx - sxd * sxy) / det
-    return a, b, float(ds.mean() - a * xs.mean() - b * ys.mean())
 
 
 def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_mask: np.ndarray,
@@ -104,7 +90,7 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
         near = xs < first + params.fit_width_px
         if near.sum() < params.min_fit_pixels or first > float(ds[near].max()) + params.reach_px:
             continue
-        plane = _plane(xs[near], ys[near], ds[near])
+        plane = least_squares_plane(xs[near], ys[near], ds[near])
         if plane is None:
             continue
         # each row of the group walks left from just before its first pixel in that row

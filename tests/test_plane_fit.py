@@ -1,0 +1,58 @@
+"""Least-squares planes d = a x + b y + c from their nine sums (and the sum of d d)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.plane_fit import (N_MOMENTS, least_squares_plane, mean_residual, mean_squared_residual,
+                                        plane_from_moments, plane_moments)
+
+
+def _points(seed: int, n: int = 300):
+    rng = np.random.default_rng(seed)
+    xs, ys = rng.integers(0, 1242, n).astype(np.float64), rng.integers(0, 375, n).astype(np.float64)
+    return xs, ys, rng
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_an_exact_plane_is_recovered(seed):
+    xs, ys, rng = _points(seed)
+    a, b, c = rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(5, 80)
+    plane = least_squares_plane(xs, ys, a * xs + b * ys + c)
+    np.testing.assert_allclose(plane, (a, b, c), rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_noisy_points_give_numpys_least_squares_plane_and_residuals(seed):
+    xs, ys, rng = _points(seed)
+    ds = 0.02 * xs - 0.05 * ys + 20 + rng.normal(0, 0.3, xs.size)
+    expected, *_ = np.linalg.lstsq(np.stack([xs, ys, np.ones_like(xs)], axis=1), ds, rcond=None)
+    plane = least_squares_plane(xs, ys, ds)
+    np.testing.assert_allclose(plane, expected, rtol=1e-8, atol=1e-10)
+    other = (0.03, -0.04, 18.0)
+    residual = ds - (other[0] * xs + other[1] * ys + other[2])
+    moments = plane_moments(xs, ys, ds)
+    assert moments.shape == (N_MOMENTS,)
+    assert mean_residual(moments, other) == pytest.approx(residual.mean(), rel=1e-9)
+    assert mean_squared_residual(moments, other) == pytest.approx((residual ** 2).mean(), rel=1e-8)
+
+
+def test_the_sums_of_two_sets_add_up_to_those_of_their_union():
+    xs, ys, rng = _points(5)
+    ds = rng.uniform(1, 60, xs.size)
+    whole = plane_moments(xs, ys, ds)
+    parts = plane_moments(xs[:100], ys[:100], ds[:100]) + plane_moments(xs[100:], ys[100:], ds[100:])
+    np.testing.assert_allclose(parts, whole, rtol=1e-12)
+
+
+@pytest.mark.parametrize("xs, ys", [
+    ([], []), ([3.0], [4.0]),
+    ([1.0, 2.0, 3.0, 4.0], [7.0, 7.0, 7.0, 7.0]),         # one row
+    ([5.0, 5.0, 5.0], [1.0, 2.0, 9.0]),                   # one column
+    ([0.0, 1.0, 2.0, 3.0], [0.0, 2.0, 4.0, 6.0]),         # one slanted line
+])
+def test_points_that_pin_no_plane_down_give_none(xs, ys):
+    xs, ys = np.array(xs), np.array(ys)
+    assert least_squares_plane(xs, ys, np.ones_like(xs)) is None
+    assert np.isnan(mean_residual(plane_moments(xs, ys, xs), (0.0, 0.0, 0.0))) == (xs.size == 0)
