@@ -102,6 +102,23 @@ def test_a_slanted_surface_and_layers_closer_than_the_gap_stay_one_object():
     assert group_obstacle_pixels(close, np.isfinite(close), replace(params, split_min_gap_px=0.3)).max() == 2
 
 
+def test_a_wall_too_steep_for_the_cell_links_comes_out_as_one_object():
+    """A near wall seen at a slant: its disparity rises 2 px from one 8-column cell to the next,
+    more than the cells' link tolerance (1.5 px at 30 px), so the cells link only down their
+    columns; the column groups lie on one plane and are joined."""
+    from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+
+    rng = np.random.default_rng(3)
+    wall = np.full((96, 160), np.nan, np.float32)
+    wall[16:80, 16:144] = 24.0 + 0.25 * np.arange(128, dtype=np.float32)[None, :]
+    wall[16:80, 16:144] += rng.normal(0, 0.05, (64, 128)).astype(np.float32)
+    mask = np.isfinite(wall)
+    strips = group_obstacle_pixels(wall, mask, GroupingParameters(coplanar_tolerance_px=0.0))
+    assert strips.max() >= 8
+    joined = group_obstacle_pixels(wall, mask)
+    assert joined.max() == 1 and np.count_nonzero(joined) == np.count_nonzero(strips)
+
+
 def test_split_parameters_are_checked():
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.obstacle_grouping import GroupingParameters
@@ -118,6 +135,8 @@ def test_split_parameters_are_checked():
     ({"rel_tolerance": float("nan")}, "rel_tolerance"), ({"min_pure_fraction": 1.5}, "min_pure_fraction"),
     ({"min_object_pixels": 0}, "min_object_pixels"), ({"split_min_gap_px": None}, "split_min_gap_px"),
     ({"cell_px": np.uint8(16)}, "cell_px"),          # a narrow NumPy integer would overflow cell_px ** 2
+    ({"coplanar_tolerance_px": -0.1}, "coplanar_tolerance_px"),
+    ({"coplanar_rel_tolerance": float("inf")}, "coplanar_rel_tolerance"),
 ])
 def test_every_grouping_parameter_is_checked_with_one_clear_line(kwargs, name):
     from stereo_obstacles.errors import InvalidInputError

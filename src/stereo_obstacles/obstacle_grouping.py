@@ -17,6 +17,10 @@ or more tight groups of an object's size whose median disparities are more than
 ``split_min_gap_px`` apart is split into them, its other pixels joining the one of nearest
 median disparity. A tighter tolerance alone would break weakly matched objects into pieces
 too small to report (measured in ``docs/pipeline.md``).
+
+Last, neighbouring groups that lie on one plane in disparity are joined
+(:mod:`stereo_obstacles.coplanar_merging`): the pieces of a wall whose matches have gaps, or
+whose disparity changes faster than the link tolerance from cell to cell.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._obstacle_grouping_kernel import assign_pixels_kernel, cell_medians_kernel
+from stereo_obstacles.coplanar_merging import merge_coplanar_groups
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
 
@@ -55,6 +60,11 @@ class GroupingParameters:
         module docstring); 0, or not below ``abs_tolerance_px``, switches the split off.
     split_min_gap_px : float
         The tight groups' median disparities must span more than this to split a group.
+    coplanar_tolerance_px, coplanar_rel_tolerance : float
+        Neighbouring groups of an object's size are joined when, over each one's pixels, the
+        plane of both differs from its own plane by at most ``coplanar_tolerance_px +
+        coplanar_rel_tolerance * d`` pixels (root mean square;
+        :mod:`stereo_obstacles.coplanar_merging`); ``coplanar_tolerance_px`` 0 switches it off.
     """
 
     cell_px: int = 8
@@ -65,13 +75,16 @@ class GroupingParameters:
     min_object_pixels: int = 120
     split_tolerance_px: float = 0.75
     split_min_gap_px: float = 0.5
+    coplanar_tolerance_px: float = 0.15
+    coplanar_rel_tolerance: float = 0.01
 
     def __post_init__(self) -> None:
         check_integers(self, (("cell_px", 2, math.inf), ("min_object_pixels", 1, math.inf)))
         check_integers(self, (("min_cell_pixels", 1, self.cell_px ** 2),))
         check_positive(self, ("abs_tolerance_px",))
         check_numbers(self, (("rel_tolerance", 0.0, math.inf), ("min_pure_fraction", 0.0, 1.0),
-                             ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf)))
+                             ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf),
+                             ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf)))
 
 
 def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:
@@ -177,10 +190,20 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         raise InvalidInputError(f"disparity {d.shape} and obstacle_mask {m.shape} must be the same 2-D shape")
     usable = m & np.isfinite(d)
     raw, counts = _raw_groups(d, usable, params)
+    loose = raw
     if 0 < params.split_tolerance_px < params.abs_tolerance_px and raw.max() >= 0:
         tight, _ = _raw_groups(d, usable, replace(params, abs_tolerance_px=params.split_tolerance_px,
                                                   split_tolerance_px=0.0))
         raw = _split_depth_layers(raw, tight, d, params)
+        counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
+    if params.coplanar_tolerance_px > 0:
+        large = np.concatenate([[-1], np.cumsum(counts >= params.min_object_pixels) - 1])
+        large[1:][counts < params.min_object_pixels] = -1
+        raw = large[raw + 1]
+        split_from = np.zeros(int(raw.max()) + 1, dtype=np.int64)
+        split_from[raw[raw >= 0]] = loose[raw >= 0]            # a layer lies within one loose group
+        raw = merge_coplanar_groups(raw, d, cell_px=params.cell_px, tolerance_px=params.coplanar_tolerance_px,
+                                    rel_tolerance=params.coplanar_rel_tolerance, split_from=split_from)
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     keep = np.flatnonzero(counts >= params.min_object_pixels)
     order = keep[np.argsort(-counts[keep], kind="stable")]
