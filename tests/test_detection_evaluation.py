@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from stereo_obstacles.detection_evaluation import SceneEvaluation, compare_with_truth, summarise
+from stereo_obstacles.detection_evaluation import SceneEvaluation, compare_with_truth, repeated_detections, summarise
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
@@ -81,6 +81,19 @@ def test_off_screen_truths_are_left_out():
     hidden = SimpleNamespace(obstacle_id=9, kind="box", size_m=(1, 1, 1), nearest_depth_m=None, visible_pixels=0)
     comparisons, _ = compare_with_truth(detections, instances, labels, truths + [hidden])
     assert 9 not in {c.truth_id for c in comparisons}
+
+
+def test_a_detection_lying_mostly_on_an_obstacle_a_larger_one_covers_repeats_it():
+    detections, instances, labels, truths = _scene()
+    assert repeated_detections(detections, instances) == ()         # 3 lies mostly on truth 2, 2 mostly on ground
+    id_map = detections.id_map.copy()
+    id_map[10:20, 0:20] = 5                                          # truth 1's other half: 200 px
+    id_map[0:10, 10:12] = 6                                          # and a sliver of 20 px
+    repeated = _detections(id_map, {1: 4.1, 2: 5.0, 3: 7.6, 4: 9.0, 5: 4.2, 6: 4.3})
+    assert repeated_detections(repeated, instances) == (1, 6)        # 5 is the largest on truth 1
+    evaluations = [SceneEvaluation(seed=s, ground="asphalt", comparisons=(), false_alarms=(), seconds=0.1,
+                                   n_detections=6, n_repeated=2) for s in (1, 2)]
+    assert (summarise(evaluations).n_detections, summarise(evaluations).n_repeated) == (12, 4)
 
 
 def test_summary_counts_only_relevant_truths():

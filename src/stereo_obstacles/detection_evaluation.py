@@ -140,6 +140,18 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
     return comparisons, alarms
 
 
+def repeated_detections(obstacle_list: ObstacleList, instances: np.ndarray) -> tuple[int, ...]:
+    """Ids of the detections that repeat an obstacle: more than half of their pixels lie on one
+    true obstacle that a larger detection also lies mostly on (one wall listed twice).
+    ``obstacle_list`` and ``instances`` as for :func:`compare_with_truth`."""
+    majority = {}
+    for o in sorted(obstacle_list.obstacles, key=lambda o: -o.pixel_count):
+        counts = np.bincount(instances[obstacle_list.id_map == o.id].astype(np.int64))
+        if counts.size > 1 and 2 * counts[1:].max() > counts.sum():
+            majority.setdefault(int(np.argmax(counts[1:])) + 1, []).append(o.id)
+    return tuple(sorted(i for ids in majority.values() for i in ids[1:]))
+
+
 @dataclass(frozen=True)
 class SceneEvaluation:
     """The comparison of one rendered scene's detections with its truth."""
@@ -149,6 +161,9 @@ class SceneEvaluation:
     comparisons: tuple[TruthComparison, ...]
     false_alarms: tuple[FalseAlarm, ...]
     seconds: float
+    n_detections: int = 0
+    n_repeated: int = 0
+    """Detections that repeat an obstacle a larger one covers (:func:`repeated_detections`)."""
 
 
 @dataclass(frozen=True)
@@ -174,6 +189,9 @@ class DetectionSummary:
     large_errors: tuple[str, ...] = ()
     """The found obstacles whose distance error exceeds ``LARGE_ERROR_PCT`` (the issue's worst-error
     target), worst first, e.g. ``"seed 14: #5 wall at 2.65 m, reported 2.98 m (+12.3 %)"``."""
+    n_detections: int = 0
+    n_repeated: int = 0
+    """Detections, of all scenes, that repeat an obstacle a larger one covers."""
 
     def to_dict(self) -> dict:
         """JSON-ready mapping."""
@@ -210,7 +228,8 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
     comparisons, alarms = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles,
                                              seen_by_both=pair.nonocc)
     return SceneEvaluation(seed=seed, ground=scene.ground.name, comparisons=tuple(comparisons),
-                           false_alarms=tuple(alarms), seconds=seconds)
+                           false_alarms=tuple(alarms), seconds=seconds, n_detections=len(result.obstacles.obstacles),
+                           n_repeated=len(repeated_detections(result.obstacles, pair.instances)))
 
 
 def _stereo_visible(comparison: TruthComparison) -> int:
@@ -251,6 +270,7 @@ def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, 
         false_alarms_other=len(alarms) - alarms.count("shadow") - alarms.count("marking"),
         median_seconds=float(np.median([e.seconds for e in evaluations])) if evaluations else 0.0,
         min_height_m=min_height_m, max_distance_m=max_distance_m, min_visible_px=min_visible_px,
+        n_detections=sum(e.n_detections for e in evaluations), n_repeated=sum(e.n_repeated for e in evaluations),
         missed=tuple(f"seed {s}: #{c.truth_id} {c.kind} at {c.true_distance_m:.1f} m ({_stereo_visible(c)} px seen by "
                      f"both cameras)"
                      for s, c in relevant if c.detected_id is None),

@@ -104,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
                   f"{s.p95_abs_error_pct:.2f} %, worst {s.max_abs_error_pct:.2f} %")
         print(f"  false alarms: {s.false_alarms_on_shadow} on shadows, {s.false_alarms_on_marking} on markings, "
               f"{s.false_alarms_other} elsewhere; median pipeline time {s.median_seconds * 1000:.0f} ms per pair")
+        print(f"  detections: {s.n_detections}, of which {s.n_repeated} repeat an obstacle a larger detection covers")
         for miss in s.missed:
             print(f"  missed: {miss}")
         for large in s.large_errors:
