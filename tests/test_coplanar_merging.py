@@ -1,4 +1,4 @@
-"""Joining neighbouring groups that lie on one plane in disparity and meet without a step."""
+"""Joining neighbouring groups that lie on one plane in disparity."""
 
 from __future__ import annotations
 
@@ -12,23 +12,28 @@ TOLERANCES = dict(cell_px=8, tolerance_px=0.15, rel_tolerance=0.01)
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_group_sums_and_cells_agree_with_numpy(seed):
+def test_group_sums_and_neighbour_pairs_agree_with_numpy(seed):
     rng = np.random.default_rng(seed)
-    h, w, cell, n = 45, 61, 8, 4                                      # partial cells at the borders
-    groups = np.where(rng.random((h, w)) < 0.9, rng.integers(-1, n, (h, w)), -1)
-    groups[:, :20][groups[:, :20] == 3] = -1                          # group 3 occupies only some cells
+    h, w, cell, n = 45, 61, 8, 6                                      # partial cells at the borders
+    groups = np.full((h, w), -1, np.int64)
+    for g in range(n):                                                # blobs: some touch, some do not
+        y, x = rng.integers(0, h - 6), rng.integers(0, w - 6)
+        groups[y:y + rng.integers(2, 7), x:x + rng.integers(2, 7)] = g
     disparity = rng.uniform(1, 60, (h, w)).astype(np.float32)
-    sums, occupied = group_sums_kernel(groups, disparity, cell, n)
+    sums, keys = group_sums_kernel(groups, disparity, cell, n)
+    cells = np.zeros((n, 6, 8), bool)
     for g in range(n):
         ys, xs = np.nonzero(groups == g)
         x, y, d = xs.astype(float), ys.astype(float), disparity[ys, xs].astype(float)
         expected = [x.size, x.sum(), y.sum(), d.sum(), (x * x).sum(), (x * y).sum(), (y * y).sum(),
                     (x * d).sum(), (y * d).sum(), (d * d).sum()]
         np.testing.assert_allclose(sums[g], expected, rtol=1e-12)
-        expected_cells = np.zeros((6, 8), bool)
-        expected_cells[ys // cell, xs // cell] = True
-        np.testing.assert_array_equal(occupied[g], expected_cells)
-    assert not occupied[3].all() and occupied[3].any()
+        cells[g, ys // cell, xs // cell] = True
+    expected_keys = [g * n + k for g in range(n) for k in range(g + 1, n)
+                     if any(cells[g, cy, cx] and cells[k, max(cy - 1, 0):cy + 2, max(cx - 1, 0):cx + 2].any()
+                            for cy in range(6) for cx in range(8))]
+    np.testing.assert_array_equal(keys, expected_keys)
+    assert 0 < len(expected_keys) < n * (n - 1) // 2
 
 
 def _plane_pieces(gap_columns: slice, slope: float = 0.05):
@@ -52,8 +57,26 @@ def test_pieces_of_one_slanted_wall_are_joined():
     np.testing.assert_array_equal(joined, np.where(groups >= 0, 0, -1))
 
 
+def test_noisy_pieces_of_a_wall_are_joined_by_their_own_planes_not_by_their_noise():
+    """With 0.4 px of noise each piece lies 0.4 px (rms) off any plane, its own included: the test
+    compares the joint plane with the piece's own one, not with its pixels."""
+    groups, d = _plane_pieces(slice(60, 66))
+    d += np.random.default_rng(1).normal(0, 0.4, d.shape).astype(np.float32)
+    assert merge_coplanar_groups(groups, d, **TOLERANCES).max() == 0
+
+
+def test_the_tolerance_grows_with_the_disparity():
+    """Two pieces of a near surface curved a little (0.0002 px per px squared): the joint plane lies
+    0.29 px off each piece's own; within 0.15 px + 1 % of 30 px, not within 0.15 px."""
+    groups, _ = _plane_pieces(slice(60, 66))
+    x = np.arange(160, dtype=np.float32) - 80.0
+    d = np.where(groups >= 0, 30.0 + 0.0002 * x[None, :] ** 2, np.nan).astype(np.float32)
+    assert merge_coplanar_groups(groups, d, **TOLERANCES).max() == 0
+    assert merge_coplanar_groups(groups, d, **dict(TOLERANCES, rel_tolerance=0.0)).max() == 1
+
+
 def test_pieces_more_than_one_cell_apart_stay_apart():
-    groups, d = _plane_pieces(slice(60, 80))                          # an empty cell column between them
+    groups, d = _plane_pieces(slice(64, 72))                          # cell 8 empty between cells 7 and 9
     np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **TOLERANCES), groups)
 
 
@@ -103,6 +126,27 @@ def test_layers_split_apart_are_not_joined_again_directly_or_through_another_pie
     kept_apart = merge_coplanar_groups(groups, d, **TOLERANCES, split_from=np.array([5, 7, 5]))
     assert kept_apart[30, 20] != kept_apart[30, 120]                  # 0 and 2 came from one group
     assert kept_apart[30, 80] in (kept_apart[30, 20], kept_apart[30, 120])   # 1 joins one of them
+
+
+def test_a_piece_that_pins_no_plane_down_is_not_joined():
+    """One row of a slanted wall beside a flat block: the row fits its own line exactly but any
+    plane through both lies far off it."""
+    d = np.full((64, 64), np.nan, np.float32)
+    groups = np.full(d.shape, -1, np.int64)
+    d[20, 8:40], groups[20, 8:40] = 8.0 + 0.05 * np.arange(32), 0
+    d[21:40, 8:40], groups[21:40, 8:40] = 8.5, 1
+    np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **TOLERANCES), groups)
+
+
+def test_bad_labels_are_refused():
+    from stereo_obstacles.errors import InvalidInputError
+
+    groups, d = _plane_pieces(slice(60, 66))
+    with pytest.raises(InvalidInputError, match="split_from"):
+        merge_coplanar_groups(groups, d, **TOLERANCES, split_from=np.array([0]))
+    groups[0, 0] = -2
+    with pytest.raises(InvalidInputError, match="labels must be -1"):
+        merge_coplanar_groups(groups, d, **TOLERANCES)
 
 
 def test_nothing_to_join_is_returned_as_given():

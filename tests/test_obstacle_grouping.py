@@ -119,6 +119,22 @@ def test_a_wall_too_steep_for_the_cell_links_comes_out_as_one_object():
     assert joined.max() == 1 and np.count_nonzero(joined) == np.count_nonzero(strips)
 
 
+def test_a_piece_too_small_to_report_is_dropped_not_joined():
+    """A wall too steep for the cell links (2 px per cell at 10-26 px: the tolerance is at most
+    1.3 px) and, past its end, 12 rows more of it in one more cell column (96 px): a group of its
+    own, too small to report, so dropped before the joining, not joined to the wall."""
+    from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+
+    wall = np.full((96, 160), np.nan, np.float32)
+    plane = 10.0 + 0.25 * (np.arange(160, dtype=np.float32)[None, :] - 16)
+    wall[16:80, 16:80] = plane[:, 16:80]
+    wall[40:52, 80:88] = plane[:, 80:88]
+    strips = group_obstacle_pixels(wall, np.isfinite(wall), GroupingParameters(coplanar_tolerance_px=0.0))
+    assert strips.max() == 8 and np.all(strips[40:52, 80:88] == 0)
+    groups = group_obstacle_pixels(wall, np.isfinite(wall))
+    assert groups.max() == 1 and np.all(groups[40:52, 80:88] == 0) and np.all(groups[16:80, 16:80] == 1)
+
+
 def test_split_parameters_are_checked():
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.obstacle_grouping import GroupingParameters

@@ -1,4 +1,4 @@
-"""Compiled plane-fit sums of each group's pixels and the grid cells each group occupies (private).
+"""Compiled plane-fit sums of each group's pixels and the pairs of neighbouring groups (private).
 
 The public wrapper is :func:`stereo_obstacles.coplanar_merging.merge_coplanar_groups`.
 """
@@ -10,25 +10,31 @@ from numba import njit
 
 from stereo_obstacles._similarity_kernel import CACHE
 
+MAX_GROUPS_PER_CELL = 8
+"""Distinct groups remembered per grid cell; further ones are not seen as neighbours there (a cell
+of an 8 x 8 grid holds one group, or a few depth layers of one)."""
+
 
 @njit(cache=CACHE, nogil=True)
 def group_sums_kernel(groups, disparity, cell, n_groups):
-    """Sums of 1, x, y, d, x x, x y, y y, x d, y d and d d over each group's pixels, and the cells
-    holding any of them.
+    """Sums of 1, x, y, d, x x, x y, y y, x d, y d and d d over each group's pixels, and the pairs of
+    groups with pixels in one grid cell or in two neighbouring ones (8-neighbourhood).
 
     ``groups`` int64 ``(H, W)`` with labels ``0..n_groups-1`` or -1 (none); ``disparity``
-    float32 ``(H, W)``. Returns the sums, float64 ``(n_groups, 10)``, and bool ``(n_groups, gh,
-    gw)``, true where a group has a pixel in the ``cell x cell`` block (``gh, gw`` rounded up).
+    float32 ``(H, W)``; cells of ``cell x cell`` pixels. Returns the sums, float64
+    ``(n_groups, 10)``, and the pairs as int64 keys ``g * n_groups + k`` with ``g < k``, each
+    once, sorted.
     """
     h, w = groups.shape
+    gh, gw = (h + cell - 1) // cell, (w + cell - 1) // cell
     sums = np.zeros((n_groups, 10))
-    occupied = np.zeros((n_groups, (h + cell - 1) // cell, (w + cell - 1) // cell), np.bool_)
+    in_cell = np.full((gh, gw, MAX_GROUPS_PER_CELL), -1, np.int64)
+    n_in_cell = np.zeros((gh, gw), np.int64)
     for y in range(h):
         for x in range(w):
             g = groups[y, x]
             if g < 0:
                 continue
-            occupied[g, y // cell, x // cell] = True
             fx, fy, d = np.float64(x), np.float64(y), np.float64(disparity[y, x])
             sums[g, 0] += 1.0
             sums[g, 1] += fx
@@ -40,4 +46,30 @@ def group_sums_kernel(groups, disparity, cell, n_groups):
             sums[g, 7] += fx * d
             sums[g, 8] += fy * d
             sums[g, 9] += d * d
-    return sums, occupied
+            cy, cx = y // cell, x // cell
+            known = False
+            for i in range(n_in_cell[cy, cx]):
+                known = known or in_cell[cy, cx, i] == g
+            if not known and n_in_cell[cy, cx] < MAX_GROUPS_PER_CELL:
+                in_cell[cy, cx, n_in_cell[cy, cx]] = g
+                n_in_cell[cy, cx] += 1
+    # each unordered pair of cells once: the cell itself, right, and the three below
+    offsets = ((0, 0), (0, 1), (1, -1), (1, 0), (1, 1))
+    n_keys = 0
+    for fill in range(2):
+        keys = np.empty(n_keys, np.int64)
+        n_keys = 0
+        for cy in range(gh):
+            for cx in range(gw):
+                for oy, ox in offsets:
+                    ny, nx = cy + oy, cx + ox
+                    if ny >= gh or nx < 0 or nx >= gw:
+                        continue
+                    for i in range(n_in_cell[cy, cx]):
+                        for j in range(n_in_cell[ny, nx]):
+                            a, b = in_cell[cy, cx, i], in_cell[ny, nx, j]
+                            if a != b:
+                                if fill == 1:
+                                    keys[n_keys] = min(a, b) * n_groups + max(a, b)
+                                n_keys += 1
+    return sums, np.unique(keys)

@@ -10,7 +10,7 @@ plane of their pixels together describes each of them almost as well as the grou
 does: over each group's pixels the two planes differ by at most ``tolerance_px + rel_tolerance
 * d`` (root mean square). Each group must lie on the joint plane, not only the larger one,
 and with its own slant: a plane slanted to pass through a near box and the far pole rising
-above it fits neither's upright face. (Testing only each group's mean residual to the joint
+above it fits neither's upright face. (Testing only each group's median residual to the joint
 plane joined objects side by side at different depths; ``docs/pipeline.md``.)
 
 Joined groups are tested again against their neighbours until nothing changes. Every test
@@ -21,49 +21,33 @@ which add up as groups join: one pass over the pixels in all.
 from __future__ import annotations
 
 import math
+from collections import deque
 
 import numpy as np
 
 from stereo_obstacles._coplanar_merging_kernel import group_sums_kernel
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.plane_fit import mean_squared_residual, plane_from_moments
 
 __all__ = ["merge_coplanar_groups"]
 
 
-def _neighbour_pairs(occupied: np.ndarray) -> list[tuple[int, int]]:
-    """Pairs ``(g, k)``, ``g < k``, of groups whose cells (``occupied``, bool ``(n, gh, gw)``) lie
-    within one cell of each other (8-neighbourhood): a join on the cell index, since a cell holds
-    few groups and a frame may hold many."""
-    n, gh, gw = occupied.shape
-    padded = np.pad(occupied, ((0, 0), (1, 1), (1, 1)))
-    near = np.zeros_like(occupied)
-    for dy in range(3):
-        for dx in range(3):
-            near |= padded[:, dy:dy + gh, dx:dx + gw]
-    owner, owned_cell = np.nonzero(occupied.reshape(n, gh * gw))
-    by_cell = np.argsort(owned_cell, kind="stable")
-    owner, owned_cell = owner[by_cell], owned_cell[by_cell]
-    group, near_cell = np.nonzero(near.reshape(n, gh * gw))
-    first = np.searchsorted(owned_cell, near_cell, side="left")
-    count = np.searchsorted(owned_cell, near_cell, side="right") - first
-    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-    g, k = np.repeat(group, count), owner[np.repeat(first, count) + offset]
-    keys = np.unique(np.minimum(g, k)[g != k] * n + np.maximum(g, k)[g != k])
-    return [(int(key // n), int(key % n)) for key in keys]
-
-
-def _off_plane_px(part: np.ndarray, plane: tuple[float, float, float]) -> float:
-    """Root-mean-square distance, over a part's pixels (given by their plane-fit sums), between
-    ``plane`` and the part's own least-squares plane (a constant for a part that pins no plane
-    down): how much worse ``plane`` describes the part than the part itself does, in pixels."""
-    own = plane_from_moments(part) or (0.0, 0.0, part[3] / part[0])
-    return math.sqrt(max(mean_squared_residual(part, plane) - mean_squared_residual(part, own), 0.0))
-
-
 def _coplanar(part_a: np.ndarray, part_b: np.ndarray, tolerance_px: float, rel_tolerance: float) -> bool:
-    plane = plane_from_moments(part_a + part_b)
-    return plane is not None and all(
-        _off_plane_px(part, plane) <= tolerance_px + rel_tolerance * part[3] / part[0] for part in (part_a, part_b))
+    """Whether the plane through both parts (given by their plane-fit sums) lies, over each part's
+    pixels, within ``tolerance_px + rel_tolerance * d`` (root mean square) of the part's own
+    least-squares plane. A part that pins no plane down (one row, column or line) is never joined:
+    its own fit is then no yardstick."""
+    joint = plane_from_moments(part_a + part_b)
+    if joint is None:
+        return False
+    for part in (part_a, part_b):
+        own = plane_from_moments(part)
+        if own is None:
+            return False
+        off_plane = math.sqrt(max(mean_squared_residual(part, joint) - mean_squared_residual(part, own), 0.0))
+        if off_plane > tolerance_px + rel_tolerance * part[3] / part[0]:
+            return False
+    return True
 
 
 def merge_coplanar_groups(groups: np.ndarray, disparity: np.ndarray, *, cell_px: int, tolerance_px: float,
@@ -73,11 +57,14 @@ def merge_coplanar_groups(groups: np.ndarray, disparity: np.ndarray, *, cell_px:
     Parameters
     ----------
     groups
-        ``int64 (H, W)``: the group of each pixel, ``0..n-1`` (each label used), or -1 for none.
+        ``int64 (H, W)``: the group of each pixel, ``0..n-1``, or -1 for none. Labels without
+        pixels take part in nothing (and keep a number of their own in the result).
     disparity
-        ``float32 (H, W)`` disparity in pixels, finite at every labelled pixel.
+        ``float32 (H, W)`` disparity in pixels, finite at every labelled pixel (a group with a
+        NaN among its pixels is never joined).
     cell_px
-        Side of the grid cells that decide which groups are neighbours (within one cell).
+        Side of the grid cells that decide which groups are neighbours (pixels in one cell or in
+        two neighbouring ones).
     tolerance_px, rel_tolerance
         The test of the module docstring: ``tolerance_px + rel_tolerance * d`` pixels of disparity.
     split_from
@@ -90,25 +77,43 @@ def merge_coplanar_groups(groups: np.ndarray, disparity: np.ndarray, *, cell_px:
     numpy.ndarray
         ``int64 (H, W)``: the joined groups numbered ``0..m-1`` in the order of their lowest
         original label, -1 where ``groups`` is -1; ``groups`` itself when it holds fewer than two.
+
+    Raises
+    ------
+    InvalidInputError
+        A label below -1, or ``split_from`` not of length ``n``.
     """
-    n = int(groups.max()) + 1
+    if groups.size and groups.min() < -1:
+        raise InvalidInputError(f"groups: labels must be -1 (none) or 0..n-1, got {groups.min()}")
+    n = int(groups.max(initial=-1)) + 1
+    if split_from is not None and np.shape(split_from) != (n,):
+        raise InvalidInputError(f"split_from must have one value per group, shape ({n},), got {np.shape(split_from)}")
     if n < 2:
         return groups
-    sums, occupied = group_sums_kernel(groups, disparity, cell_px, n)
-    pairs = _neighbour_pairs(occupied)
+    sums, keys = group_sums_kernel(groups, disparity, cell_px, n)
+    neighbours = [set() for _ in range(n)]
+    for g, k in zip(keys // n, keys % n):
+        neighbours[g].add(int(k))
+        neighbours[k].add(int(g))
     origins = [{int(o)} for o in (np.arange(n) if split_from is None else split_from)]
+    members = [[g] for g in range(n)]
     root = np.arange(n)
-    joined = True
-    while joined:
-        joined = False
-        for g, k in pairs:
-            a, b = root[g], root[k]
-            if a != b and origins[a].isdisjoint(origins[b]) and _coplanar(sums[a], sums[b], tolerance_px,
-                                                                          rel_tolerance):
-                keep, other = min(a, b), max(a, b)
-                sums[keep] += sums[other]
-                origins[keep] |= origins[other]
-                root[root == other] = keep
-                joined = True
+    pending = deque((int(g), int(k)) for g, k in zip(keys // n, keys % n))
+    while pending:
+        a, b = pending.popleft()
+        if root[a] != a or root[b] != b or not origins[a].isdisjoint(origins[b]) or not _coplanar(
+                sums[a], sums[b], tolerance_px, rel_tolerance):
+            continue                                    # absorbed since queued, or not to be joined
+        keep, other = min(a, b), max(a, b)
+        sums[keep] += sums[other]
+        origins[keep] |= origins[other]
+        root[members[other]] = keep
+        members[keep] += members[other]
+        for x in neighbours[other] - {keep}:
+            neighbours[x].discard(other)
+            neighbours[x].add(keep)
+        neighbours[keep] |= neighbours[other] - {keep}
+        neighbours[keep].discard(other)
+        pending.extend((keep, x) for x in neighbours[keep])  # the joined group is a new part to test
     _, compact = np.unique(root, return_inverse=True)
     return np.concatenate([[-1], compact])[groups + 1]

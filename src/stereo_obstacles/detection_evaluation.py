@@ -142,10 +142,11 @@ def compare_with_truth(obstacle_list: ObstacleList, instances: np.ndarray, true_
 
 def repeated_detections(obstacle_list: ObstacleList, instances: np.ndarray) -> tuple[int, ...]:
     """Ids of the detections that repeat an obstacle: more than half of their pixels lie on one
-    true obstacle that a larger detection also lies mostly on (one wall listed twice).
+    true obstacle that a larger detection (of equal size: a lower id) also lies mostly on (one wall
+    listed twice).
     ``obstacle_list`` and ``instances`` as for :func:`compare_with_truth`."""
     majority = {}
-    for o in sorted(obstacle_list.obstacles, key=lambda o: -o.pixel_count):
+    for o in sorted(obstacle_list.obstacles, key=lambda o: (-o.pixel_count, o.id)):
         counts = np.bincount(instances[obstacle_list.id_map == o.id].astype(np.int64))
         if counts.size > 1 and 2 * counts[1:].max() > counts.sum():
             majority.setdefault(int(np.argmax(counts[1:])) + 1, []).append(o.id)

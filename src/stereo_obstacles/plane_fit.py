@@ -12,10 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-N_MOMENTS = 10
-"""Length of a moments vector: the sums of 1, x, y, d, x x, x y, y y, x d, y d and d d."""
-
-
 def plane_moments(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> np.ndarray:
     """``float64 (10,)``: the sums of 1, x, y, d, x x, x y, y y, x d, y d and d d over the points.
 
@@ -52,14 +48,6 @@ def plane_from_moments(moments: np.ndarray) -> tuple[float, float, float] | None
 def least_squares_plane(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> tuple[float, float, float] | None:
     """:func:`plane_from_moments` of the points ``(xs, ys)`` with values ``ds`` (1-D, one length)."""
     return plane_from_moments(plane_moments(xs, ys, ds))
-
-
-def mean_residual(moments: np.ndarray, plane: tuple[float, float, float]) -> float:
-    """Mean of ``d - (a x + b y + c)`` over the points whose :func:`plane_moments` these are
-    (NaN for none)."""
-    n, sx, sy, sd = (float(m) for m in moments[:4])
-    a, b, c = plane
-    return (sd - a * sx - b * sy - c * n) / n if n > 0 else float("nan")
 
 
 def mean_squared_residual(moments: np.ndarray, plane: tuple[float, float, float]) -> float:
