@@ -239,3 +239,14 @@ def test_best_first_order_is_a_stable_descending_sort(values):
     from stereo_obstacles._stable_matching_kernel import _best_first
     c = values.astype(np.float32)
     np.testing.assert_array_equal(_best_first(c), np.argsort(-c, kind="stable"))
+
+
+def test_a_seed_similarity_above_one_counts_as_one_not_as_a_wrapped_negative():
+    """Seeds may come from outside (the previous frame's matches); a similarity rounded a little
+    above 1 must not wrap round in the int16 store and drop the seed below ``tau``."""
+    left, right = _scene(seed=3, shape=(24, 40))
+    inputs = prepare_similarity(left, right)
+    one_seed = [np.array([12]), np.array([30]), np.array([27])]       # background, disparity 3
+    grown = {c: grow(inputs, Seeds(*one_seed, np.array([c], np.float32), 0, 1), d_min=0, d_max=9).y.size
+             for c in (1.0, 1.0 + 1e-4, 1.5)}
+    assert grown[1.0] > 50 and grown[1.0 + 1e-4] == grown[1.0] == grown[1.5]

@@ -165,7 +165,9 @@ def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau:
     seed_arrays = [np.ascontiguousarray(a[order]) for a in (seeds.y, seeds.x, seeds.x_right)]
     keep = seeds.similarity[order] >= tau
     seed_arrays = [a[keep] for a in seed_arrays]
-    seed_c = np.ascontiguousarray(seeds.similarity[order][keep], np.float32)
+    # clamped as computed similarities are: a seed's value above 1 (rounding; seeds from outside)
+    # would wrap round in the int16 store and fall below tau
+    seed_c = np.ascontiguousarray(np.clip(seeds.similarity[order][keep], -1.0, 1.0), np.float32)
     if d_max - d_min > MAX_CODE:
         raise InvalidInputError(f"d_min, d_max: the range must span at most {MAX_CODE + 1} disparities, got "
                                 f"[{d_min}, {d_max}]")
