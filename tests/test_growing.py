@@ -230,6 +230,17 @@ def test_points_of_seed_scanlines_are_not_counted_twice():
     assert plain.n_rescanned == 0 and plain.n_computed == g.n_computed
 
 
+def test_with_negative_disparities_unscanned_pixels_count_no_rescanned_points():
+    left, right = _scene(seed=4)
+    inputs = prepare_similarity(left, right)
+    seeds = match_pixels(inputs, np.array([9], np.int32), np.array([30], np.int32), d_min=-3, d_max=9, tau=0.6,
+                         margin=0.1)
+    assert seeds.scanned_hi[9, 30] == 9 and seeds.scanned_hi[9, 29] < -3
+    g = grow(inputs, seeds, d_min=-3, d_max=9, scanned_hi=seeds.scanned_hi)
+    assert 0 < g.n_rescanned <= 13 < g.n_computed          # only the seed pixel's range was scanned
+    assert grow(inputs, seeds, d_min=-3, d_max=9).n_rescanned == 0
+
+
 @pytest.mark.parametrize("values", [
     np.random.default_rng(8).uniform(0.6, 1.0, 500),
     np.round(np.random.default_rng(9).uniform(0.6, 1.0, 300), 2),   # many ties

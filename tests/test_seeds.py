@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import gcs_reference as ref
 from stereo_obstacles._edge_cells_kernel import strongest_per_cell
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.seeds import edge_pixels, find_seeds, match_pixels, random_pixels, user_seeds
+from stereo_obstacles.seeds import NOT_SCANNED, edge_pixels, find_seeds, match_pixels, random_pixels, user_seeds
 from stereo_obstacles.similarity import prepare_similarity
 
 
@@ -145,7 +145,7 @@ def test_scanned_pixels_are_recorded_for_visit_counting():
     inputs = prepare_similarity(left, right)
     seeds = match_pixels(inputs, np.array([5, 3], np.int32), np.array([20, 2], np.int32), d_min=1, d_max=8,
                          tau=0.6, margin=0.1)
-    expected = np.full(left.shape, -1)
+    expected = np.full(left.shape, NOT_SCANNED)
     expected[5, 20] = 8
     expected[3, 2] = 2
     np.testing.assert_array_equal(seeds.scanned_hi, expected)

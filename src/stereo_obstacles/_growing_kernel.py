@@ -193,7 +193,7 @@ def _grow_kernel(lp, rp, ml, nl, mr, nr, kind, seed_y, seed_x, seed_xr, seed_c, 
     """Grow the seeds; see ``growing.py`` for the rule and the module docstring for the data.
 
     ``scanned_hi[y, x]`` is the largest disparity a seed scanline search evaluated at the
-    pixel (-1 where none). ``buf`` is an int16 array of :func:`buffer_size` words. Returns the
+    pixel (``seeds.NOT_SCANNED`` where none). ``buf`` is an int16 array of :func:`buffer_size` words. Returns the
     candidate table ``(t_y, t_x, t_xr, t_c)``, the record buffer and the counters.
     """
     h, w = ml.shape

@@ -331,7 +331,7 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     seeds : Seeds
         Seeds in image coordinates; each band uses those in its rows (overlap included).
     scanned_hi : ndarray of int32, shape (H, W)
-        Largest disparity a seed search evaluated per pixel (-1: none), for the visited count.
+        Largest disparity a seed search evaluated per pixel (``seeds.NOT_SCANNED``: none), for the visited count.
     n_bands : int
         Bands (threads), >= 1; 1 is one growth over the whole image. When a band would hold no seed
         (a few user seeds), the image is grown as one band: the growth of a band starts only from

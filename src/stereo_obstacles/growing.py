@@ -30,7 +30,7 @@ from stereo_obstacles._growing_kernel import (COUNT_BLOCKS, COUNT_COMPUTED, COUN
                                                  MAX_CODE, MAX_COUNT, _grow_kernel, _side_similarities,
                                                  buffer_size)
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.seeds import Seeds
+from stereo_obstacles.seeds import NOT_SCANNED, Seeds
 from stereo_obstacles.similarity import SimilarityInputs
 
 __all__ = ["MARGIN_REFERENCES", "MEMO_SLOTS", "QUEUE_BUCKETS", "Growth", "grow"]
@@ -67,7 +67,8 @@ class Growth:
     d_min, d_max : int
         Admissible disparities in pixels, inclusive.
     scanned_hi : ndarray of int32, shape (H, W)
-        Largest disparity a seed scanline search evaluated at each pixel, -1 where none.
+        Largest disparity a seed scanline search evaluated at each pixel,
+        :data:`~stereo_obstacles.seeds.NOT_SCANNED` where none.
     n_computed : int
         Distinct points whose similarity was computed during growth (and any later
         :meth:`side_similarities` call).
@@ -149,8 +150,8 @@ def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau:
     greedy : bool
         Greedy variant: the candidate table is a one-to-one matching.
     scanned_hi : ndarray of int32, shape (H, W), optional
-        Largest disparity a seed scanline search evaluated at each pixel (-1: none); only
-        used to count the visited points once (:attr:`Growth.n_rescanned`).
+        Largest disparity a seed scanline search evaluated at each pixel (:data:`NOT_SCANNED`:
+        none); only used to count the visited points once (:attr:`Growth.n_rescanned`).
     queue_buckets : int
         Similarity steps of the priority queue (see :data:`QUEUE_BUCKETS`), >= 1.
 
@@ -176,7 +177,7 @@ def grow(inputs: SimilarityInputs, seeds: Seeds, *, d_min: int, d_max: int, tau:
     if int(queue_buckets) != queue_buckets or queue_buckets < 1:
         raise InvalidInputError(f"queue_buckets: expected an integer >= 1, got {queue_buckets}")
     if scanned_hi is None:
-        scanned_hi = np.full(inputs.shape, -1, np.int32)
+        scanned_hi = np.full(inputs.shape, NOT_SCANNED, np.int32)
     elif scanned_hi.shape != inputs.shape:
         raise InvalidInputError(f"scanned_hi: expected shape {inputs.shape}, got {scanned_hi.shape}")
     scanned_hi = np.ascontiguousarray(scanned_hi, np.int32)

@@ -23,7 +23,7 @@ from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.banded import match_bands
 from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
-from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES, find_seeds, user_seeds
+from stereo_obstacles.seeds import DEFAULT_SEEDS, NOT_SCANNED, SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.speckles import speckle_mask
 from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
 
@@ -357,7 +357,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = DEFAULT_SEEDS, ma
                            rng_seed=rng_seed, spacing=seed_spacing, n_threads=int(bands))
     t2 = time.perf_counter()
 
-    scanned_hi = found.scanned_hi if found.scanned_hi is not None else np.full((h, w), -1, np.int32)
+    scanned_hi = found.scanned_hi if found.scanned_hi is not None else np.full((h, w), NOT_SCANNED, np.int32)
     banded = match_bands(inputs, found, scanned_hi=scanned_hi, n_bands=int(bands), d_min=d_min, d_max=d_max, tau=tau,
                          mu=mu, max_candidates=int(max_candidates), margin_reference=margin_reference,
                          greedy=variant == "greedy", final_margin=final_margin, shifted_windows=shifted_windows)

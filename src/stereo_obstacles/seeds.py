@@ -40,6 +40,11 @@ EDGE_PERCENTILE = 80.0
 """Percentile of the non-zero Sobel gradient magnitudes used as the edge threshold (Canny: high one)."""
 
 
+NOT_SCANNED = np.iinfo(np.int32).min
+"""``scanned_hi`` of a pixel no scanline search visited: below every disparity, negative ones
+included (a -1 would count the disparities from a negative ``d_min`` to -1 as scanned)."""
+
+
 @dataclass(frozen=True)
 class Seeds:
     """Seed correspondences: left pixel ``(x, y)`` with right pixel ``(x_right, y)``.
@@ -53,8 +58,8 @@ class Seeds:
     n_candidates : int
         Pixels searched before the distinctiveness test.
     scanned_hi : ndarray of int32, shape (H, W), optional
-        Largest disparity the scanline search evaluated at each pixel (from ``d_min``), -1
-        where there was no search; None when nothing was searched.
+        Largest disparity the scanline search evaluated at each pixel (from ``d_min``),
+        :data:`NOT_SCANNED` where there was no search; None when nothing was searched.
     """
 
     y: np.ndarray
@@ -177,8 +182,8 @@ def match_pixels(inputs: SimilarityInputs, ys: np.ndarray, xs: np.ndarray, *, d_
     best_d, best_c, second_c = (np.concatenate([p[k] for p in parts]) for k in range(3))
     n_eval = sum(p[3] for p in parts)
     keep = (best_d >= 0) & (best_c >= tau) & (best_c - second_c >= margin)
-    scanned_hi = np.full(inputs.shape, -1, np.int32)
-    scanned_hi[ys, xs] = np.where(np.minimum(xs, d_max) >= d_min, np.minimum(xs, d_max), -1)
+    scanned_hi = np.full(inputs.shape, NOT_SCANNED, np.int32)
+    scanned_hi[ys, xs] = np.where(np.minimum(xs, d_max) >= d_min, np.minimum(xs, d_max), NOT_SCANNED)
     return Seeds(ys[keep], xs[keep], (xs[keep] - best_d[keep]).astype(np.int32), best_c[keep],
                  int(n_eval), int(ys.size), scanned_hi)
 
