@@ -41,7 +41,7 @@ def test_image_size_check():
     RIG.check_image_size(640, 480)
     with pytest.raises(CalibrationError, match="640x480 images, the images are 320x240"):
         RIG.check_image_size(320, 240)
-    StereoCalibration(focal_px=1.0, cx_px=0.0, cy_px=0.0, baseline_m=1.0).check_image_size(5, 5)
+    StereoCalibration(focal_px=10.0, cx_px=0.0, cy_px=0.0, baseline_m=1.0).check_image_size(5, 5)
 
 
 def test_json_with_wrong_content_is_refused(tmp_path):

@@ -12,7 +12,7 @@ import contextlib
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from stereo_obstacles.errors import OutputError
@@ -37,6 +37,48 @@ def prepare_parent(path: Path) -> None:
         raise OutputError(f"cannot create folder {path.parent}: {exc.strerror or exc}") from exc
     if not os.access(path.parent, os.W_OK):
         raise OutputError(f"cannot write to folder {path.parent}: permission denied")
+
+
+def _check_creatable(folder: Path) -> None:
+    """Raise :class:`OutputError` unless ``folder`` exists as a writable folder or could be created
+    (its nearest existing ancestor is a writable folder). Creates nothing."""
+    ancestor = folder
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise OutputError(f"cannot create folder {folder}: {ancestor} is not a folder")
+    if not os.access(ancestor, os.W_OK):
+        raise OutputError(f"cannot write to folder {ancestor}: permission denied")
+
+
+def check_output_file(path: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
+    """Check, before any work is done, that ``path`` can be written as a file and names none of the
+    ``inputs`` (the files the run reads, or its other outputs; ``None`` entries are skipped): raise
+    :class:`OutputError` otherwise. Creates nothing."""
+    target = Path(path)
+    if target.is_dir():
+        raise OutputError(f"{target} is a folder; expected a file name")
+    _check_creatable(target.parent)
+    for source in inputs:
+        if source is None:
+            continue
+        same = (os.path.samefile(target, source) if target.exists() and Path(source).exists()
+                else target.resolve() == Path(source).resolve())
+        if same:
+            raise OutputError(f"{target} is also an input or another output of this run; choose another name")
+
+
+def check_output_folder(path: str | os.PathLike[str], names: Iterable[str] = (),
+                        inputs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
+    """Check, before any work is done, that the folder ``path`` can be written and that none of the
+    file ``names`` to be written into it is one of the ``inputs``: raise :class:`OutputError`
+    otherwise. Creates nothing."""
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise OutputError(f"output folder {folder} exists and is not a folder")
+    _check_creatable(folder)
+    for name in names:
+        check_output_file(folder / name, inputs)
 
 
 def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:
@@ -95,7 +137,8 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
 
 
 @contextlib.contextmanager
-def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = ()) -> Iterator[Path]:
+def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = (),
+                     stale: tuple[str, ...] = ()) -> Iterator[Path]:
     """Yield a hidden staging folder; on success move its files into ``out_dir``.
 
     ``out_dir`` may exist already: files of the same names are replaced, other files are
@@ -106,10 +149,12 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     ``index.html``: when ``out_dir`` exists their old copies are removed before anything is
     moved and the new ones are moved after every other file, so a run killed while moving
     leaves them absent rather than beside a mix of old and new files.
+
+    ``stale`` names files of an earlier run that this one does not write (a depth map beside an
+    uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
     """
     final = Path(out_dir)
-    if final.exists() and not final.is_dir():
-        raise OutputError(f"output folder {final} exists and is not a folder")
+    check_output_folder(final)
     prepare_parent(final)
     try:
         stage = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".partial", dir=final.parent))
@@ -121,7 +166,7 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         if not final.exists():
             os.replace(stage, final)
             return
-        for name in last:
+        for name in last + stale:
             (final / name).unlink(missing_ok=True)
         files = [src for src in stage.rglob("*") if src.is_file()]
         for src in sorted(files, key=lambda f: (f.relative_to(stage).as_posix() in last, f)):

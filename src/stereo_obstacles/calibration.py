@@ -25,6 +25,18 @@ MAX_FOCAL_PX = 1e6
 """Largest focal length accepted, pixels: beyond it the field of view of any real image is a
 fraction of a degree, so the value is a unit or parsing mistake."""
 
+MIN_FOCAL_PX = 10.0
+"""Smallest focal length accepted, pixels: below it even a 16-pixel-wide image would see more
+than 77 degrees to either side; a few pixels is a focal length in millimetres."""
+
+PRINCIPAL_POINT_REACH = 10
+"""How many image widths (heights) outside the image the principal point may lie."""
+
+MIN_BASELINE_M = 0.001
+"""Smallest baseline accepted, metres: no stereo rig has its cameras closer than a millimetre; a
+smaller value is a baseline in metres given where millimetres are expected (Middlebury's
+``baseline``), or a typing slip, and would put every obstacle beyond reach."""
+
 
 @dataclass(frozen=True)
 class StereoCalibration:
@@ -61,11 +73,17 @@ class StereoCalibration:
                 raise CalibrationError(f"calibration {name} must be a finite number, got {value!r}")
         if self.focal_px <= 0:
             raise CalibrationError(f"calibration focal_px must be > 0, got {self.focal_px}")
+        if self.focal_px < MIN_FOCAL_PX:
+            raise CalibrationError(f"calibration focal_px = {self.focal_px:g} px is implausible (at least "
+                                   f"{MIN_FOCAL_PX:g}; a focal length in pixels, not millimetres)")
         if self.focal_px > MAX_FOCAL_PX:
             raise CalibrationError(f"calibration focal_px = {self.focal_px:g} px is implausible (at most "
                                    f"{MAX_FOCAL_PX:g}; a focal length in pixels, not micrometres)")
         if self.baseline_m <= 0:
             raise CalibrationError(f"calibration baseline_m must be > 0 metres, got {self.baseline_m}")
+        if self.baseline_m < MIN_BASELINE_M:
+            raise CalibrationError(f"calibration baseline_m = {self.baseline_m:g} m is implausible (at least "
+                                   f"{MIN_BASELINE_M:g} m; metres given where millimetres were expected?)")
         if self.baseline_m > 100:
             raise CalibrationError(f"calibration baseline_m = {self.baseline_m} m is implausible "
                                    f"(millimetres given as metres?)")
@@ -85,13 +103,21 @@ class StereoCalibration:
         return self.focal_px * self.baseline_m
 
     def check_image_size(self, width_px: int, height_px: int) -> None:
-        """Raise :class:`CalibrationError` when the images are not the calibrated size."""
-        if self.width_px is None or self.height_px is None:
-            return
-        if (width_px, height_px) != (self.width_px, self.height_px):
+        """Raise :class:`CalibrationError` when the images are not the calibrated size, or the
+        principal point lies more than :data:`PRINCIPAL_POINT_REACH` image widths (heights) outside
+        them: a slip, or a calibration of other images. (Rectification, or a crop calibrated for
+        the whole frame, can put it off the image, but not that far.)"""
+        if self.width_px is not None and self.height_px is not None \
+                and (width_px, height_px) != (self.width_px, self.height_px):
             raise CalibrationError(
                 f"calibration is for {self.width_px}x{self.height_px} images, "
                 f"the images are {width_px}x{height_px}")
+        reach = PRINCIPAL_POINT_REACH
+        if not (-reach * width_px <= self.cx_px <= (reach + 1) * width_px
+                and -reach * height_px <= self.cy_px <= (reach + 1) * height_px):
+            raise CalibrationError(
+                f"calibration principal point ({self.cx_px:g}, {self.cy_px:g}) px lies far outside the "
+                f"{width_px}x{height_px} images (a calibration of other images?)")
 
     def to_dict(self) -> dict:
         """JSON-ready mapping with the format name and version."""

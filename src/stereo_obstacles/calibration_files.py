@@ -101,6 +101,9 @@ def _parse_middlebury(text: str, source: str) -> StereoCalibration:
         cam0 = _matlab_matrix(values["cam0"])
         cam1 = _matlab_matrix(values["cam1"]) if "cam1" in values else None
         baseline_mm = float(values["baseline"])
+        if "doffs" not in values and cam1 is None:
+            raise CalibrationError(f"{source}: Middlebury calib.txt lacks 'doffs' and 'cam1' (one gives the "
+                                   f"principal points' offset)")
         doffs = float(values["doffs"]) if "doffs" in values else float(cam1[0, 2] - cam0[0, 2])
         width = int(values["width"]) if "width" in values else None
         height = int(values["height"]) if "height" in values else None
@@ -121,26 +124,44 @@ def _matlab_matrix(text: str) -> np.ndarray:
     return matrix
 
 
-def _keyed_numbers(text: str) -> dict[str, list[float]]:
-    """Map each ``key:`` of a KITTI-style file to the numbers that follow it (over line breaks)."""
-    fields: dict[str, list[float]] = {}
+def _keyed_numbers(text: str) -> dict[str, list[float | str]]:
+    """Map each ``key:`` of a KITTI-style file to the tokens that follow it (over line breaks):
+    numbers as floats, anything else (``nan``, ``1.2x``) as its text, for :func:`_projection` to
+    name. A key given twice maps to None: which of the two is meant cannot be told."""
+    fields: dict[str, list[float | str] | None] = {}
     key = None
     for token in text.split():
         if token.endswith(":"):
             key = token[:-1]
-            fields[key] = []
-        elif key is not None and _NUMBER.match(token):
-            fields[key].append(float(token))
+            fields[key] = None if key in fields else []
+        elif key is not None and fields[key] is not None:
+            fields[key].append(float(token) if _NUMBER.match(token) else token)
     return fields
 
 
 def _projection(fields: dict[str, list[float]], names: tuple[str, ...], source: str) -> np.ndarray:
     for name in names:
         if name in fields:
-            if len(fields[name]) != 12:
-                raise CalibrationError(f"{source}: {name} must have 12 numbers, has {len(fields[name])}")
-            return np.array(fields[name]).reshape(3, 4)
+            values = fields[name]
+            if values is None:
+                raise CalibrationError(f"{source}: {name} is given twice")
+            words = [v for v in values if isinstance(v, str)]
+            if words:
+                raise CalibrationError(f"{source}: {name} holds {words[0]!r}, which is not a finite number")
+            if len(values) != 12:
+                raise CalibrationError(f"{source}: {name} must have 12 numbers, has {len(values)}")
+            return np.array(values).reshape(3, 4)
     raise CalibrationError(f"{source}: no {' or '.join(names)}")
+
+
+def _check_rectified(left: np.ndarray, right: np.ndarray, source: str, names: tuple[str, str]) -> None:
+    """The two 3x4 projections of a rectified pair share the focal lengths and the principal
+    point's row (only the columns may differ, by ``doffs``); raise :class:`CalibrationError` if not."""
+    for (row, col), what in (((0, 0), "focal length fx"), ((1, 1), "focal length fy"), ((1, 2), "principal row cy")):
+        a, b = float(left[row, col]), float(right[row, col])
+        if abs(a - b) > 1e-6 * max(abs(a), abs(b), 1.0):
+            raise CalibrationError(f"{source}: {names[0]} and {names[1]} differ in their {what} ({a:g} and {b:g}); "
+                                   f"not a rectified pair")
 
 
 def _parse_kitti(fields: dict[str, list[float]], source: str) -> StereoCalibration:
@@ -149,9 +170,11 @@ def _parse_kitti(fields: dict[str, list[float]], source: str) -> StereoCalibrati
     focal = float(left[0, 0])
     if focal <= 0:
         raise CalibrationError(f"{source}: focal length {focal} must be > 0")
+    _check_rectified(left, right, source, ("P_rect_02", "P_rect_03") if "P_rect_02" in fields else ("P2", "P3"))
     baseline = float(left[0, 3] - right[0, 3]) / focal
-    size = fields.get("S_rect_02")
-    width, height = (int(size[0]), int(size[1])) if size and len(size) == 2 else (None, None)
+    size = fields.get("S_rect_02") or []
+    width, height = (int(size[0]), int(size[1])) if len(size) == 2 and all(isinstance(v, float) for v in size) \
+        else (None, None)
     return StereoCalibration(focal_px=focal, cx_px=float(left[0, 2]), cy_px=float(left[1, 2]),
                              baseline_m=baseline, width_px=width, height_px=height,
                              doffs_px=float(right[0, 2] - left[0, 2]))
@@ -207,6 +230,7 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
     focal = float(left[0, 0])
     if focal <= 0:
         raise CalibrationError(f"{source}: focal length {focal} must be > 0")
+    _check_rectified(left, right, source, ("P1", "P2"))
     if abs(right[1, 3]) > abs(right[0, 3]):
         raise CalibrationError(f"{source} describes a vertical stereo rig; only horizontal rigs are supported")
     baseline_in_file = -float(right[0, 3]) / focal

@@ -225,6 +225,14 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
         raise InvalidInputError("depth_m was given without a calibration; pass the calibration it came from")
 
 
+CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth.png")
+"""Files of a detection written only with a calibration."""
+
+OUTPUT_FILES = ("obstacles.json", "disparity.pfm", "labels.png", "obstacles.png", "disparity.png",
+                "labels_picture.png", "index.html") + CALIBRATED_ONLY
+"""Every file :func:`write_detection_outputs` may write into its folder."""
+
+
 def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray, labels: np.ndarray,
                             disparity: np.ndarray, depth_m: np.ndarray | None, obstacle_list: ObstacleList,
                             calibration: StereoCalibration | None, config: Mapping[str, Any],
@@ -232,7 +240,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     """Write the data files, pictures and ``index.html`` of one detection into ``out_dir``.
 
     All or nothing: on any error ``out_dir`` is left as it was. Files already in ``out_dir``
-    with other names are kept; files of the same names are replaced.
+    with other names are kept; files of the same names are replaced, and without a calibration
+    the :data:`CALIBRATED_ONLY` files of an earlier calibrated run are removed.
 
     Parameters
     ----------
@@ -268,7 +277,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]
     data_files += ["points.ply"] if calibrated else []
     pictures = ["obstacles.png", "disparity.png"] + (["depth.png"] if calibrated else []) + ["labels_picture.png"]
-    with staged_directory(out_dir, last=("obstacles.json", "index.html")) as stage:
+    stale = tuple(name for name in CALIBRATED_ONLY if not calibrated)
+    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)
         write_pfm(stage / "disparity.pfm", disparity)

@@ -29,6 +29,14 @@ def image_size(text: str) -> tuple[int, int]:
     return width, height
 
 
+def output_path(text: str) -> str:
+    """argparse type: a file or folder to write, not empty (an empty name would write into the
+    current folder, or nowhere)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a path to write to, got {text!r}")
+    return text
+
+
 def _integer_at_least(text: str, lowest: int, what: str) -> int:
     try:
         value = int(text)

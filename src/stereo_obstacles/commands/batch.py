@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import output_path
 from stereo_obstacles.commands.detect import add_detection_options
 
 DESCRIPTION = """\
@@ -21,7 +22,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("batch", help="detect or match every pair under a folder, in parallel",
                                    description=DESCRIPTION)
     parser.add_argument("input_dir", metavar="INPUT_DIR", help="folder of stereo pairs")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    parser.add_argument("--out", required=True, type=output_path, metavar="DIR",
+                        help="output folder (created if needed)")
     parser.add_argument("--task", choices=("detect", "disparity"), default="detect",
                         help="what to run on each pair (default detect)")
     parser.add_argument("--workers", type=int, default=None, metavar="N",

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import output_path
+
 HELP = "calibrate a stereo rig from chessboard image pairs"
 
 
@@ -23,7 +25,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--board", default="9x6", metavar="CxR",
                         help="inner corners per row x per column (default 9x6)")
     parser.add_argument("--square", type=float, required=True, metavar="M", help="side of a square, metres")
-    parser.add_argument("--out", required=True, metavar="FILE", help="calibration JSON to write (.json)")
+    parser.add_argument("--out", required=True, type=output_path, metavar="FILE",
+                        help="calibration JSON to write (.json)")
     parser.add_argument("--json", action="store_true", help="print the report as one JSON line")
     parser.set_defaults(handler=run)
 

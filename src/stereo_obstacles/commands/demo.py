@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import output_path
 from stereo_obstacles.commands.detect import add_detection_options
 
 
@@ -15,7 +16,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "known distances), run detect on it, and print each detected obstacle beside the "
                     "true one. The rendered pair and its ground truth go to OUT/scene, the detection "
                     "report to OUT/index.html.")
-    parser.add_argument("--out", default="demo_out", metavar="DIR", help="output folder (default demo_out)")
+    parser.add_argument("--out", default="demo_out", type=output_path, metavar="DIR",
+                        help="output folder (default demo_out)")
     parser.add_argument("--size", default="640x480", metavar="WxH", help="image size (default 640x480)")
     parser.add_argument("--seed", type=int, default=0, metavar="N",
                         help="0 = the built-in scene (default), other values = a random scene")
@@ -42,7 +44,8 @@ def run(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from stereo_obstacles.commands.detect import config_from_args, run_detection, timing_line
+    from stereo_obstacles.atomic import check_output_folder
+    from stereo_obstacles.commands.detect import config_from_args, run_detection, timing_line, warn_if_out_of_reach
     from stereo_obstacles.commands._arguments import image_size
     from stereo_obstacles.detection_evaluation import compare_with_truth
     from stereo_obstacles.errors import InvalidInputError
@@ -52,11 +55,13 @@ def run(args: argparse.Namespace) -> int:
 
     width, height = image_size(args.size)
     config = config_from_args(args)  # every option is checked before anything is written
+    check_output_folder(args.out)
     if args.seed < 0:
         raise InvalidInputError(f"--seed must be >= 0, got {args.seed}")
     scene = default_scene(width, height) if args.seed == 0 else random_scene(args.seed, width_px=width,
                                                                              height_px=height)
     pair = render_pair(scene)
+    warn_if_out_of_reach(config, pair.calibration)
     out = Path(args.out)
     write_scene_folder(out / "scene", pair)
     print(f"rendered the {'built-in' if args.seed == 0 else f'seed {args.seed}'} scene "

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import output_path, positive_int
 from stereo_obstacles.commands._calibration_options import add_calibration_options, add_rectification_options
 
 
 def add_detection_options(parser: argparse.ArgumentParser) -> None:
     """Options of the pipeline stages, shared by ``detect`` and ``demo``."""
     group = parser.add_argument_group("detection")
-    group.add_argument("--max-disparity", type=int, default=None, metavar="PX",
+    group.add_argument("--max-disparity", type=positive_int, default=None, metavar="PX",
                        help="largest disparity to search, pixels (default: a third of the width)")
     group.add_argument("--seeds", choices=("canny", "sobel", "random"), default=None,
                        help="where the matcher's seeds come from (default sobel)")
@@ -55,11 +56,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "points.ply, pictures and index.html to the output folder.")
     parser.add_argument("left", help="left (reference) colour image")
     parser.add_argument("right", help="right colour image")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    parser.add_argument("--out", required=True, type=output_path, metavar="DIR",
+                        help="output folder (created if needed)")
     add_calibration_options(parser)
     add_rectification_options(parser)
     add_detection_options(parser)
     parser.set_defaults(handler=run)
+
+
+def warn_if_out_of_reach(config, calibration) -> None:
+    """Log a warning when ``--max-disparity`` puts every obstacle within ``--max-distance`` out of
+    reach: the nearest depth it can measure, ``f B / (max_disparity + doffs)``, lies beyond it."""
+    import logging
+
+    max_disparity = config.matching.max_disparity
+    if calibration is None or max_disparity is None:
+        return
+    nearest_m = calibration.focal_baseline_px_m / (max_disparity + calibration.doffs_px) \
+        if max_disparity + calibration.doffs_px > 0 else float("inf")
+    if nearest_m > config.obstacles.max_distance_m:
+        logging.getLogger(__name__).warning(
+            "--max-disparity %d px measures nothing nearer than %.1f m, beyond the %.0f m obstacles are "
+            "reported to: no obstacle can be found", max_disparity, nearest_m, config.obstacles.max_distance_m)
 
 
 def run_detection(left, right, calibration, config, out_dir, inputs: dict):
@@ -93,10 +111,12 @@ def run(args: argparse.Namespace) -> int:
     """Read the pair, detect, write the outputs, print the table."""
     from pathlib import Path
 
+    from stereo_obstacles.atomic import check_output_folder
     from stereo_obstacles.errors import ImageMismatchError
     from stereo_obstacles.fileio import read_image
-    from stereo_obstacles.report import format_obstacle_table
+    from stereo_obstacles.report import OUTPUT_FILES, format_obstacle_table
 
+    check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))
     left = read_image(args.left, mode="color")
     right = read_image(args.right, mode="color")
     if left.shape != right.shape:
@@ -108,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
 
     left, right, calibration, rectification = prepare_pair(args, left, right)
     config = config_from_args(args)
+    warn_if_out_of_reach(config, calibration)
     result = run_detection(left, right, calibration, config, args.out,
                            inputs={"left": str(args.left), "right": str(args.right),
                                    "calibration": args.calib, "rectification": rectification})

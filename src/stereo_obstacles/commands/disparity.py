@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import output_path
 from stereo_obstacles.commands._calibration_options import add_rectification_options
 
 HELP = "match a rectified stereo pair (GCS) and write its disparity map"
@@ -15,7 +16,8 @@ def register(subparsers) -> None:
                               ".npy (float32, NaN unmatched), .pfm, or KITTI 16-bit .png.")
     p.add_argument("left", help="left (reference) image")
     p.add_argument("right", help="right image")
-    p.add_argument("-o", "--output", required=True, metavar="OUT", help="disparity file (.npy, .pfm or .png)")
+    p.add_argument("-o", "--output", required=True, type=output_path, metavar="OUT",
+                   help="disparity file (.npy, .pfm or .png)")
     p.add_argument("--seeds", default="sobel", metavar="SEEDS",
                    help="sobel, canny, random, or a text/.npy file of 'x y d' rows (default sobel)")
     p.add_argument("--max-disparity", type=int, default=None, metavar="PX",
@@ -43,13 +45,15 @@ def register(subparsers) -> None:
                         "surroundings (an extension, default 200; 0 keeps them, as the published method)")
     p.add_argument("--speckle-range", type=float, default=1.0, metavar="PX",
                    help="largest disparity step inside one such region (default 1.0 px)")
-    p.add_argument("--picture", default=None, metavar="PICTURE.png", help="also write a turbo picture of the disparity (PNG)")
+    p.add_argument("--picture", default=None, type=output_path, metavar="PICTURE.png",
+                   help="also write a turbo picture of the disparity (PNG)")
     p.add_argument("--json", action="store_true", help="print one JSON line of statistics on stdout")
     add_rectification_options(p, with_calib_file=True)
     p.set_defaults(handler=run)
 
 
 def _seed_points(path: str):
+    import warnings
     from pathlib import Path
 
     import numpy as np
@@ -63,20 +67,31 @@ def _seed_points(path: str):
     if p.suffix.lower() == ".npy":
         return read_npy(p)
     try:
-        return np.loadtxt(p, ndmin=2, comments="#")
+        with warnings.catch_warnings():  # an empty file: NumPy warns, then returns no rows
+            warnings.simplefilter("ignore", UserWarning)
+            rows = np.loadtxt(p, ndmin=2, comments="#")
     except ValueError as exc:
         raise InputFileError(f"--seeds: {path} is not a text file of 'x y d' rows: {exc}") from exc
+    if rows.size == 0:
+        raise InputFileError(f"--seeds: {path} holds no 'x y d' rows")
+    return rows
 
 
 def run(args: argparse.Namespace) -> int:
     """Match, write the disparity (and picture), print statistics on request."""
     import json
 
+    from stereo_obstacles.atomic import check_output_file
     from stereo_obstacles.colorize import colorize_disparity
     from stereo_obstacles.fileio import read_image, write_disparity, write_image
     from stereo_obstacles.matching import match
     from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES
 
+    inputs = (args.left, args.right, getattr(args, "calib", None),
+              None if args.seeds in SEED_SOURCES else args.seeds)
+    check_output_file(args.output, inputs)
+    if args.picture:
+        check_output_file(args.picture, inputs + (args.output,))
     left = read_image(args.left)
     right = read_image(args.right)
     from stereo_obstacles.commands._calibration_options import prepare_pair

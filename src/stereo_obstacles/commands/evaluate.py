@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from stereo_obstacles.commands._arguments import positive_int
+from stereo_obstacles.commands._arguments import output_path, positive_int
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``evaluate`` sub-command."""
@@ -26,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="comma-separated methods of the registry in "
                              "stereo_obstacles.evaluation: gcs (ours), sgbm, bm, ncc-wta "
                              "(default: every available one)")
-    parser.add_argument("--json", metavar="FILE", default=None,
+    parser.add_argument("--json", metavar="FILE", default=None, type=output_path,
                         help="also write the full results as JSON to FILE")
     parser.add_argument("--repeat", type=positive_int, default=3, metavar="N",
                         help="timed runs after the first call; the median is reported "
@@ -48,13 +48,15 @@ def run(args: argparse.Namespace) -> int:
     import json
     import logging
 
-    from stereo_obstacles.atomic import write_text_atomic
+    from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.datasets import list_frames, load_pair
     from stereo_obstacles.evaluation import (evaluate_pair, format_table, report_dict,
                                              resolve_methods)
 
     log = logging.getLogger(__name__)
     methods = resolve_methods(args.methods)
+    if args.json:
+        check_output_file(args.json)
     frames = [(folder, frame) for folder in args.datasets
               for frame in list_frames(folder)[:args.max_frames]]
     results = []

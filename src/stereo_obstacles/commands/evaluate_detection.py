@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from stereo_obstacles.commands._arguments import jpeg_quality, noise_levels, non_negative_int
+from stereo_obstacles.commands._arguments import jpeg_quality, noise_levels, non_negative_int, output_path
 
 if TYPE_CHECKING:  # imported in run(): --help stays instant
     from stereo_obstacles.pipeline import DetectionConfig
@@ -42,7 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--matching-scale", type=float, default=None, metavar="S",
                         help="grow the matches on copies of the pairs shrunk by S in (0, 1] (default: the "
                              "pipeline's, 0.5; see detect)")
-    parser.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    parser.add_argument("--json", metavar="FILE", type=output_path, help="also write the figures as JSON")
     parser.set_defaults(handler=run)
 
 
@@ -68,8 +68,9 @@ def run(args: argparse.Namespace) -> int:
     """Evaluate and print the figures."""
     import json
 
-    from stereo_obstacles.atomic import write_text_atomic
+    from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.commands._arguments import image_size
+    from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.detection_evaluation import (EVALUATION_SUPERSAMPLE, LARGE_ERROR_PCT,
                                                        evaluate_synthetic_scene, summarise)
     from stereo_obstacles.evaluation import machine_info
@@ -77,6 +78,10 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.synthetic import RenderOptions
 
     width, height = image_size(args.size)
+    if args.scenes == 0 and not args.dataset:
+        raise InvalidInputError("nothing to evaluate: --scenes 0 and no --dataset")
+    if args.json:
+        check_output_file(args.json)
     config = DetectionConfig()
     if args.matching_scale is not None:
         config = DetectionConfig(matching_scale=args.matching_scale)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from stereo_obstacles.commands._arguments import image_size, non_negative_int
+from stereo_obstacles.commands._arguments import image_size, non_negative_int, output_path
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -34,7 +34,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "--dataset, or --dataset repeated; --kitti is the older name)")
     parser.add_argument("--colour-only", action="store_true",
                         help="segment by colour alone, without the stereo ground check on the right image")
-    parser.add_argument("--json", metavar="FILE", default=None, help="also write the results as JSON")
+    parser.add_argument("--json", metavar="FILE", default=None, type=output_path,
+                        help="also write the results as JSON")
     parser.set_defaults(handler=run)
 
 
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     import sys
 
     from stereo_obstacles import __version__
-    from stereo_obstacles.atomic import write_text_atomic
+    from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.errors import InputFileError
     from stereo_obstacles.segmentation import SegmentationParameters
@@ -74,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
 
     log = logging.getLogger(__name__)
     width, height = image_size(args.size)
+    if args.json:
+        check_output_file(args.json)
     params = SegmentationParameters()
     quiet = not sys.stderr.isatty()
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import output_path
+
 HELP = "rectify a stereo pair (calibrated or uncalibrated) and report how well"
 
 
@@ -24,7 +26,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      help="rectify from feature matches and a robust fundamental matrix")
     parser.add_argument("--calib-unit", choices=["m", "cm", "mm"],
                         help="length unit of an OpenCV calibration's translation (the file does not say)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    parser.add_argument("--out", required=True, type=output_path, metavar="DIR",
+                        help="output folder (created if needed)")
     parser.set_defaults(handler=run)
 
 
@@ -33,13 +36,15 @@ def run(args: argparse.Namespace) -> int:
     import json
 
     from stereo_obstacles import __version__
-    from stereo_obstacles.atomic import staged_directory
+    from stereo_obstacles.atomic import check_output_folder, staged_directory
     from stereo_obstacles.calibration import write_calibration_json
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError, ImageMismatchError
     from stereo_obstacles.fileio import read_image, write_image
     from stereo_obstacles.rectification_check import check_rectification
 
+    check_output_folder(args.out, ("left.png", "right.png", "calibration.json", "rectification.json"),
+                        inputs=(args.left, args.right, args.calib))
     left = read_image(args.left)
     right = read_image(args.right)
     if left.shape != right.shape:

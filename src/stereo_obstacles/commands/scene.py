@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from stereo_obstacles.commands._arguments import jpeg_quality
+from stereo_obstacles.commands._arguments import jpeg_quality, output_path
 
 GROUNDS = ("pavement", "grass", "tiles", "asphalt")
 
@@ -16,7 +16,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Render a synthetic stereo scene: left/right images, disparity, depth, labels, "
                     "obstacle list and calibration. Seed 0 is the built-in default scene; other "
                     "seeds give random scenes.")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder (created if needed)")
+    parser.add_argument("--out", required=True, type=output_path, metavar="DIR",
+                        help="output folder (created if needed)")
     parser.add_argument("--seed", type=int, default=0, metavar="N",
                         help="0 = the default scene (default), other values = a random scene")
     parser.add_argument("--size", default="640x480", metavar="WxH", help="image size (default 640x480)")

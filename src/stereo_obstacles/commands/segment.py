@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
+from stereo_obstacles.commands._arguments import output_path
+
 if TYPE_CHECKING:
     from stereo_obstacles.ground_check import GroundCheck
 
@@ -26,9 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("image", metavar="IMAGE", help="colour image (left camera)")
     parser.add_argument("--right", metavar="RIGHT", default=None,
                         help="right image of the rectified pair: adds the stereo ground check")
-    parser.add_argument("-o", "--output", required=True, metavar="LABELS.png",
+    parser.add_argument("-o", "--output", required=True, type=output_path, metavar="LABELS.png",
                         help="label image to write (uint8 PNG with the values above)")
-    parser.add_argument("--overlay", metavar="PICTURE.png", default=None,
+    parser.add_argument("--overlay", metavar="PICTURE.png", default=None, type=output_path,
                         help="also write the image with the labels blended over it")
     parser.add_argument("--reference", metavar="X0,Y0,X1,Y1", default=None,
                         help="ground reference rectangle, in pixels or, when every value is <= 1, "
@@ -65,13 +67,18 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from stereo_obstacles import __version__
-    from stereo_obstacles.atomic import write_text_atomic
+    from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.fileio import read_image, write_image, write_labels
     from stereo_obstacles.labels import Label, colorize_labels
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
     from stereo_obstacles.segmentation import SegmentationParameters, segment
     from stereo_obstacles.shadow_texture import ShadowTextureParameters
 
+    inputs = (args.image, args.right)
+    for target in (args.output, f"{args.output}.json", args.overlay):
+        if target is not None:
+            check_output_file(target, inputs)
+            inputs += (target,)
     rgb = read_image(args.image, mode="color")
     right = None if args.right is None else read_image(args.right, mode="color")
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA

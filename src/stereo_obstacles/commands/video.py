@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from stereo_obstacles.commands._arguments import output_path
 from stereo_obstacles.commands._calibration_options import add_calibration_options
 from stereo_obstacles.commands.detect import add_detection_options
 
@@ -28,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="what SOURCE is (default: guessed from the arguments)")
     parser.add_argument("--fps", type=float, default=30.0,
                         help="frame rate of image sequences, for timestamps (default 30)")
-    parser.add_argument("--jsonl", metavar="FILE", help="write one JSON line per frame ('-' for stdout)")
+    parser.add_argument("--jsonl", metavar="FILE", type=output_path, help="write one JSON line per frame ('-' for stdout)")
     parser.add_argument("--video-out", metavar="FILE", help="write an annotated video (mp4v)")
     parser.add_argument("--frames-out", metavar="DIR",
                         help="write every frame's full detection outputs (as 'detect --out') to DIR/<frame>/")
