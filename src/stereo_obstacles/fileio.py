@@ -49,6 +49,8 @@ def _read_file_bytes(path: PathLike, what: str) -> bytes:
         raise InputFileError(f"{what} {p} does not exist")
     if p.is_dir():
         raise InputFileError(f"{what} {p} is a folder, not a file")
+    if not p.is_file():  # a pipe would block the read forever, a device never end it
+        raise InputFileError(f"{what} {p} is not a regular file (a pipe or a device?)")
     try:
         data = p.read_bytes()
     except OSError as exc:

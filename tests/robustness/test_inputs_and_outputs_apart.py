@@ -106,3 +106,13 @@ def test_nothing_to_evaluate_and_an_empty_seed_file_are_one_line(inputs, run_cli
     code, _, err, _ = run_cli("disparity", inputs / "left.png", inputs / "right.png", "-o", tmp_path / "d.npy",
                               "--seeds", tmp_path / "seeds.txt")
     assert code == 1 and "holds no 'x y d' rows" in error_line(err) and "Warning" not in err
+
+
+def test_a_pipe_or_a_device_given_as_an_image_is_refused_not_read(inputs, run_cli, tmp_path):
+    import os
+
+    os.mkfifo(tmp_path / "pipe.png")
+    (tmp_path / "zero.png").symlink_to("/dev/zero")
+    for image in (tmp_path / "pipe.png", tmp_path / "zero.png"):
+        code, _, err, _ = run_cli("disparity", image, inputs / "right.png", "-o", tmp_path / "d.npy")
+        assert code == 1 and "is not a regular file (a pipe or a device?)" in error_line(err)
