@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -110,6 +112,8 @@ def test_density_is_that_of_the_delivered_full_size_disparity():
     assert result.density == np.isfinite(result.disparity).mean()
 
 
+@pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT", "0") != "0",
+                    reason="counts compiled signatures; NUMBA_DISABLE_JIT is set, nothing is compiled")
 def test_warm_up_compiles_the_refinement_too():
     import subprocess
     import sys
