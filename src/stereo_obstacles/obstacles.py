@@ -65,6 +65,9 @@ class ObstacleParameters:
     distance_min_patch_pixels : int
         Patches with fewer of the obstacle's pixels do not count for its distance (unless no
         patch has that many); of the ``DISTANCE_PATCH_PX ** 2`` = 64 pixels of a patch.
+    min_disparity_px : float
+        Without a calibration, groups whose median disparity is below this are at infinity (or
+        the two images are the same) and are not reported; with one, ``max_distance_m`` decides.
     """
 
     flat_tolerance_m: float = 0.08
@@ -74,9 +77,11 @@ class ObstacleParameters:
     corridor_width_m: float = 1.0
     distance_percentile: float = 10.0
     distance_min_patch_pixels: int = 16
+    min_disparity_px: float = 0.5
 
     def __post_init__(self) -> None:
-        check_numbers(self, (("distance_percentile", 0.0, 100.0), ("min_standing_fraction", 0.0, 1.0)))
+        check_numbers(self, (("distance_percentile", 0.0, 100.0), ("min_standing_fraction", 0.0, 1.0),
+                             ("min_disparity_px", 0.0, math.inf)))
         check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),))
         check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"))
 
@@ -251,6 +256,9 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
                 return _flat(box, count, quantiles.percentile(above_px, EXTENT_PERCENTILES[1]), "px")
             disparities = disparities[standing]
         quartiles = _quartiles(disparities)
+        if quartiles[1] < params.min_disparity_px:
+            return RejectedGroup(box, count, f"at infinity: median disparity {quartiles[1]:.2f} px (below "
+                                             f"{params.min_disparity_px:g} px)")
         return Obstacle(id=0, box_px=box, pixel_count=count, disparity_px=round(float(quartiles[1]), 3),
                         confidence=_confidence(count, quartiles))
     positive = disparities + calibration.doffs_px > 0

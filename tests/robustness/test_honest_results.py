@@ -34,11 +34,15 @@ def test_identical_images_are_flagged_as_all_disparity_zero(inputs, run_cli, tmp
     assert "are the left and right images the same?" in log
 
 
-def test_identical_images_report_no_obstacle(inputs, run_cli, tmp_path):
+@pytest.mark.parametrize("calibrated", [True, False])
+def test_identical_images_report_no_obstacle(inputs, run_cli, tmp_path, calibrated):
+    calibration = ["--calib", inputs / "scene" / "calibration.json"] if calibrated else []
     code, out, _, log = run_cli("detect", inputs / "left.png", inputs / "left.png", "--out", tmp_path / "o",
-                                "--calib", inputs / "scene" / "calibration.json")
+                                *calibration)
     assert code == 0 and "No obstacles found." in out
     assert "are the left and right images the same?" in log
+    if not calibrated:   # the whole image at disparity 0 was once reported as obstacle #1, confidence 1.00
+        assert "at infinity: median disparity 0.00 px" in out
 
 
 def test_swapped_images_are_flagged(inputs, run_cli, tmp_path):
