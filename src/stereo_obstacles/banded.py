@@ -70,8 +70,9 @@ class BandedMatch:
     matched_seconds : float
         Wall time from the start until the slowest band finished its final matching.
     checked_seconds : float
-        Wall time from the start until the last strip of the shifted-window check was checked
-        (``matched_seconds`` without the check).
+        Wall time from the start until the last strip of the shifted-window check was checked,
+        and not less than ``matched_seconds`` (a band's own clock can stop after the other
+        threads checked its last strip; equal to it without the check).
     """
 
     y: np.ndarray
@@ -371,7 +372,7 @@ def match_bands(inputs: SimilarityInputs, seeds: Seeds, *, scanned_hi: np.ndarra
     if work.check is not None:
         keep = work.check.keep(y, x)
         n_checked, n_rejected = work.n_checked, int(keep.size - np.count_nonzero(keep))
-        checked_seconds = work.last_check_end - t_start
+        checked_seconds = max(work.last_check_end - t_start, matched_seconds)
         if n_rejected:
             kept = np.flatnonzero(keep)
             y, x, xr, c, offset = (a.take(kept) for a in (y, x, xr, c, offset))
