@@ -124,7 +124,7 @@ def _matlab_matrix(text: str) -> np.ndarray:
     return matrix
 
 
-def _keyed_numbers(text: str) -> dict[str, list[float | str]]:
+def _keyed_numbers(text: str) -> dict[str, list[float | str] | None]:
     """Map each ``key:`` of a KITTI-style file to the tokens that follow it (over line breaks):
     numbers as floats, anything else (``nan``, ``1.2x``) as its text, for :func:`_projection` to
     name. A key given twice maps to None: which of the two is meant cannot be told."""
@@ -139,7 +139,7 @@ def _keyed_numbers(text: str) -> dict[str, list[float | str]]:
     return fields
 
 
-def _projection(fields: dict[str, list[float]], names: tuple[str, ...], source: str) -> np.ndarray:
+def _projection(fields: dict[str, list[float | str] | None], names: tuple[str, ...], source: str) -> np.ndarray:
     for name in names:
         if name in fields:
             values = fields[name]
@@ -164,7 +164,7 @@ def _check_rectified(left: np.ndarray, right: np.ndarray, source: str, names: tu
                                    f"not a rectified pair")
 
 
-def _parse_kitti(fields: dict[str, list[float]], source: str) -> StereoCalibration:
+def _parse_kitti(fields: dict[str, list[float | str] | None], source: str) -> StereoCalibration:
     left = _projection(fields, ("P_rect_02", "P2"), source)
     right = _projection(fields, ("P_rect_03", "P3"), source)
     focal = float(left[0, 0])

@@ -2,7 +2,7 @@
 
 A surface that is flat in the scene is a plane in this form: with rectified cameras the
 disparity ``f B / Z`` of a scene plane is linear in the image coordinates. The fit needs only
-the nine sums of :func:`plane_moments`, which add up over any union of pixel sets: a plane
+the sums of :func:`plane_moments`, which add up over any union of pixel sets: a plane
 through two groups of pixels costs no pass over their pixels once each group's sums are known.
 No BLAS call is made: NumPy's (``@``, ``dot``) threads even small products, and its threads
 spin against the matcher's (``docs/pipeline.md``, "Speed").
@@ -11,6 +11,7 @@ spin against the matcher's (``docs/pipeline.md``, "Speed").
 from __future__ import annotations
 
 import numpy as np
+
 
 def plane_moments(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> np.ndarray:
     """``float64 (10,)``: the sums of 1, x, y, d, x x, x y, y y, x d, y d and d d over the points.
