@@ -30,6 +30,17 @@ def test_recovers_plane_despite_obstacle_wall_and_holes():
     assert 0.3 < plane.inlier_fraction < 0.8
 
 
+def test_a_wall_filling_the_view_is_no_ground_even_though_a_tilted_plane_covers_it():
+    """Constant disparity (a wall) everywhere: a candidate with the smallest ground slope allowed
+    covers most points within the inlier threshold, but the points fit a flat plane far better."""
+    rng = np.random.default_rng(2)
+    wall = (20.0 + rng.normal(0.0, 0.1, (375, 400))).astype(np.float32)
+    with pytest.raises(InvalidInputError, match="does not slope like a ground"):
+        fit_ground_plane(wall)
+    ground_and_wall = _scene()                     # a ground with a wall among its points still fits
+    assert fit_ground_plane(ground_and_wall).b == pytest.approx(0.3, abs=2e-3)
+
+
 def test_residual_map_sign_and_nan():
     d = _scene()
     plane = fit_ground_plane(d)

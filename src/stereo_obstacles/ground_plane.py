@@ -145,6 +145,13 @@ def _least_squares(x: np.ndarray, y: np.ndarray, d: np.ndarray) -> np.ndarray:
     return np.array([a, b, md - a * mx - b * my])
 
 
+WALL_FIT_RATIO = 0.5
+"""When the least-squares plane of the best ground-like candidate's inliers is not ground-like and
+fits them better than this fraction of the candidate's error (root mean square), the points are
+one plane that only the slope constraint tilted into a ground: a wall filling the view. A ground
+with some wall points among its inliers fits its candidate about as well as the refit does."""
+
+
 def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
                      params: PlaneFitParameters = PlaneFitParameters()) -> GroundPlane:
     """Fit ``d = a x + b y + c`` to points robustly (RANSAC, then least squares on inliers).
@@ -206,6 +213,12 @@ def fit_plane_points(x: np.ndarray, y: np.ndarray, d: np.ndarray, *,
             break
         refit = _least_squares(rx[refit_inliers], ry[refit_inliers], rd[refit_inliers])
         if params.min_slope_y is not None and refit[1] < params.min_slope_y:
+            inl = refit_inliers
+            misfit = np.sqrt(np.mean((best[0] * rx[inl] + best[1] * ry[inl] + best[2] - rd[inl]) ** 2))
+            flat_fit = np.sqrt(np.mean((refit[0] * rx[inl] + refit[1] * ry[inl] + refit[2] - rd[inl]) ** 2))
+            if flat_fit < WALL_FIT_RATIO * misfit:
+                raise InvalidInputError("the points lie on a plane that does not slope like a ground "
+                                        f"(b = {refit[1]:.4f} px per row: a wall or an object filling the view)")
             break  # the inliers mix in a wall; keep the last ground-like plane
         best = refit
         new_inliers = np.abs(best[0] * rx + best[1] * ry + best[2] - rd) <= params.inlier_threshold_px
