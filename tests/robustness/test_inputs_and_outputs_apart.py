@@ -116,3 +116,9 @@ def test_a_pipe_or_a_device_given_as_an_image_is_refused_not_read(inputs, run_cl
     for image in (tmp_path / "pipe.png", tmp_path / "zero.png"):
         code, _, err, _ = run_cli("disparity", image, inputs / "right.png", "-o", tmp_path / "d.npy")
         assert code == 1 and "is not a regular file (a pipe or a device?)" in error_line(err)
+
+
+def test_limits_that_leave_no_true_obstacle_to_score_are_said(run_cli):
+    code, out, _, log = run_cli("evaluate-detection", "--scenes", "1", "--size", "64x48", "--supersample", "1",
+                                "--min-height", "100")
+    assert code == 0 and "0/0 true obstacles" in out and "nothing was scored" in log

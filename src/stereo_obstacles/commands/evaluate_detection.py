@@ -67,6 +67,7 @@ def _dataset_figures(folder: str, config: DetectionConfig) -> dict:
 def run(args: argparse.Namespace) -> int:
     """Evaluate and print the figures."""
     import json
+    import logging
 
     from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.commands._arguments import image_size
@@ -104,6 +105,10 @@ def run(args: argparse.Namespace) -> int:
               f"{supersample}x{supersample} rays per pixel{degraded}): "
               f"{s.n_found}/{s.n_obstacles} true obstacles >= {s.min_height_m:g} m high within "
               f"{s.max_distance_m:g} m found")
+        if s.n_obstacles == 0:
+            logging.getLogger(__name__).warning(
+                "no true obstacle of these scenes is %g m high or more within %g m: nothing was scored "
+                "(--min-height, --max-distance)", s.min_height_m, s.max_distance_m)
         if s.median_abs_error_pct is not None:
             print(f"  distance error: median {s.median_abs_error_pct:.2f} %, 95th percentile "
                   f"{s.p95_abs_error_pct:.2f} %, worst {s.max_abs_error_pct:.2f} %")
