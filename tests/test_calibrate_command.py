@@ -84,6 +84,9 @@ def test_rectify_with_the_new_calibration(calibrated, chessboard, tmp_path, caps
     assert report["features_after"]["vertical_offset"]["median_px"] < 0.5
     assert report["features_before"]["vertical_offset"]["median_px"] > 5
     assert read_calibration_json(out / "calibration.json").doffs_px == 0.0
+    from stereo_obstacles.commands.rectify import OUTPUT_FILES   # the list the input-overwrite check uses
+
+    assert sorted(p.name for p in out.iterdir()) == sorted(OUTPUT_FILES)
     assert read_image(out / "left.png").shape[:2] == (480, 640)
 
 

@@ -37,6 +37,7 @@ def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
     assert names == sorted(["obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply",
                             "obstacles.png", "disparity.png", "depth.png", "labels_picture.png", "index.html"])
     assert sorted(p.name for p in out.iterdir()) == names  # nothing else, no staging left-overs
+    assert sorted(report.OUTPUT_FILES) == names            # the list the input-overwrite check uses
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     record = read_obstacles_json(out / "obstacles.json")
     assert record.obstacles == DETECTION.calibrated.obstacles and record.calibration == RIG

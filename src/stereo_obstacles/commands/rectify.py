@@ -6,6 +6,10 @@ import argparse
 
 from stereo_obstacles.commands._arguments import output_path
 
+OUTPUT_FILES = ("left.png", "right.png", "calibration.json", "rectification.json")
+"""What ``rectify`` writes into its folder: the rectified pair, the rectified calibration
+(calibrated case) and the quality report."""
+
 HELP = "rectify a stereo pair (calibrated or uncalibrated) and report how well"
 
 
@@ -43,8 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.fileio import read_image, write_image
     from stereo_obstacles.rectification_check import check_rectification
 
-    check_output_folder(args.out, ("left.png", "right.png", "calibration.json", "rectification.json"),
-                        inputs=(args.left, args.right, args.calib))
+    check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))
     left = read_image(args.left)
     right = read_image(args.right)
     if left.shape != right.shape:
