@@ -18,6 +18,9 @@ or more tight groups of an object's size whose median disparities are more than
 median disparity. A tighter tolerance alone would break weakly matched objects into pieces
 too small to report (measured in ``docs/pipeline.md``).
 
+Objects closer in depth than that, touching in the image, are split where their colours
+differ (:mod:`stereo_obstacles.colour_split`), when a colour cue of the left image is given.
+
 Last, neighbouring groups that lie on one plane in disparity are joined
 (:mod:`stereo_obstacles.coplanar_merging`): the pieces of a wall whose matches have gaps, or
 whose disparity changes faster than the link tolerance from cell to cell.
@@ -26,12 +29,13 @@ whose disparity changes faster than the link tolerance from cell to cell.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
 from stereo_obstacles._obstacle_grouping_kernel import assign_pixels_kernel, cell_medians_kernel
+from stereo_obstacles.colour_split import ColourCue, ColourSplitParameters, split_groups_by_colour
 from stereo_obstacles.coplanar_merging import merge_coplanar_groups
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
@@ -65,6 +69,9 @@ class GroupingParameters:
         plane of both differs from its own plane by at most ``coplanar_tolerance_px +
         coplanar_rel_tolerance * d`` pixels (root mean square;
         :mod:`stereo_obstacles.coplanar_merging`); ``coplanar_tolerance_px`` 0 switches it off.
+    colour_split : ColourSplitParameters or None
+        When a group is split where two colours lie at two depths (with a colour cue:
+        :func:`group_obstacle_pixels`); ``None`` switches it off.
     """
 
     cell_px: int = 8
@@ -77,6 +84,7 @@ class GroupingParameters:
     split_min_gap_px: float = 0.5
     coplanar_tolerance_px: float = 0.15
     coplanar_rel_tolerance: float = 0.01
+    colour_split: ColourSplitParameters | None = field(default_factory=ColourSplitParameters)
 
     def __post_init__(self) -> None:
         check_integers(self, (("cell_px", 2, math.inf), ("min_object_pixels", 1, math.inf)))
@@ -85,6 +93,8 @@ class GroupingParameters:
         check_numbers(self, (("rel_tolerance", 0.0, math.inf), ("min_pure_fraction", 0.0, 1.0),
                              ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf),
                              ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf)))
+        if self.colour_split is not None and not isinstance(self.colour_split, ColourSplitParameters):
+            raise InvalidInputError(f"colour_split must be ColourSplitParameters or None, got {self.colour_split!r}")
 
 
 def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:
@@ -166,7 +176,8 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
 
 
 def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
-                          params: GroupingParameters = GroupingParameters()) -> np.ndarray:
+                          params: GroupingParameters = GroupingParameters(), *,
+                          colour: ColourCue | None = None) -> np.ndarray:
     """Label each obstacle pixel with the object it belongs to.
 
     Parameters
@@ -177,6 +188,9 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         ``bool (H, W)``: pixels that phase 1 (or geometry) calls obstacle.
     params
         Grouping parameters.
+    colour
+        The left image's colour cue (:func:`stereo_obstacles.colour_split.colour_cue`) for the
+        split along colour (``params.colour_split``); ``None``: no such split.
 
     Returns
     -------
@@ -195,6 +209,10 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         tight, _ = _raw_groups(d, usable, replace(params, abs_tolerance_px=params.split_tolerance_px,
                                                   split_tolerance_px=0.0))
         raw = _split_depth_layers(raw, tight, d, params)
+    if colour is not None and params.colour_split is not None and raw.max() >= 0:
+        raw = split_groups_by_colour(raw, d, colour, min_object_pixels=params.min_object_pixels,
+                                     params=params.colour_split)
+    if raw is not loose:
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     if params.coplanar_tolerance_px > 0:
         large = np.concatenate([[-1], np.cumsum(counts >= params.min_object_pixels) - 1])

@@ -24,6 +24,8 @@ Beyond the paper:
 * candidates standing above the ground plane are grouped into obstacles, and the flat ones
   separately, only to report them as rejected (markings, puddles): grouping them together
   would chain distinct objects through the ground between them;
+* a group holding two colours at two depths (a pole just in front of a box) is split along
+  the colours (:mod:`stereo_obstacles.colour_split`);
 * when the pixels that look like the reference area do not lie on a plane that can be the
   ground (the reference area is covered by a wall or a large object), the ground plane is
   fitted to the matched pixels of the lower third of the image instead, the colour labels are
@@ -42,6 +44,7 @@ import numpy as np
 
 from stereo_obstacles.blind_strip import BlindStripParameters, extend_into_blind_strip
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.colour_split import ColourCue, colour_cue
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
@@ -187,8 +190,8 @@ class DetectionResult:
     config
         The resolved configuration.
     timings_s
-        Wall seconds of each stage (``segmentation``, ``rectification_check``, ``matching``,
-        ``obstacles``) and in ``total``; the first two run on a second thread beside the
+        Wall seconds of each stage (``segmentation``: phase 1 and the colour cue of the split
+        along colour; ``rectification_check``, ``matching``, ``obstacles``) and in ``total``; the first two run on a second thread beside the
         matching, so the stages add up to more than the total.
     rectification_check
         :class:`stereo_obstacles.rectification_check.RectificationCheck` of the input pair
@@ -365,10 +368,13 @@ def warm_up() -> float:
 
 
 def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig,
-                  timings: dict[str, float]) -> tuple[SegmentationResult, RectificationCheck | None]:
-    """Phase 1 and the rectification check, their times written to ``timings`` (seconds)."""
+                  timings: dict[str, float]) -> tuple[SegmentationResult, ColourCue | None, RectificationCheck | None]:
+    """Phase 1 with the colour cue of the split along colour (``None`` when that is off), and the
+    rectification check; their times written to ``timings`` (seconds)."""
     t = time.perf_counter()
     segmentation = segment(left, reference=config.reference, params=config.segmentation)
+    colour = (colour_cue(left, segmentation.labels == Label.OBSTACLE.value, config.grouping.colour_split)
+              if config.grouping.colour_split is not None else None)
     timings["segmentation"] = time.perf_counter() - t
     t = time.perf_counter()
     rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX,
@@ -376,7 +382,7 @@ def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig,
                                          orb_levels=RECTIFICATION_CHECK_ORB_LEVELS)
                      if config.check_rectification else None)
     timings["rectification_check"] = time.perf_counter() - t
-    return segmentation, rectification
+    return segmentation, colour, rectification
 
 
 def _match_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, seed_points, disparity_estimate,
@@ -434,7 +440,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     >>> pair = render_pair(default_scene(320, 240))
     >>> result = detect(pair.left, pair.right, pair.calibration)
     >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]
-    [3.1, 3.9, 4.2, 6.4, 6.6]
+    [3.1, 3.9, 4.2, 6.4, 6.4, 8.7]
     """
     _check_pair(left, right)
     if disparity_estimate is not None:
@@ -451,7 +457,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     # phase 1 and the rectification check on a pool thread while the matcher runs here, on the
     # core its serial stages leave idle (whole call 4-7 % faster: docs/pipeline.md, "Speed")
     stage_times: dict[str, float] = {}
-    (disparity, matched), (segmentation, rectification) = run_each_in_threads([
+    (disparity, matched), (segmentation, colour, rectification) = run_each_in_threads([
         (_match_stage, left, right, config, seed_points, disparity_estimate, stage_times),
         (_colour_stage, left, right, config, stage_times)])
     timings.update((name, stage_times[name]) for name in ("segmentation", "rectification_check", "matching"))
@@ -463,7 +469,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
                                       min_excess, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
-    groups, measured = group_obstacle_pixels(disparity, standing, config.grouping), disparity
+    groups, measured = group_obstacle_pixels(disparity, standing, config.grouping, colour=colour), disparity
     if config.blind_strip is not None:
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
                                                       config.blind_strip)

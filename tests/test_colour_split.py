@@ -1,0 +1,293 @@
+"""Splitting obstacle groups where two colours lie at two depths."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stereo_obstacles._colour_split_kernel import group_runs_kernel, one_per_block_kernel, two_colours_kernel
+from stereo_obstacles.colour_split import (MAX_DECISION_PIXELS, ColourCue, ColourSplitParameters, colour_cue,
+                                           split_groups_by_colour)
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+
+BROWN, BLUE, GREEN, GREY = (150, 150), (128, 100), (100, 150), (128, 128)
+"""Chroma ``(a* + 128, b* + 128)``."""
+MIN_OBJECT_PIXELS = 120
+
+
+class Scene:
+    """Disparity, chroma and one group, painted object by object (later ones in front)."""
+
+    def __init__(self, shape=(80, 120)):
+        self.d = np.full(shape, np.nan, np.float32)
+        self.chroma = np.full(shape + (2,), 128, np.uint8)
+        self.coloured = np.zeros(shape, bool)
+        self.objects = np.full(shape, -1, np.int64)
+        self.n = 0
+
+    def paint(self, rows, columns, chroma, disparity, coloured=True):
+        """Paint a rectangle; ``disparity`` is a number or a function of the columns."""
+        xs = np.arange(self.d.shape[1], dtype=np.float32)[columns]
+        self.d[rows, columns] = disparity(xs)[None, :] if callable(disparity) else disparity
+        self.chroma[rows, columns] = chroma
+        self.coloured[rows, columns] = coloured
+        self.objects[rows, columns] = self.n
+        self.n += 1
+        return self
+
+    def split(self, params=ColourSplitParameters()):
+        groups = np.where(self.objects >= 0, 0, -1)
+        return split_groups_by_colour(groups, self.d, ColourCue(self.chroma, self.coloured),
+                                      min_object_pixels=MIN_OBJECT_PIXELS, params=params)
+
+
+def _pole_before_box(shape=(80, 120), scale=1):
+    """A brown box (disparity 7.0) and a blue pole 0.6 px nearer standing in front of it."""
+    s = scale
+    return (Scene(shape).paint(slice(30 * s, 80 * s), slice(20 * s, 100 * s), BROWN, 7.0)
+            .paint(slice(0, 80 * s), slice(53 * s, 67 * s), BLUE, 7.6))
+
+
+def _same_parts(labels: np.ndarray, objects: np.ndarray) -> bool:
+    """Whether ``labels`` group the painted pixels exactly as the objects do."""
+    painted = objects >= 0
+    pairs = set(zip(labels[painted].tolist(), objects[painted].tolist()))
+    return len(pairs) == len({a for a, _ in pairs}) == len({b for _, b in pairs})
+
+
+def test_a_pole_just_in_front_of_a_box_of_another_colour_is_split_off():
+    scene = _pole_before_box()
+    scene.d += np.random.default_rng(0).normal(0, 0.05, scene.d.shape).astype(np.float32)
+    split = scene.split()
+    assert split.max() == 1
+    assert _same_parts(split, scene.objects)
+    np.testing.assert_array_equal(split < 0, scene.objects < 0)
+
+
+def test_nothing_is_split_without_a_second_colour():
+    scene = _pole_before_box()
+    scene.chroma[:] = BROWN
+    groups = np.where(scene.objects >= 0, 0, -1)
+    assert scene.split() is not groups
+    assert scene.split().max() == 0
+
+
+def test_nothing_is_split_when_the_two_colours_lie_at_one_depth():
+    scene = _pole_before_box()
+    scene.d[scene.objects >= 0] = 7.0
+    assert scene.split().max() == 0
+
+
+@pytest.mark.parametrize("gap_px", [0.25, 0.35])
+def test_the_depth_gap_must_exceed_min_gap_px(gap_px):
+    scene = _pole_before_box()
+    scene.d[scene.objects == 1] = 7.0 + gap_px
+    assert scene.split().max() == (1 if gap_px > 0.3 else 0)
+
+
+def test_a_colour_boundary_across_one_slanted_surface_is_not_a_step():
+    """Half a wall painted blue: the halves' medians differ by 1.2 px, but their planes meet."""
+    slant = lambda xs: 10.0 + 0.02 * xs                                  # noqa: E731
+    scene = Scene().paint(slice(10, 70), slice(0, 60), BROWN, slant).paint(slice(10, 70), slice(60, 120), BLUE, slant)
+    assert scene.split().max() == 0
+
+
+def test_two_faces_of_a_box_meeting_at_a_crease_are_not_split():
+    scene = (Scene().paint(slice(10, 70), slice(20, 70), BROWN, 12.0)
+             .paint(slice(10, 70), slice(70, 100), GREEN, lambda xs: 12.0 - 0.05 * (xs - 69.5)))
+    assert scene.split().max() == 0
+
+
+def test_a_rim_around_an_object_is_not_split_off():
+    """Sky-coloured pixels matched 1 px farther in a 3 px ring around a box (the matching's halo)."""
+    scene = Scene().paint(slice(17, 63), slice(37, 83), BLUE, 8.0).paint(slice(20, 60), slice(40, 80), BROWN, 9.0)
+    assert scene.split().max() == 0
+
+
+def test_pieces_apart_in_the_image_need_no_step_where_they_touch():
+    scene = Scene().paint(slice(10, 70), slice(0, 40), BROWN, 7.0).paint(slice(10, 70), slice(80, 120), BLUE, 7.5)
+    split = scene.split()
+    assert split.max() == 1 and _same_parts(split, scene.objects)
+
+
+def test_a_part_that_is_not_one_surface_is_not_split_off():
+    """The blue part holds two surfaces 1.5 px apart (the pole and a strip beside it): less than
+    ``min_plane_fraction`` of it lies on one plane, so the colour boundary may cross a surface and
+    is not trusted. Without the strip the pole splits off (the first test)."""
+    scene = _pole_before_box().paint(slice(0, 80), slice(67, 76), BLUE, 9.1)
+    assert scene.split().max() == 0
+
+
+def test_three_objects_need_two_levels():
+    """A blue cylinder 1 px in front of a brown wall, a green panel 1 px behind it: the green panel
+    splits off first (the others' colours lie nearer each other), then the cylinder."""
+    purple = (150, 100)
+    scene = (Scene((90, 160)).paint(slice(10, 40), slice(50, 110), GREEN, 7.0)
+             .paint(slice(40, 90), slice(10, 150), BROWN, 8.0).paint(slice(30, 90), slice(110, 134), purple, 9.0))
+    split = scene.split()
+    assert split.max() == 2 and _same_parts(split, scene.objects)
+    assert scene.split(replace(ColourSplitParameters(), max_levels=1)).max() == 1
+
+
+def test_uncoloured_pixels_follow_the_nearest_coloured_part():
+    """Ground-coloured pixels at the pole's foot (raised by their disparity, not by their colour)
+    go with the pole, whatever their disparity."""
+    scene = _pole_before_box().paint(slice(74, 80), slice(47, 73), GREY, 7.3, coloured=False)
+    split = scene.split()
+    foot = scene.objects == 2
+    assert split.max() == 1
+    assert np.all(split[foot] == split[30, 60])
+    assert np.all(split[scene.objects == 0] != split[30, 60])
+
+
+def test_a_large_group_is_decided_on_squares_of_pixels():
+    scene = _pole_before_box((160, 240), scale=2)
+    assert np.count_nonzero(scene.objects >= 0) > MAX_DECISION_PIXELS
+    split = scene.split()
+    assert split.max() == 1
+    for obj in (0, 1):
+        labels = np.bincount(split[scene.objects == obj])
+        assert labels.max() >= 0.98 * labels.sum()                       # a square across the edge at most
+
+
+def test_only_groups_of_twice_an_object_are_split():
+    scene = Scene().paint(slice(0, 10), slice(0, 11), BROWN, 7.0).paint(slice(0, 10), slice(11, 22), BLUE, 8.0)
+    assert np.count_nonzero(scene.objects >= 0) < 2 * MIN_OBJECT_PIXELS
+    assert scene.split().max() == 0
+
+
+def test_other_groups_keep_their_labels_and_parts_get_new_ones():
+    scene = _pole_before_box()
+    groups = np.where(scene.objects >= 0, 1, -1)
+    groups[:5, :5] = 0
+    split = split_groups_by_colour(groups, scene.d, ColourCue(scene.chroma, scene.coloured),
+                                   min_object_pixels=MIN_OBJECT_PIXELS)
+    assert np.all(split[:5, :5] == 0)
+    assert set(np.unique(split[scene.objects >= 0]).tolist()) == {1, 2}
+
+
+def test_the_grouping_splits_by_colour_only_with_a_colour_cue():
+    scene = _pole_before_box()
+    cue = ColourCue(scene.chroma, scene.coloured)
+    mask = scene.objects >= 0
+    assert group_obstacle_pixels(scene.d, mask).max() == 1
+    assert group_obstacle_pixels(scene.d, mask, colour=cue).max() == 2
+    off = replace(GroupingParameters(), colour_split=None)
+    assert group_obstacle_pixels(scene.d, mask, off, colour=cue).max() == 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1))
+def test_a_split_only_divides_groups(seed):
+    rng = np.random.default_rng(seed)
+    shape = (48, 64)
+    groups = rng.integers(-1, 3, (6, 8)).repeat(8, axis=0).repeat(8, axis=1)
+    d = rng.choice([6.0, 6.8, 8.0], (6, 8)).repeat(8, axis=0).repeat(8, axis=1).astype(np.float32)
+    chroma = rng.choice([100, 128, 160], (6, 8, 2)).repeat(8, axis=0).repeat(8, axis=1).astype(np.uint8)
+    cue = ColourCue(chroma, rng.random(shape) < 0.9)
+    split = split_groups_by_colour(groups, d, cue, min_object_pixels=64)
+    np.testing.assert_array_equal(split < 0, groups < 0)
+    for label in np.unique(split[split >= 0]):
+        assert len(np.unique(groups[split == label])) == 1
+    new = np.unique(split[split > groups.max()])
+    np.testing.assert_array_equal(new, np.arange(groups.max() + 1, groups.max() + 1 + new.size))
+
+
+def test_colour_cue_takes_the_chroma_of_the_blurred_image():
+    left = np.zeros((20, 30, 3), np.uint8)
+    left[:, :15] = (200, 40, 40)
+    left[:, 15:] = (128, 128, 128)
+    cue = colour_cue(left, np.ones((20, 30), bool), ColourSplitParameters(blur_px=1))
+    assert cue.chroma.dtype == np.uint8 and cue.chroma.shape == (20, 30, 2)
+    assert cue.chroma[0, 0, 0] > 160 and np.all(np.abs(cue.chroma[:, 15:].astype(int) - 128) <= 1)
+    blurred = colour_cue(left, np.ones((20, 30), bool), ColourSplitParameters(blur_px=5))
+    assert 128 < blurred.chroma[10, 15, 0] < cue.chroma[10, 0, 0]
+
+
+def test_colour_cue_refuses_images_it_cannot_read():
+    with pytest.raises(InvalidInputError, match="uint8 \\(H, W, 3\\)"):
+        colour_cue(np.zeros((4, 4, 3), np.float32), np.ones((4, 4), bool), ColourSplitParameters())
+    with pytest.raises(InvalidInputError, match="coloured"):
+        colour_cue(np.zeros((4, 4, 3), np.uint8), np.ones((4, 5), bool), ColourSplitParameters())
+
+
+def test_a_cue_of_another_size_is_refused():
+    scene = _pole_before_box()
+    with pytest.raises(InvalidInputError, match="colour cue"):
+        split_groups_by_colour(np.where(scene.objects >= 0, 0, -1), scene.d,
+                               ColourCue(scene.chroma[:-1], scene.coloured[:-1]), min_object_pixels=120)
+
+
+@pytest.mark.parametrize("field, value", [("blur_px", 0), ("blur_px", 2.5), ("min_chroma_distance", -1.0),
+                                          ("min_gap_px", float("nan")), ("min_gap_rel", 2.0),
+                                          ("min_plane_fraction", 1.5), ("max_levels", 0)])
+def test_parameters_out_of_range_are_refused(field, value):
+    with pytest.raises(InvalidInputError, match=field):
+        ColourSplitParameters(**{field: value})
+
+
+def test_grouping_parameters_refuse_a_colour_split_of_another_type():
+    with pytest.raises(InvalidInputError, match="colour_split"):
+        GroupingParameters(colour_split={"blur_px": 5})
+
+
+def _two_means_reference(chroma, coloured, max_sample, max_rounds):
+    points = chroma[coloured].astype(float)
+    points = points[::-(-len(points) // max_sample)]
+    centred = points - points.mean(axis=0)
+    w, v = np.linalg.eigh(centred.T @ centred)
+    second = centred @ v[:, np.argmax(w)] > 0
+    for _ in range(max_rounds):
+        centres = np.stack([points[~second].mean(axis=0), points[second].mean(axis=0)])
+        nearer = ((points - centres[1]) ** 2).sum(axis=1) < ((points - centres[0]) ** 2).sum(axis=1)
+        if np.array_equal(nearer, second):
+            break
+        second = nearer
+    clusters = ((chroma - centres[1]) ** 2).sum(axis=1) < ((chroma - centres[0]) ** 2).sum(axis=1)
+    return centres, clusters
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_two_colours_kernel_agrees_with_numpy(seed):
+    rng = np.random.default_rng(seed)
+    n = 5000
+    chroma = np.where(rng.random((n, 1)) < 0.3, rng.normal(150, 6, (n, 2)), rng.normal(110, 6, (n, 2)))
+    chroma = np.clip(chroma, 0, 255).astype(np.uint8)
+    coloured = rng.random(n) < 0.8
+    centres, clusters = two_colours_kernel(chroma, coloured, 2000, 20)
+    expected_centres, expected_clusters = _two_means_reference(chroma, coloured, 2000, 20)
+    order = np.argsort(centres[:, 0])                                      # the axis may point either way
+    np.testing.assert_allclose(centres[order], expected_centres[np.argsort(expected_centres[:, 0])], atol=1e-9)
+    flip = order[0] != np.argsort(expected_centres[:, 0])[0]
+    np.testing.assert_array_equal(clusters.astype(bool) ^ flip, expected_clusters)
+
+
+def test_two_colours_kernel_finds_no_centres_without_spread():
+    centres, clusters = two_colours_kernel(np.full((50, 2), 128, np.uint8), np.ones(50, bool), 2000, 20)
+    assert np.isnan(centres).all() and not clusters.any()
+
+
+def test_group_runs_kernel_agrees_with_numpy():
+    rng = np.random.default_rng(5)
+    groups = rng.integers(-1, 7, 3000)
+    coloured = rng.random(3000) < 0.5
+    counts, coloured_counts, starts, pixels = group_runs_kernel(groups, coloured, 7)
+    for g in range(7):
+        members = np.flatnonzero(groups == g)
+        assert counts[g] == members.size and coloured_counts[g] == np.count_nonzero(coloured[members])
+        np.testing.assert_array_equal(pixels[starts[g]:starts[g + 1]], members)
+
+
+def test_one_per_block_kernel_takes_the_first_pixel_of_each_square():
+    rng = np.random.default_rng(6)
+    rows, columns = rng.integers(0, 5, 400), rng.integers(0, 7, 400)
+    chosen, square_of = one_per_block_kernel(rows, columns)
+    keys = rows * 7 + columns
+    _, first = np.unique(keys, return_index=True)
+    np.testing.assert_array_equal(np.sort(chosen), np.sort(first))
+    np.testing.assert_array_equal(keys[chosen[square_of]], keys)
