@@ -114,14 +114,17 @@ def test_density_is_that_of_the_delivered_full_size_disparity():
 
 @pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT", "0") != "0",
                     reason="counts compiled signatures; NUMBA_DISABLE_JIT is set, nothing is compiled")
-def test_warm_up_compiles_the_refinement_too():
+def test_warm_up_compiles_the_refinement_and_the_colour_split_too():
     import subprocess
     import sys
 
     code = ("from stereo_obstacles.pipeline import warm_up; warm_up(); "
-            "from stereo_obstacles._refinement_kernel import _refine_rows; print(len(_refine_rows.signatures))")
+            "from stereo_obstacles._refinement_kernel import _refine_rows; "
+            "from stereo_obstacles import _colour_split_kernel as k; "
+            "print(*(len(f.signatures) for f in (_refine_rows, k.group_runs_kernel, k.one_per_block_kernel, "
+            "k.two_colours_kernel)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert int(out.strip().splitlines()[-1]) >= 1        # in a fresh process: nothing else compiled it
+    assert all(int(n) >= 1 for n in out.strip().splitlines()[-1].split())  # in a fresh process: nothing else did
 
 
 def test_the_pipeline_matches_with_its_own_defaults_unless_told(default_pair, monkeypatch):

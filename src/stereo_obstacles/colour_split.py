@@ -237,10 +237,8 @@ class _Canvas:
 
 def _one_per_block(ys: np.ndarray, xs: np.ndarray, block: int) -> tuple[np.ndarray, np.ndarray]:
     """Indices of one pixel in each ``block`` x ``block`` square holding any of the pixels
-    ``(ys, xs)`` (the first), and the index into those of each pixel's square."""
-    if block == 1:
-        index = np.arange(len(ys))
-        return index, index
+    ``(ys, xs)`` (the first), and the index into those of each pixel's square (with ``block`` 1:
+    every pixel, which also compiles the kernel in :func:`stereo_obstacles.pipeline.warm_up`)."""
     rows, columns = ys // block, xs // block
     return one_per_block_kernel(rows - rows.min(), columns - columns.min())
 
