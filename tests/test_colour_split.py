@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -10,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_obstacles._colour_split_kernel import group_runs_kernel, one_per_block_kernel, two_colours_kernel
-from stereo_obstacles.colour_split import (MAX_DECISION_PIXELS, ColourCue, ColourSplitParameters, colour_cue,
-                                           split_groups_by_colour)
+from stereo_obstacles.colour_split import (MAX_DECISION_PIXELS, ColourCue, ColourSplitParameters, _robust_plane,
+                                           colour_cue, split_groups_by_colour)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 
@@ -69,12 +70,14 @@ def test_a_pole_just_in_front_of_a_box_of_another_colour_is_split_off():
     np.testing.assert_array_equal(split < 0, scene.objects < 0)
 
 
-def test_nothing_is_split_without_a_second_colour():
+def test_nothing_is_split_without_a_second_colour_and_the_groups_come_back_as_they_are():
     scene = _pole_before_box()
     scene.chroma[:] = BROWN
     groups = np.where(scene.objects >= 0, 0, -1)
-    assert scene.split() is not groups
-    assert scene.split().max() == 0
+    cue = ColourCue(scene.chroma, scene.coloured)
+    assert split_groups_by_colour(groups, scene.d, cue, min_object_pixels=MIN_OBJECT_PIXELS) is groups
+    narrow = split_groups_by_colour(groups.astype(np.int32), scene.d, cue, min_object_pixels=MIN_OBJECT_PIXELS)
+    assert narrow.dtype == np.int64 and np.array_equal(narrow, groups)
 
 
 def test_nothing_is_split_when_the_two_colours_lie_at_one_depth():
@@ -88,6 +91,15 @@ def test_the_depth_gap_must_exceed_min_gap_px(gap_px):
     scene = _pole_before_box()
     scene.d[scene.objects == 1] = 7.0 + gap_px
     assert scene.split().max() == (1 if gap_px > 0.3 else 0)
+
+
+@pytest.mark.parametrize("gap_px", [0.5, 0.7])
+def test_near_objects_need_a_gap_of_min_gap_rel_of_their_disparity(gap_px):
+    """At 20 px the gap is 3 % of it, 0.6 px: 0.5 px is not enough there."""
+    scene = _pole_before_box()
+    scene.d[scene.objects == 0] = 20.0
+    scene.d[scene.objects == 1] = 20.0 + gap_px
+    assert scene.split().max() == (1 if gap_px > 0.6 else 0)
 
 
 def test_a_colour_boundary_across_one_slanted_surface_is_not_a_step():
@@ -116,33 +128,56 @@ def test_pieces_apart_in_the_image_need_no_step_where_they_touch():
 
 
 def test_a_part_that_is_not_one_surface_is_not_split_off():
-    """The blue part holds two surfaces 1.5 px apart (the pole and a strip beside it): less than
-    ``min_plane_fraction`` of it lies on one plane, so the colour boundary may cross a surface and
-    is not trusted. Without the strip the pole splits off (the first test)."""
-    scene = _pole_before_box().paint(slice(0, 80), slice(67, 76), BLUE, 9.1)
+    """A third of the blue part's pixels lie 1.5 px behind the rest (a colour boundary that runs
+    across another surface): 65 % of the part lies on one plane, less than ``min_plane_fraction``."""
+    scene = _pole_before_box()
+    behind = (scene.objects == 1) & (np.add.outer(np.arange(80), np.arange(120)) % 3 == 0)
+    scene.d[behind] = 9.1
     assert scene.split().max() == 0
+    assert scene.split(replace(ColourSplitParameters(), min_plane_fraction=0.6)).max() == 1
 
 
-def test_three_objects_need_two_levels():
-    """A blue cylinder 1 px in front of a brown wall, a green panel 1 px behind it: the green panel
-    splits off first (the others' colours lie nearer each other), then the cylinder."""
-    purple = (150, 100)
-    scene = (Scene((90, 160)).paint(slice(10, 40), slice(50, 110), GREEN, 7.0)
-             .paint(slice(40, 90), slice(10, 150), BROWN, 8.0).paint(slice(30, 90), slice(110, 134), purple, 9.0))
+def test_pixels_near_the_boundary_go_to_the_part_whose_plane_they_fit():
+    """The pole's outer columns took the box's colour (the blurred chroma): their disparity puts
+    them back on the pole."""
+    scene = Scene().paint(slice(30, 80), slice(10, 110), BROWN, 7.0).paint(slice(0, 80), slice(50, 74), BLUE, 7.6)
+    scene.chroma[:, [50, 51, 72, 73]] = BROWN
+    split = scene.split()
+    assert split.max() == 1 and _same_parts(split, scene.objects)
+
+
+def test_a_large_part_made_of_specks_is_not_an_object():
+    """Blue specks of 2 x 2 pixels on the box (texture), none of an object's size: they stay with
+    the box, and the blue pole alone is split off."""
+    scene = _pole_before_box()
+    specks = np.zeros(scene.d.shape, bool)
+    specks[32::6, 22:50:6] = specks[33::6, 23:51:6] = True
+    specks[32::6, 23:51:6] = specks[33::6, 22:50:6] = True
+    scene.chroma[specks] = BLUE
+    split = scene.split()
+    assert split.max() == 1 and _same_parts(split, scene.objects)
+
+
+@pytest.mark.parametrize("first, third", [(GREEN, (150, 100)), ((150, 100), GREEN)])
+def test_three_objects_need_two_levels(first, third):
+    """A cylinder 1 px in front of a brown wall, a panel 1 px behind it: one of them splits off
+    first (the other two colours lie nearer each other), then the other."""
+    scene = (Scene((90, 160)).paint(slice(10, 40), slice(50, 110), first, 7.0)
+             .paint(slice(40, 90), slice(10, 150), BROWN, 8.0).paint(slice(30, 90), slice(110, 134), third, 9.0))
     split = scene.split()
     assert split.max() == 2 and _same_parts(split, scene.objects)
     assert scene.split(replace(ColourSplitParameters(), max_levels=1)).max() == 1
 
 
 def test_uncoloured_pixels_follow_the_nearest_coloured_part():
-    """Ground-coloured pixels at the pole's foot (raised by their disparity, not by their colour)
-    go with the pole, whatever their disparity."""
-    scene = _pole_before_box().paint(slice(74, 80), slice(47, 73), GREY, 7.3, coloured=False)
+    """Ground-coloured pixels at the foot of a pole standing in front of a box's upper half (raised
+    by their disparity, not by their colour) go with the pole, whatever their disparity."""
+    scene = (Scene().paint(slice(10, 50), slice(20, 100), BROWN, 7.0).paint(slice(0, 80), slice(53, 67), BLUE, 7.6)
+             .paint(slice(72, 80), slice(50, 70), (145, 145), 7.0, coloured=False))      # nearer brown than blue
     split = scene.split()
-    foot = scene.objects == 2
     assert split.max() == 1
-    assert np.all(split[foot] == split[30, 60])
-    assert np.all(split[scene.objects == 0] != split[30, 60])
+    assert np.all(split[scene.objects == 2] == split[5, 60])
+    assert np.all(split[scene.objects == 0] != split[5, 60])
 
 
 def test_a_large_group_is_decided_on_squares_of_pixels():
@@ -155,20 +190,43 @@ def test_a_large_group_is_decided_on_squares_of_pixels():
         assert labels.max() >= 0.98 * labels.sum()                       # a square across the edge at most
 
 
+def test_a_rim_around_a_large_object_is_not_split_off_either():
+    """Decided on squares of 5 x 5 pixels, the 3 px ring lies in the squares next to the box's."""
+    scene = Scene((410, 410)).paint(slice(2, 408), slice(2, 408), BLUE, 8.0).paint(slice(5, 405), slice(5, 405), BROWN, 9.0)
+    assert math.ceil(math.sqrt(np.count_nonzero(scene.objects >= 0) / MAX_DECISION_PIXELS)) == 5
+    assert scene.split().max() == 0
+
+
+@pytest.mark.parametrize("rows, split", [(40, True), (16, False)])
+def test_pixel_counts_of_a_large_group_are_its_pixels_not_its_squares(rows, split):
+    """A pole above a large box, matched at one pixel in four: 280 pixels are an object's size,
+    112 are not, though their squares of 2 x 2 pixels would stand for 448."""
+    scene = _pole_before_box((160, 240), scale=2)
+    pole = scene.objects == 1
+    even = (np.arange(160)[:, None] % 2 == 0) & (np.arange(240)[None, :] % 2 == 0)
+    dropped = pole & ~(even & (np.arange(160)[:, None] < rows))
+    scene.objects[dropped], scene.d[dropped] = -1, np.nan
+    assert np.count_nonzero(scene.objects == 1) == rows // 2 * 14
+    assert np.count_nonzero(scene.objects >= 0) > MAX_DECISION_PIXELS
+    assert scene.split().max() == (1 if split else 0)
+
+
 def test_only_groups_of_twice_an_object_are_split():
     scene = Scene().paint(slice(0, 10), slice(0, 11), BROWN, 7.0).paint(slice(0, 10), slice(11, 22), BLUE, 8.0)
     assert np.count_nonzero(scene.objects >= 0) < 2 * MIN_OBJECT_PIXELS
     assert scene.split().max() == 0
 
 
-def test_other_groups_keep_their_labels_and_parts_get_new_ones():
-    scene = _pole_before_box()
-    groups = np.where(scene.objects >= 0, 1, -1)
+def test_other_groups_keep_their_labels_and_parts_get_the_next_ones():
+    scene = _pole_before_box((80, 240))
+    scene.paint(slice(30, 80), slice(140, 220), BROWN, 7.0).paint(slice(0, 80), slice(173, 187), BLUE, 7.6)
+    groups = np.where(scene.objects >= 0, np.where(np.arange(240) < 120, 1, 2)[None, :], -1)
     groups[:5, :5] = 0
     split = split_groups_by_colour(groups, scene.d, ColourCue(scene.chroma, scene.coloured),
                                    min_object_pixels=MIN_OBJECT_PIXELS)
     assert np.all(split[:5, :5] == 0)
-    assert set(np.unique(split[scene.objects >= 0]).tolist()) == {1, 2}
+    assert set(np.unique(split[:, :120][groups[:, :120] > 0]).tolist()) == {1, 3}
+    assert set(np.unique(split[:, 120:][groups[:, 120:] > 0]).tolist()) == {2, 4}
 
 
 def test_the_grouping_splits_by_colour_only_with_a_colour_cue():
@@ -216,11 +274,33 @@ def test_colour_cue_refuses_images_it_cannot_read():
         colour_cue(np.zeros((4, 4, 3), np.uint8), np.ones((4, 5), bool), ColourSplitParameters())
 
 
-def test_a_cue_of_another_size_is_refused():
+def test_inputs_of_other_sizes_or_types_are_refused():
     scene = _pole_before_box()
+    groups, cue = np.where(scene.objects >= 0, 0, -1), ColourCue(scene.chroma, scene.coloured)
     with pytest.raises(InvalidInputError, match="colour cue"):
-        split_groups_by_colour(np.where(scene.objects >= 0, 0, -1), scene.d,
-                               ColourCue(scene.chroma[:-1], scene.coloured[:-1]), min_object_pixels=120)
+        split_groups_by_colour(groups, scene.d, ColourCue(scene.chroma[:-1], scene.coloured[:-1]), min_object_pixels=120)
+    with pytest.raises(InvalidInputError, match="disparity"):
+        split_groups_by_colour(groups, scene.d[:, :-1], cue, min_object_pixels=120)
+    with pytest.raises(InvalidInputError, match="min_object_pixels"):
+        split_groups_by_colour(groups, scene.d, cue, min_object_pixels=0)
+    with pytest.raises(InvalidInputError, match="coloured must be bool"):
+        ColourCue(scene.chroma, scene.coloured.astype(np.uint8))
+    with pytest.raises(InvalidInputError, match="chroma must be uint8"):
+        ColourCue(scene.chroma.astype(np.float32), scene.coloured)
+
+
+def test_a_group_with_a_pixel_without_disparity_is_left_whole():
+    scene = _pole_before_box()
+    scene.d[40, 30] = np.nan
+    assert scene.split().max() == 0
+
+
+def test_the_robust_plane_ignores_a_tenth_of_outliers():
+    rng = np.random.default_rng(7)
+    xs, ys = rng.uniform(0, 100, 2000), rng.uniform(0, 80, 2000)
+    d = 5.0 + 0.02 * xs - 0.01 * ys
+    d[:200] += 5.0
+    np.testing.assert_allclose(_robust_plane(xs, ys, d), (0.02, -0.01, 5.0), atol=1e-9)
 
 
 @pytest.mark.parametrize("field, value", [("blur_px", 0), ("blur_px", 2.5), ("min_chroma_distance", -1.0),
@@ -267,8 +347,10 @@ def test_two_colours_kernel_agrees_with_numpy(seed):
     np.testing.assert_array_equal(clusters.astype(bool) ^ flip, expected_clusters)
 
 
-def test_two_colours_kernel_finds_no_centres_without_spread():
-    centres, clusters = two_colours_kernel(np.full((50, 2), 128, np.uint8), np.ones(50, bool), 2000, 20)
+@pytest.mark.parametrize("any_coloured", [True, False])
+def test_two_colours_kernel_finds_no_centres_without_spread_or_colour(any_coloured):
+    chroma = np.full((50, 2), 128, np.uint8) if any_coloured else np.arange(100, dtype=np.uint8).reshape(50, 2)
+    centres, clusters = two_colours_kernel(chroma, np.full(50, any_coloured), 2000, 20)
     assert np.isnan(centres).all() and not clusters.any()
 
 

@@ -17,14 +17,18 @@ from stereo_obstacles._similarity_kernel import CACHE
 def two_colours_kernel(chroma, coloured, max_sample, max_rounds):
     """2-means of the chroma of the ``coloured`` pixels, and the nearer centre of every pixel.
 
-    ``chroma`` uint8 ``(N, 2)``, ``coloured`` bool ``(N,)`` with at least two coloured pixels.
-    The centres are found on at most ``max_sample`` evenly spaced coloured pixels, started from
-    the two halves along their principal axis, in at most ``max_rounds`` rounds. Returns the
-    centres, float64 ``(2, 2)``, and each pixel's cluster, int64 ``(N,)`` (1: nearer the second
-    centre); all clusters 0 and the centres NaN when the sample does not spread.
+    ``chroma`` uint8 ``(N, 2)``, ``coloured`` bool ``(N,)``. The centres are found on at most
+    ``max_sample`` evenly spaced coloured pixels, started from the two halves along their
+    principal axis, in at most ``max_rounds`` rounds. Returns the centres, float64 ``(2, 2)``, and
+    each pixel's cluster, int64 ``(N,)`` (1: nearer the second centre); all clusters 0 and the
+    centres NaN when no pixel is coloured or the sample does not spread.
     """
     n = chroma.shape[0]
+    centres = np.full((2, 2), np.nan)
+    clusters = np.zeros(n, np.int64)
     index = np.flatnonzero(coloured)
+    if index.shape[0] == 0:
+        return centres, clusters
     step = (index.shape[0] + max_sample - 1) // max_sample
     sample = index[::step]
     m = sample.shape[0]
@@ -52,8 +56,6 @@ def two_colours_kernel(chroma, coloured, max_sample, max_rounds):
     second = np.empty(m, np.bool_)
     for i in range(m):
         second[i] = (points[i, 0] - mean_a) * ca + (points[i, 1] - mean_b) * sa > 0.0
-    centres = np.full((2, 2), np.nan)
-    clusters = np.zeros(n, np.int64)
     for _ in range(max_rounds):
         sums = np.zeros((2, 2))
         counts = np.zeros(2)

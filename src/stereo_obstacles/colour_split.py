@@ -33,6 +33,7 @@ cylinder between two walls). Measured in ``docs/pipeline.md`` ("Splitting by col
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -43,15 +44,17 @@ from stereo_obstacles._colour_split_kernel import group_runs_kernel, one_per_blo
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.plane_fit import least_squares_plane
+from stereo_obstacles.quantiles import MAD_TO_SIGMA, median, percentile
 
 __all__ = ["ColourCue", "ColourSplitParameters", "colour_cue", "split_groups_by_colour"]
 
 RIM_PX = 4.0
 """A part is a rim when more than ``MAX_RIM_FRACTION`` of its pixels lie within this distance
-(pixels) of the other part."""
+(pixels, at least one square of a large group's: ``MAX_DECISION_PIXELS``) of the other part."""
 MAX_RIM_FRACTION = 0.5
 BOUNDARY_PX = 2.0
-"""Pixels within this distance of the other part are where the two parts touch."""
+"""Pixels within this distance (at least one square) of the other part are where the two parts
+touch."""
 FIT_MARGIN_PX = 8.0
 """Each part's plane is fitted to its pixels farther than this from the other part (the 5 x 5
 windows matched at half size blur a step over about this width), and the pixels nearer than it
@@ -63,17 +66,19 @@ PLANE_TOLERANCE_PX, PLANE_TOLERANCE_REL = 0.5, 0.02
 """A pixel lies on a plane when its disparity is within ``PLANE_TOLERANCE_PX + PLANE_TOLERANCE_REL
 * d`` pixels of it."""
 ROBUST_PLANE_ROUNDS, PLANE_SAMPLE = 3, 4000
-"""Least-squares fits of a robust plane, each dropping the pixels farther than ``max(0.3 px,
-2.5 robust standard deviations)`` from the previous one, on at most this many pixels (evenly
-spaced)."""
+"""Least-squares fits of a robust plane, each dropping the pixels farther from the previous one
+than ``max(ROBUST_FLOOR_PX, ROBUST_DEVIATIONS`` robust standard deviations), on at most this
+many pixels (evenly spaced)."""
+ROBUST_FLOOR_PX, ROBUST_DEVIATIONS = 0.3, 2.5
 MIN_TOUCHING_PIXELS = 10
-"""Parts with fewer pixels along their boundary do not touch: only their median disparities and
-their planes are tested."""
+"""Parts with fewer decided pixels (one per square in a large group) along their boundary do not
+touch: only their median disparities and their planes are tested."""
 MIN_FIT_PIXELS = 30
-"""A part with fewer pixels away from the boundary has its plane fitted to all its pixels."""
+"""A part with fewer decided pixels away from the boundary has its plane fitted to all of them."""
 MAX_DECISION_PIXELS = 8000
 """A larger group of ``n`` pixels is split on one pixel of each ``s`` x ``s`` square, ``s =
-ceil(sqrt(n / MAX_DECISION_PIXELS))``, each other pixel following its square's."""
+ceil(sqrt(n / MAX_DECISION_PIXELS))``, standing for the square's pixels of the group (in the
+pixel counts), each other pixel following its square's."""
 CLUSTER_SAMPLE, MAX_CLUSTER_ROUNDS = 2000, 20
 """At most this many pixels (evenly spaced) find the two colour centres, in at most this many
 rounds of 2-means; every pixel then joins the nearer centre."""
@@ -96,7 +101,7 @@ class ColourSplitParameters:
     min_plane_fraction : float
         Fraction of each part's pixels that must lie on its plane.
     max_levels : int
-        How many times a part may be split again (1: one split per group at most).
+        Levels of splitting: 1 splits a group in two at most, 2 splits each part once more.
     """
 
     blur_px: int = 5
@@ -128,6 +133,13 @@ class ColourCue:
     chroma: np.ndarray
     coloured: np.ndarray
 
+    def __post_init__(self) -> None:
+        chroma, coloured = np.asarray(self.chroma), np.asarray(self.coloured)
+        if chroma.dtype != np.uint8 or chroma.ndim != 3 or chroma.shape[2] != 2:
+            raise InvalidInputError(f"chroma must be uint8 (H, W, 2), got {chroma.dtype} {chroma.shape}")
+        if coloured.dtype != bool or coloured.shape != chroma.shape[:2]:
+            raise InvalidInputError(f"coloured must be bool {chroma.shape[:2]}, got {coloured.dtype} {coloured.shape}")
+
 
 def colour_cue(left: np.ndarray, coloured: np.ndarray, params: ColourSplitParameters) -> ColourCue:
     """The :class:`ColourCue` of ``uint8 (H, W, 3)`` RGB ``left`` and the ``bool (H, W)`` mask
@@ -154,39 +166,67 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
     Parameters
     ----------
     groups
-        ``int64 (H, W)`` group of each pixel, -1 for none; every grouped pixel has a finite
-        disparity.
+        ``int (H, W)`` group of each pixel, -1 for none.
     disparity
-        ``float32 (H, W)`` disparity in pixels.
+        ``float32 (H, W)`` disparity in pixels, finite at every grouped pixel (a group with a
+        pixel that is not is left whole).
     cue
         The left image's :class:`ColourCue`, of the same height and width.
     min_object_pixels
-        An object's pixel count: smaller groups, parts and connected pieces are not split off.
+        An object's pixel count (at least 1): smaller groups, parts and connected pieces are not
+        split off.
     params
         When to split.
 
     Returns
     -------
     numpy.ndarray
-        ``int64 (H, W)``: ``groups`` where nothing was split (the same array), otherwise a copy
-        in which each part split off has a new label after the existing ones.
+        ``int64 (H, W)``: ``groups`` itself where nothing was split and it is ``int64``,
+        otherwise a copy in which each part split off has a new label after the existing ones.
+
+    Raises
+    ------
+    InvalidInputError
+        ``groups``, ``disparity`` and the cue of different heights and widths, or
+        ``min_object_pixels`` below 1.
+
+    Examples
+    --------
+    A blue pole 0.6 px in front of a brown box, grouped as one:
+
+    >>> groups = np.full((80, 120), -1); groups[30:, 20:100] = 0; groups[:, 53:67] = 0
+    >>> d = np.where(groups == 0, np.float32(7.0), np.nan).astype(np.float32); d[:, 53:67] = 7.6
+    >>> chroma = np.full((80, 120, 2), 128, np.uint8); chroma[groups == 0] = (150, 150)
+    >>> chroma[:, 53:67] = (128, 100)
+    >>> split = split_groups_by_colour(groups, d, ColourCue(chroma, groups == 0), min_object_pixels=120)
+    >>> sorted({int(split[0, 60]), int(split[50, 30])})            # the pole and the box: two groups
+    [0, 1]
     """
-    if cue.chroma.shape[:2] != groups.shape or cue.coloured.shape != groups.shape:
-        raise InvalidInputError(f"colour cue {cue.chroma.shape[:2]} must have the groups' shape {groups.shape}")
+    groups = np.asarray(groups)
+    if groups.ndim != 2 or np.shape(disparity) != groups.shape or cue.chroma.shape[:2] != groups.shape:
+        raise InvalidInputError(f"groups {groups.shape}, disparity {np.shape(disparity)} and colour cue "
+                                f"{cue.chroma.shape[:2]} must have one 2-D shape")
+    if not (isinstance(min_object_pixels, (int, np.integer)) and min_object_pixels >= 1):
+        raise InvalidInputError(f"min_object_pixels must be an integer >= 1, got {min_object_pixels!r}")
+    groups = groups.astype(np.int64, copy=False)
     width = groups.shape[1]
     counts, coloured_counts, starts, pixels = group_runs_kernel(
         groups.ravel(), cue.coloured.ravel(), int(groups.max(initial=-1)) + 1)
+    # the first tests of _split on the counts alone: most groups need no pass over their pixels
     large = (counts >= 2 * min_object_pixels) & (coloured_counts >= 2 * min_object_pixels)
     out, next_label = groups, len(counts)
     for group in np.flatnonzero(large):
         run = pixels[starts[group]:starts[group + 1]]
         ys, xs = np.divmod(run, width)
         block = max(1, math.ceil(math.sqrt(len(run) / MAX_DECISION_PIXELS)))
-        chosen, block_of = _one_per_block(ys, xs, block)
+        chosen, square_of = _one_per_block(ys, xs, block)
         decided = run[chosen]
-        parts = _split(_Canvas(ys[chosen], xs[chosen], block), disparity.ravel()[decided].astype(np.float64),
-                       cue.chroma.reshape(-1, 2)[decided], cue.coloured.ravel()[decided], min_object_pixels, params,
-                       params.max_levels)[block_of]
+        d = disparity.ravel()[decided].astype(np.float64)
+        if not np.isfinite(d).all():
+            continue
+        canvas = _Canvas(ys[chosen], xs[chosen], block, np.bincount(square_of, minlength=len(chosen)))
+        parts = _split(canvas, d, cue.chroma.reshape(-1, 2)[decided], cue.coloured.ravel()[decided],
+                       min_object_pixels, params, params.max_levels)[square_of]
         n_parts = int(parts.max()) + 1
         if n_parts == 1:
             continue
@@ -199,40 +239,47 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
 
 
 class _Canvas:
-    """Pixels ``(ys, xs)``, one per ``block`` x ``block`` square, on the image of their bounding
-    box in squares, for image operations on them; distances and areas in full-size pixels."""
+    """Pixels ``(ys, xs)``, one per ``block`` x ``block`` square, each standing for ``weights``
+    pixels of its square, on the image of their bounding box in squares, for image operations
+    on them; distances and pixel counts in full-size pixels."""
 
-    def __init__(self, ys: np.ndarray, xs: np.ndarray, block: int) -> None:
-        self.ys, self.xs, self.block = ys, xs, block
-        self.rows, self.columns = ys // block, xs // block
-        self.row0, self.column0 = int(self.rows.min()), int(self.columns.min())
-        self.shape = (int(self.rows.max()) - self.row0 + 1, int(self.columns.max()) - self.column0 + 1)
+    def __init__(self, ys: np.ndarray, xs: np.ndarray, block: int, weights: np.ndarray) -> None:
+        self.ys, self.xs, self.block, self.weights = ys, xs, block, weights
+
+    @functools.cached_property
+    def _grid(self) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+        """Each pixel's square row and column from the box's corner, and the box's shape in squares."""
+        rows, columns = self.ys // self.block, self.xs // self.block
+        rows, columns = rows - rows.min(), columns - columns.min()
+        return rows, columns, (int(rows.max()) + 1, int(columns.max()) + 1)
 
     def subset(self, index: np.ndarray) -> _Canvas:
         """The canvas of the pixels ``index`` (an index array into these)."""
-        return _Canvas(self.ys[index], self.xs[index], self.block)
+        return _Canvas(self.ys[index], self.xs[index], self.block, self.weights[index])
 
-    def area(self, count: int) -> int:
-        """Full-size pixels that ``count`` of these stand for."""
-        return count * self.block * self.block
+    def pixels(self, where: np.ndarray | None = None) -> int:
+        """Full-size pixels that these (where ``where``, ``bool (n,)``, holds) stand for."""
+        return int(self.weights.sum() if where is None else self.weights[where].sum())
 
     def distance_to(self, where: np.ndarray) -> np.ndarray:
         """``float32 (n,)`` distance (full-size pixels) of each pixel to the nearest pixel where
         ``where`` (``bool (n,)``) holds; large where none does."""
-        free = np.full(self.shape, 255, dtype=np.uint8)
-        free[self.rows[where] - self.row0, self.columns[where] - self.column0] = 0
-        distance = cv2.distanceTransform(free, cv2.DIST_L2, 3)[self.rows - self.row0, self.columns - self.column0]
-        return distance * self.block
+        rows, columns, shape = self._grid
+        free = np.full(shape, 255, dtype=np.uint8)
+        free[rows[where], columns[where]] = 0
+        return cv2.distanceTransform(free, cv2.DIST_L2, 3)[rows, columns] * self.block
 
     def small_pieces(self, where: np.ndarray, min_pixels: int) -> np.ndarray:
         """``bool (n,)``: pixels where ``where`` holds in 8-connected pieces standing for fewer
         than ``min_pixels`` full-size pixels."""
-        image = np.zeros(self.shape, dtype=np.uint8)
-        image[self.rows[where] - self.row0, self.columns[where] - self.column0] = 1
-        _, pieces, stats, _ = cv2.connectedComponentsWithStats(image, connectivity=8)
-        small = self.area(stats[:, cv2.CC_STAT_AREA]) < min_pixels
+        rows, columns, shape = self._grid
+        image = np.zeros(shape, dtype=np.uint8)
+        image[rows[where], columns[where]] = 1
+        n_pieces, pieces, _, _ = cv2.connectedComponentsWithStats(image, connectivity=8)
+        piece_of = pieces[rows, columns]
+        small = np.bincount(piece_of[where], weights=self.weights[where], minlength=n_pieces) < min_pixels
         small[0] = False
-        return where & small[pieces[self.rows - self.row0, self.columns - self.column0]]
+        return where & small[piece_of]
 
 
 def _one_per_block(ys: np.ndarray, xs: np.ndarray, block: int) -> tuple[np.ndarray, np.ndarray]:
@@ -247,7 +294,7 @@ def _split(canvas: _Canvas, d: np.ndarray, chroma: np.ndarray, coloured: np.ndar
            params: ColourSplitParameters, levels: int) -> np.ndarray:
     """``int64 (n,)`` part of each of the canvas's ``n`` pixels (0 for all: not split), ``levels`` deep."""
     parts = np.zeros(len(d), dtype=np.int64)
-    if levels == 0 or canvas.area(len(d)) < 2 * min_object_pixels:
+    if levels == 0 or canvas.pixels() < 2 * min_object_pixels:
         return parts
     cluster = _colour_clusters(canvas, d, chroma, coloured, min_object_pixels, params)
     if cluster is None:
@@ -268,7 +315,7 @@ def _colour_clusters(canvas: _Canvas, d: np.ndarray, chroma: np.ndarray, coloure
     """``int64 (n,)`` cluster 0 or 1 of each pixel, or None when the pixels do not fall into two
     distinct colours of an object's size each, whose coloured pixels' median disparities differ
     by more than the gap."""
-    if canvas.area(np.count_nonzero(coloured)) < 2 * min_object_pixels:
+    if canvas.pixels(coloured) < 2 * min_object_pixels:
         return None
     centres, cluster = two_colours_kernel(chroma, coloured, CLUSTER_SAMPLE, MAX_CLUSTER_ROUNDS)
     if not math.dist(centres[0], centres[1]) >= params.min_chroma_distance:      # NaN: no spread
@@ -281,7 +328,7 @@ def _colour_clusters(canvas: _Canvas, d: np.ndarray, chroma: np.ndarray, coloure
         cluster = np.where(coloured, cluster, nearest[1] < nearest[0]).astype(np.int64)
     for k in (0, 1):
         cluster[canvas.small_pieces(cluster == k, min_object_pixels)] = 1 - k
-    if canvas.area(np.bincount(cluster, minlength=2).min()) < min_object_pixels:
+    if min(canvas.pixels(cluster == 0), canvas.pixels(cluster == 1)) < min_object_pixels:
         return None
     return cluster
 
@@ -291,7 +338,7 @@ def _median_gap(d: np.ndarray, first: np.ndarray, second: np.ndarray,
     """How far apart (pixels) the median disparities of the pixels ``first`` and ``second`` are
     (``bool (n,)``, some pixels each), and the gap they must exceed, ``max(min_gap_px,
     min_gap_rel * d)`` at the larger median."""
-    medians = float(np.median(d[first])), float(np.median(d[second]))
+    medians = median(d[first]), median(d[second])
     return abs(medians[0] - medians[1]), max(params.min_gap_px, params.min_gap_rel * max(medians))
 
 
@@ -308,7 +355,8 @@ def _two_depths(canvas: _Canvas, d: np.ndarray, cluster: np.ndarray, min_object_
     planes = []
     for k in (0, 1):
         members = cluster == k
-        if np.count_nonzero(to_other[members] <= RIM_PX) > MAX_RIM_FRACTION * np.count_nonzero(members):
+        rim = members & (to_other <= max(RIM_PX, canvas.block))                    # next square at least
+        if canvas.pixels(rim) > MAX_RIM_FRACTION * canvas.pixels(members):
             return None
         inner = members & (to_other > FIT_MARGIN_PX)
         fitted = inner if np.count_nonzero(inner) >= MIN_FIT_PIXELS else members
@@ -323,16 +371,17 @@ def _two_depths(canvas: _Canvas, d: np.ndarray, cluster: np.ndarray, min_object_
     boundary = to_other <= max(BOUNDARY_PX, canvas.block)                   # next square at least
     if np.count_nonzero(boundary) >= MIN_TOUCHING_PIXELS:
         xs, ys = canvas.xs[boundary], canvas.ys[boundary]
-        step = np.percentile(np.abs(_plane_at(planes[0], xs, ys) - _plane_at(planes[1], xs, ys)), STEP_PERCENTILE)
+        step = percentile(np.abs(_plane_at(planes[0], xs, ys) - _plane_at(planes[1], xs, ys)), STEP_PERCENTILE)
         if step <= gap:
             return None
     near = to_other <= FIT_MARGIN_PX
     residual = [np.abs(d - _plane_at(plane, canvas.xs, canvas.ys)) for plane in planes]
     cluster = np.where(near, residual[1] < residual[0], cluster).astype(np.int64)
-    return cluster if canvas.area(np.bincount(cluster, minlength=2).min()) >= min_object_pixels else None
+    return cluster if min(canvas.pixels(cluster == 0), canvas.pixels(cluster == 1)) >= min_object_pixels else None
 
 
 def _plane_at(plane: tuple[float, float, float], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The plane's disparity ``a x + b y + c`` (pixels) at columns ``xs`` and rows ``ys``."""
     a, b, c = plane
     return a * xs + b * ys + c
 
@@ -349,7 +398,7 @@ def _robust_plane(xs: np.ndarray, ys: np.ndarray, d: np.ndarray) -> tuple[float,
         if plane is None:
             return None
         residual = np.abs(d - _plane_at(plane, xs, ys))
-        kept = residual <= max(0.3, 2.5 * 1.4826 * np.median(residual[kept]))
+        kept = residual <= max(ROBUST_FLOOR_PX, ROBUST_DEVIATIONS * MAD_TO_SIGMA * median(residual[kept]))
         if np.count_nonzero(kept) < MIN_FIT_PIXELS:
             return None
     return least_squares_plane(xs[kept], ys[kept], d[kept])

@@ -28,10 +28,8 @@ import numpy as np
 
 from stereo_obstacles._disparity_uncertainty_kernel import match_samples_kernel
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.quantiles import MAD_TO_SIGMA
 from stereo_obstacles.similarity import RADIUS
-
-MAD_TO_SIGMA = 1.4826
-"""Median absolute deviation to standard deviation, for normally distributed values."""
 
 RESIDUAL_ROW_STEP = 8
 """The matched pixels of every this-many-th row enter the noise estimate."""

@@ -31,6 +31,11 @@ import numpy as np
 __all__ = ["percentile_of_sorted", "median_of_sorted", "percentile", "percentiles", "median"]
 
 
+MAD_TO_SIGMA = 1.4826
+"""The median absolute deviation of normally distributed values times this is their standard
+deviation."""
+
+
 def _interpolate(a, b, t):
     """NumPy's ``_lerp`` for one pair ``a <= b`` (NumPy scalars of the array's type) and weight
     ``t``: a Python float keeps the array's type, a ``np.float64`` makes the result ``float64``."""

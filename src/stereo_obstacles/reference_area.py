@@ -31,12 +31,9 @@ import numpy as np
 from stereo_obstacles.colour import HSI, hue_difference
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
-from stereo_obstacles.quantiles import median, percentile, percentiles
+from stereo_obstacles.quantiles import MAD_TO_SIGMA, median, percentile, percentiles
 
 logger = logging.getLogger(__name__)
-
-_MAD_TO_SIGMA = 1.4826
-"""MAD of a normal distribution times this is its standard deviation."""
 
 
 @dataclass(frozen=True)
@@ -269,7 +266,7 @@ def circular_median_deg(hue_deg: np.ndarray) -> float:
 
 def _keep_close(values: np.ndarray, centre: float, floor: float, mads: float) -> np.ndarray:
     deviation = np.abs(values - centre)
-    limit = max(floor, mads * _MAD_TO_SIGMA * median(deviation))
+    limit = max(floor, mads * MAD_TO_SIGMA * median(deviation))
     return deviation <= limit
 
 
