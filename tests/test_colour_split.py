@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_obstacles._colour_split_kernel import group_runs_kernel, one_per_block_kernel, two_colours_kernel
-from stereo_obstacles.colour_split import (MAX_DECISION_PIXELS, ColourCue, ColourSplitParameters, _robust_plane,
-                                           colour_cue, split_groups_by_colour)
+from stereo_obstacles.colour_split import ColourCue, ColourSplitParameters, colour_cue, split_groups_by_colour
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+from stereo_obstacles.part_boundaries import MAX_DECISION_PIXELS
 
 BROWN, BLUE, GREEN, GREY = (150, 150), (128, 100), (100, 150), (128, 128)
 """Chroma ``(a* + 128, b* + 128)``."""
@@ -115,6 +115,32 @@ def test_two_faces_of_a_box_meeting_at_a_crease_are_not_split():
     assert scene.split().max() == 0
 
 
+@pytest.mark.parametrize("scale", [1, 4])
+def test_two_faces_of_a_large_box_meeting_at_a_crease_are_not_split_either(scale):
+    """Decided on squares of 4 x 4 pixels, the boundary still reaches the next square."""
+    s = scale
+    side = lambda xs: 12.0 - 0.05 / s * (xs - 70 * s)                      # noqa: E731
+    scene = (Scene((80 * s, 120 * s)).paint(slice(10 * s, 70 * s), slice(20 * s, 70 * s), BROWN, 12.0)
+             .paint(slice(10 * s, 70 * s), slice(70 * s, 100 * s), GREEN, side))
+    assert math.ceil(math.sqrt(np.count_nonzero(scene.objects >= 0) / MAX_DECISION_PIXELS)) == (4 if s > 1 else 1)
+    assert scene.split().max() == 0
+
+
+def test_the_planes_are_fitted_away_from_the_blurred_boundary():
+    """A green panel 1 px behind the wall it rises from, the matching's blur spreading over 7 rows
+    on each side of their boundary: fitted to all its rows, the short panel's plane would slant
+    into the wall's there and read as a crease."""
+    scene = (Scene((100, 160)).paint(slice(26, 40), slice(40, 120), GREEN, 7.0)
+             .paint(slice(40, 90), slice(10, 150), BROWN, 8.0))
+    scene.d[33:40, 40:120] = np.linspace(7.0, 7.9, 7)[:, None]
+    scene.d[40:47, 10:150] = np.linspace(7.1, 8.0, 7)[:, None]
+    split = scene.split()
+    assert split.max() == 1
+    panel, wall = (np.bincount(split[scene.objects == obj], minlength=2) for obj in (0, 1))
+    assert panel.argmax() != wall.argmax()                      # blurred rows go to the nearer plane
+    assert panel.max() >= 0.8 * panel.sum() and wall.max() >= 0.9 * wall.sum()
+
+
 def test_a_rim_around_an_object_is_not_split_off():
     """Sky-coloured pixels matched 1 px farther in a 3 px ring around a box (the matching's halo)."""
     scene = Scene().paint(slice(17, 63), slice(37, 83), BLUE, 8.0).paint(slice(20, 60), slice(40, 80), BROWN, 9.0)
@@ -192,7 +218,8 @@ def test_a_large_group_is_decided_on_squares_of_pixels():
 
 def test_a_rim_around_a_large_object_is_not_split_off_either():
     """Decided on squares of 5 x 5 pixels, the 3 px ring lies in the squares next to the box's."""
-    scene = Scene((410, 410)).paint(slice(2, 408), slice(2, 408), BLUE, 8.0).paint(slice(5, 405), slice(5, 405), BROWN, 9.0)
+    scene = (Scene((410, 410)).paint(slice(2, 408), slice(2, 408), BLUE, 8.0)
+             .paint(slice(5, 405), slice(5, 405), BROWN, 9.0))
     assert math.ceil(math.sqrt(np.count_nonzero(scene.objects >= 0) / MAX_DECISION_PIXELS)) == 5
     assert scene.split().max() == 0
 
@@ -278,7 +305,8 @@ def test_inputs_of_other_sizes_or_types_are_refused():
     scene = _pole_before_box()
     groups, cue = np.where(scene.objects >= 0, 0, -1), ColourCue(scene.chroma, scene.coloured)
     with pytest.raises(InvalidInputError, match="colour cue"):
-        split_groups_by_colour(groups, scene.d, ColourCue(scene.chroma[:-1], scene.coloured[:-1]), min_object_pixels=120)
+        split_groups_by_colour(groups, scene.d, ColourCue(scene.chroma[:-1], scene.coloured[:-1]),
+                               min_object_pixels=120)
     with pytest.raises(InvalidInputError, match="disparity"):
         split_groups_by_colour(groups, scene.d[:, :-1], cue, min_object_pixels=120)
     with pytest.raises(InvalidInputError, match="min_object_pixels"):
@@ -293,14 +321,6 @@ def test_a_group_with_a_pixel_without_disparity_is_left_whole():
     scene = _pole_before_box()
     scene.d[40, 30] = np.nan
     assert scene.split().max() == 0
-
-
-def test_the_robust_plane_ignores_a_tenth_of_outliers():
-    rng = np.random.default_rng(7)
-    xs, ys = rng.uniform(0, 100, 2000), rng.uniform(0, 80, 2000)
-    d = 5.0 + 0.02 * xs - 0.01 * ys
-    d[:200] += 5.0
-    np.testing.assert_allclose(_robust_plane(xs, ys, d), (0.02, -0.01, 5.0), atol=1e-9)
 
 
 @pytest.mark.parametrize("field, value", [("blur_px", 0), ("blur_px", 2.5), ("min_chroma_distance", -1.0),

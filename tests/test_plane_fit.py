@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stereo_obstacles.plane_fit import least_squares_plane, mean_squared_residual, plane_moments
+from stereo_obstacles.plane_fit import least_squares_plane, mean_squared_residual, plane_at, plane_moments, robust_plane
 
 
 def _points(seed: int, n: int = 300):
@@ -55,3 +55,18 @@ def test_points_that_pin_no_plane_down_give_none(xs, ys):
     xs, ys = np.array(xs), np.array(ys)
     assert least_squares_plane(xs, ys, np.ones_like(xs)) is None
     assert np.isnan(mean_squared_residual(plane_moments(xs, ys, xs), (0.0, 0.0, 0.0))) == (xs.size == 0)
+
+
+def test_the_robust_plane_ignores_a_tenth_of_outliers():
+    rng = np.random.default_rng(7)
+    xs, ys = rng.uniform(0, 100, 2000), rng.uniform(0, 80, 2000)
+    d = 5.0 + 0.02 * xs - 0.01 * ys
+    d[:200] += 5.0
+    np.testing.assert_allclose(robust_plane(xs, ys, d), (0.02, -0.01, 5.0), atol=1e-9)
+    np.testing.assert_allclose(plane_at((0.02, -0.01, 5.0), np.array([10.0]), np.array([20.0])), [5.0])
+
+
+def test_a_robust_plane_needs_enough_points_that_pin_it_down():
+    xs = np.arange(100, dtype=np.float64)
+    assert robust_plane(xs, np.zeros(100), xs * 0.1) is None              # one row: no slope in y
+    assert robust_plane(xs[:20], xs[:20] % 7, xs[:20]) is None             # fewer than MIN_ROBUST_POINTS

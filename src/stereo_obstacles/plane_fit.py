@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from stereo_obstacles.quantiles import MAD_TO_SIGMA, median
+
 
 def plane_moments(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> np.ndarray:
     """``float64 (10,)``: the sums of 1, x, y, d, x x, x y, y y, x d, y d and d d over the points.
@@ -61,3 +63,38 @@ def mean_squared_residual(moments: np.ndarray, plane: tuple[float, float, float]
     total = (sdd - 2 * (a * sxd + b * syd + c * sd) + a * a * sxx + 2 * a * b * sxy + b * b * syy
              + 2 * c * (a * sx + b * sy) + c * c * n)
     return max(total / n, 0.0)
+
+
+def plane_at(plane: tuple[float, float, float], xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """The plane's value ``a x + b y + c`` (pixels of disparity) at columns ``xs`` and rows ``ys``."""
+    a, b, c = plane
+    return a * xs + b * ys + c
+
+
+ROBUST_ROUNDS, ROBUST_SAMPLE = 3, 4000
+""":func:`robust_plane` refits this many times, on at most this many points (evenly spaced)."""
+ROBUST_FLOOR_PX, ROBUST_DEVIATIONS = 0.3, 2.5
+"""Each refit drops the points farther from the previous plane than ``max(ROBUST_FLOOR_PX,
+ROBUST_DEVIATIONS`` robust standard deviations of the kept points' residuals)."""
+MIN_ROBUST_POINTS = 30
+"""A robust plane needs this many points kept."""
+
+
+def robust_plane(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> tuple[float, float, float] | None:
+    """Least-squares plane of the points, refitted without the ones off it (a tenth of wild
+    matches does not tilt it); None when fewer than ``MIN_ROBUST_POINTS`` stay or they do not pin
+    a plane down. ``xs, ys, ds`` as for :func:`plane_moments`. The residuals' spread is their
+    median absolute value: a start tilted by more than about a third of outliers is not
+    recovered."""
+    every = -(-len(ds) // ROBUST_SAMPLE)
+    xs, ys, ds = (np.asarray(v, dtype=np.float64)[::every] for v in (xs, ys, ds))
+    kept = np.ones(len(ds), dtype=bool)
+    for _ in range(ROBUST_ROUNDS):
+        plane = least_squares_plane(xs[kept], ys[kept], ds[kept])
+        if plane is None:
+            return None
+        residual = np.abs(ds - plane_at(plane, xs, ys))
+        kept = residual <= max(ROBUST_FLOOR_PX, ROBUST_DEVIATIONS * MAD_TO_SIGMA * median(residual[kept]))
+        if np.count_nonzero(kept) < MIN_ROBUST_POINTS:
+            return None
+    return least_squares_plane(xs[kept], ys[kept], ds[kept])
