@@ -7,12 +7,13 @@ import pytest
 
 from stereo_obstacles._coplanar_merging_kernel import group_sums_kernel
 from stereo_obstacles.coplanar_merging import merge_coplanar_groups
+from stereo_obstacles.errors import InvalidInputError
 
 TOLERANCES = dict(cell_px=8, tolerance_px=0.15, rel_tolerance=0.01)
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_group_sums_and_neighbour_pairs_agree_with_numpy(seed):
+@pytest.mark.parametrize("seed, reach", [(0, 1), (1, 1), (2, 1), (3, 2), (4, 3)])
+def test_group_sums_and_neighbour_pairs_agree_with_numpy(seed, reach):
     rng = np.random.default_rng(seed)
     h, w, cell, n = 45, 61, 8, 6                                      # partial cells at the borders
     groups = np.full((h, w), -1, np.int64)
@@ -20,7 +21,7 @@ def test_group_sums_and_neighbour_pairs_agree_with_numpy(seed):
         y, x = rng.integers(0, h - 6), rng.integers(0, w - 6)
         groups[y:y + rng.integers(2, 7), x:x + rng.integers(2, 7)] = g
     disparity = rng.uniform(1, 60, (h, w)).astype(np.float32)
-    sums, keys = group_sums_kernel(groups, disparity, cell, n)
+    sums, keys, farther = group_sums_kernel(groups, disparity, cell, n, reach)
     cells = np.zeros((n, 6, 8), bool)
     for g in range(n):
         ys, xs = np.nonzero(groups == g)
@@ -29,11 +30,20 @@ def test_group_sums_and_neighbour_pairs_agree_with_numpy(seed):
                     (x * d).sum(), (y * d).sum(), (d * d).sum()]
         np.testing.assert_allclose(sums[g], expected, rtol=1e-12)
         cells[g, ys // cell, xs // cell] = True
-    expected_keys = [g * n + k for g in range(n) for k in range(g + 1, n)
-                     if any(cells[g, cy, cx] and cells[k, max(cy - 1, 0):cy + 2, max(cx - 1, 0):cx + 2].any()
-                            for cy in range(6) for cx in range(8))]
+
+    def apart(g, k):
+        """The Chebyshev distances (in cells) between a cell of g and a cell of k."""
+        gy, gx = np.nonzero(cells[g])
+        ky, kx = np.nonzero(cells[k])
+        return np.maximum(np.abs(gy[:, None] - ky[None, :]), np.abs(gx[:, None] - kx[None, :]))
+
+    pairs = [(g, k) for g in range(n) for k in range(g + 1, n)]
+    expected_keys = [g * n + k for g, k in pairs if apart(g, k).min() <= 1]
     np.testing.assert_array_equal(keys, expected_keys)
-    assert 0 < len(expected_keys) < n * (n - 1) // 2
+    assert 0 < len(expected_keys) < len(pairs)
+    expected_farther = [g * n + k for g, k in pairs if ((apart(g, k) > 1) & (apart(g, k) <= reach)).any()]
+    np.testing.assert_array_equal(farther, expected_farther)
+    assert (len(expected_farther) > 0) == (reach > 1)
 
 
 def _plane_pieces(gap_columns: slice, slope: float = 0.05):
@@ -139,8 +149,6 @@ def test_a_piece_that_pins_no_plane_down_is_not_joined():
 
 
 def test_bad_labels_are_refused():
-    from stereo_obstacles.errors import InvalidInputError
-
     groups, d = _plane_pieces(slice(60, 66))
     with pytest.raises(InvalidInputError, match="split_from"):
         merge_coplanar_groups(groups, d, **TOLERANCES, split_from=np.array([0]))
@@ -155,3 +163,53 @@ def test_nothing_to_join_is_returned_as_given():
     assert merge_coplanar_groups(groups, d, **TOLERANCES) is groups
     groups[2:10, 2:10], d[2:10, 2:10] = 0, 5.0
     assert merge_coplanar_groups(groups, d, **TOLERANCES) is groups
+
+
+def _alike(first, second):
+    """Mean chroma ``(a*, b*)`` of the two pieces of :func:`_plane_pieces`."""
+    return np.array([first, second], dtype=np.float64)
+
+
+def test_pieces_of_one_colour_two_cells_apart_are_joined():
+    """Cell 8 empty between cells 7 and 9: with the pieces' colours, one colour, they are tested
+    and joined; of two colours, or without colours, not."""
+    groups, d = _plane_pieces(slice(64, 72))
+    reach = dict(TOLERANCES, colour_reach_cells=2, max_chroma_distance=5.0)
+    joined = merge_coplanar_groups(groups, d, **reach, colours=_alike((150, 150), (152, 147)))
+    np.testing.assert_array_equal(joined, np.where(groups >= 0, 0, -1))
+    np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **reach, colours=_alike((150, 150), (128, 100))),
+                                  groups)
+    np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **reach), groups)
+    np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **dict(reach, colour_reach_cells=1),
+                                                        colours=_alike((150, 150), (150, 150))), groups)
+
+
+def test_pieces_of_one_colour_farther_than_the_reach_stay_apart():
+    groups, d = _plane_pieces(slice(64, 80))                          # cells 8 and 9 empty
+    reach = dict(TOLERANCES, colour_reach_cells=2, max_chroma_distance=5.0)
+    np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **reach, colours=_alike((150, 150), (150, 150))),
+                                  groups)
+    assert merge_coplanar_groups(groups, d, **dict(reach, colour_reach_cells=3),
+                                 colours=_alike((150, 150), (150, 150))).max() == 0
+
+
+def test_a_joined_group_is_compared_by_its_mean_colour():
+    """Piece 1 joins piece 0 (neighbouring cells, any colour); piece 2, two cells from piece 1,
+    has piece 0's colour but not the mean colour of pieces 0 and 1 together (by pixel count)."""
+    d = np.full((96, 200), np.nan, np.float32)
+    d[16:80, 8:184] = 8.0 + 0.05 * np.arange(8, 184, dtype=np.float32)
+    groups = np.full(d.shape, -1, np.int64)
+    groups[16:80, 8:60], groups[16:80, 60:120], groups[16:80, 128:184] = 0, 1, 2      # cell 15 empty
+    d[groups < 0] = np.nan
+    reach = dict(TOLERANCES, colour_reach_cells=2, max_chroma_distance=5.0)
+    colours = np.array([(150.0, 150.0), (130.0, 130.0), (150.0, 150.0)])
+    joined = merge_coplanar_groups(groups, d, **reach, colours=colours)
+    assert joined[20, 10] == joined[20, 100] != joined[20, 150]
+    colours[1] = (151.0, 151.0)
+    assert merge_coplanar_groups(groups, d, **reach, colours=colours).max() == 0
+
+
+def test_colours_of_another_shape_are_refused():
+    groups, d = _plane_pieces(slice(64, 72))
+    with pytest.raises(InvalidInputError, match="colours"):
+        merge_coplanar_groups(groups, d, **TOLERANCES, colours=np.zeros((3, 2)))

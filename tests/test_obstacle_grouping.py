@@ -153,6 +153,9 @@ def test_split_parameters_are_checked():
     ({"cell_px": np.uint8(16)}, "cell_px"),          # a narrow NumPy integer would overflow cell_px ** 2
     ({"coplanar_tolerance_px": -0.1}, "coplanar_tolerance_px"),
     ({"coplanar_rel_tolerance": float("inf")}, "coplanar_rel_tolerance"),
+    ({"coplanar_colour_reach_cells": 0}, "coplanar_colour_reach_cells"),
+    ({"coplanar_max_chroma_distance": -1.0}, "coplanar_max_chroma_distance"),
+    ({"colour_split": {"blur_px": 5}}, "colour_split"),
 ])
 def test_every_grouping_parameter_is_checked_with_one_clear_line(kwargs, name):
     from stereo_obstacles.errors import InvalidInputError
@@ -161,3 +164,21 @@ def test_every_grouping_parameter_is_checked_with_one_clear_line(kwargs, name):
     with pytest.raises(InvalidInputError, match=name):
         GroupingParameters(**kwargs)
     assert GroupingParameters(rel_tolerance=np.float32(0.1), split_tolerance_px=1).split_tolerance_px == 1
+
+
+def test_pieces_of_one_colour_a_cell_apart_are_one_object_with_a_colour_cue():
+    """A slanted wall whose matches left a gap of 12 columns (more than a cell) is one object when
+    the pieces' colours say it is one surface; two without the colour cue."""
+    from stereo_obstacles.colour_split import ColourCue
+    from stereo_obstacles.obstacle_grouping import group_obstacle_pixels
+
+    d = np.full((96, 200), np.nan, np.float32)
+    d[16:80, 8:184] = 8.0 + 0.05 * np.arange(8, 184, dtype=np.float32)
+    d[:, 80:92] = np.nan
+    chroma = np.full(d.shape + (2,), 128, np.uint8)
+    chroma[np.isfinite(d)] = (150, 150)
+    cue = ColourCue(chroma, np.isfinite(d))
+    assert group_obstacle_pixels(d, np.isfinite(d)).max() == 2
+    assert group_obstacle_pixels(d, np.isfinite(d), colour=cue).max() == 1
+    chroma[:, 92:] = (128, 100)
+    assert group_obstacle_pixels(d, np.isfinite(d), colour=ColourCue(chroma, np.isfinite(d))).max() == 2

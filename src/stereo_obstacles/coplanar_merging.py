@@ -11,7 +11,9 @@ does: over each group's pixels the two planes differ by at most ``tolerance_px +
 * d`` (root mean square). Each group must lie on the joint plane, not only the larger one,
 and with its own slant: a plane slanted to pass through a near box and the far pole rising
 above it fits neither's upright face. (Testing only each group's median residual to the joint
-plane joined objects side by side at different depths; ``docs/pipeline.md``.)
+plane joined objects side by side at different depths; ``docs/pipeline.md``.) Groups of one
+colour (given their mean chroma) are tested up to a few cells apart: the pieces of a wall whose
+weakly textured stretches left gaps of more than one cell.
 
 Joined groups are tested again against their neighbours until nothing changes. Every test
 works on the plane-fit sums of the groups' pixels (:func:`stereo_obstacles.plane_fit.plane_moments`),
@@ -50,8 +52,28 @@ def _coplanar(part_a: np.ndarray, part_b: np.ndarray, tolerance_px: float, rel_t
     return True
 
 
+def _pairs_to_sets(keys: np.ndarray, n: int) -> list[set[int]]:
+    """Each group's partners in the pairs ``keys`` (``g * n + k``)."""
+    partners = [set() for _ in range(n)]
+    for g, k in zip(keys // n, keys % n):
+        partners[g].add(int(k))
+        partners[k].add(int(g))
+    return partners
+
+
+def _alike(colour_sums: np.ndarray | None, sums: np.ndarray, a: int, b: int, max_distance: float) -> bool:
+    """Whether groups ``a`` and ``b`` have mean colours closer than ``max_distance`` (False
+    without colours): ``colour_sums`` ``(n, 2)`` over each group's pixels, ``sums[:, 0]`` their
+    counts."""
+    if colour_sums is None:
+        return False
+    return math.dist(colour_sums[a] / sums[a, 0], colour_sums[b] / sums[b, 0]) < max_distance
+
+
 def merge_coplanar_groups(groups: np.ndarray, disparity: np.ndarray, *, cell_px: int, tolerance_px: float,
-                          rel_tolerance: float, split_from: np.ndarray | None = None) -> np.ndarray:
+                          rel_tolerance: float, split_from: np.ndarray | None = None,
+                          colours: np.ndarray | None = None, colour_reach_cells: int = 1,
+                          max_chroma_distance: float = 0.0) -> np.ndarray:
     """Join neighbouring groups that lie on one plane in disparity.
 
     Parameters
@@ -71,6 +93,12 @@ def merge_coplanar_groups(groups: np.ndarray, disparity: np.ndarray, *, cell_px:
         ``int (n,)`` or None: groups with the same value here never end up in one group, directly
         or through others (the depth layers that :mod:`stereo_obstacles.obstacle_grouping` split
         apart: it found a step between them).
+    colours, colour_reach_cells, max_chroma_distance
+        ``float (n, 2)`` mean chroma ``(a*, b*)`` of each group, or None: groups whose colours lie
+        closer than ``max_chroma_distance`` are neighbours up to ``colour_reach_cells`` cells apart
+        (along each axis), not only in neighbouring cells (a wall whose weakly textured stretches
+        left gaps of more than a cell; objects of distinct colours so far apart are not tested:
+        a plane slanted through two of them fits both).
 
     Returns
     -------
@@ -88,32 +116,42 @@ def merge_coplanar_groups(groups: np.ndarray, disparity: np.ndarray, *, cell_px:
     n = int(groups.max(initial=-1)) + 1
     if split_from is not None and np.shape(split_from) != (n,):
         raise InvalidInputError(f"split_from must have one value per group, shape ({n},), got {np.shape(split_from)}")
+    if colours is not None and np.shape(colours) != (n, 2):
+        raise InvalidInputError(f"colours must have one (a*, b*) per group, shape ({n}, 2), got {np.shape(colours)}")
     if n < 2:
         return groups
-    sums, keys = group_sums_kernel(groups, disparity, cell_px, n)
-    neighbours = [set() for _ in range(n)]
-    for g, k in zip(keys // n, keys % n):
-        neighbours[g].add(int(k))
-        neighbours[k].add(int(g))
+    sums, keys, farther = group_sums_kernel(groups, disparity, cell_px, n,
+                                            colour_reach_cells if colours is not None else 1)
+    neighbours, distant = _pairs_to_sets(keys, n), _pairs_to_sets(farther, n)
+    for g in range(n):
+        distant[g] -= neighbours[g]
+    colour_sums = None if colours is None else np.asarray(colours, dtype=np.float64) * sums[:, :1]
     origins = [{int(o)} for o in (np.arange(n) if split_from is None else split_from)]
     members = [[g] for g in range(n)]
     root = np.arange(n)
     pending = deque((int(g), int(k)) for g, k in zip(keys // n, keys % n))
+    pending.extend((int(g), int(k)) for g, k in zip(farther // n, farther % n) if int(k) in distant[g])
     while pending:
         a, b = pending.popleft()
-        if root[a] != a or root[b] != b or not origins[a].isdisjoint(origins[b]) or not _coplanar(
-                sums[a], sums[b], tolerance_px, rel_tolerance):
-            continue                                    # absorbed since queued, or not to be joined
+        if root[a] != a or root[b] != b or not origins[a].isdisjoint(origins[b]):
+            continue                                    # absorbed since queued, or split apart
+        if b not in neighbours[a] and not _alike(colour_sums, sums, a, b, max_chroma_distance):
+            continue                                    # a distant pair of distinct colours
+        if not _coplanar(sums[a], sums[b], tolerance_px, rel_tolerance):
+            continue
         keep, other = min(a, b), max(a, b)
         sums[keep] += sums[other]
+        if colour_sums is not None:
+            colour_sums[keep] += colour_sums[other]
         origins[keep] |= origins[other]
         root[members[other]] = keep
         members[keep] += members[other]
-        for x in neighbours[other] - {keep}:
-            neighbours[x].discard(other)
-            neighbours[x].add(keep)
-        neighbours[keep] |= neighbours[other] - {keep}
-        neighbours[keep].discard(other)
-        pending.extend((keep, x) for x in neighbours[keep])  # the joined group is a new part to test
+        for sets in (neighbours, distant):
+            for x in sets[other] - {keep}:
+                sets[x].discard(other)
+                sets[x].add(keep)
+            sets[keep] |= sets[other] - {keep}
+            sets[keep].discard(other)
+        pending.extend((keep, x) for x in neighbours[keep] | distant[keep])  # the joined group is a new part
     _, compact = np.unique(root, return_inverse=True)
     return np.concatenate([[-1], compact])[groups + 1]

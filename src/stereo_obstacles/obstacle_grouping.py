@@ -23,7 +23,8 @@ differ (:mod:`stereo_obstacles.colour_split`), when a colour cue of the left ima
 
 Last, neighbouring groups that lie on one plane in disparity are joined
 (:mod:`stereo_obstacles.coplanar_merging`): the pieces of a wall whose matches have gaps, or
-whose disparity changes faster than the link tolerance from cell to cell.
+whose disparity changes faster than the link tolerance from cell to cell; with a colour cue,
+groups of one colour up to ``coplanar_colour_reach_cells`` cells apart too.
 """
 
 from __future__ import annotations
@@ -72,6 +73,11 @@ class GroupingParameters:
     colour_split : ColourSplitParameters or None
         When a group is split where two colours lie at two depths (with a colour cue:
         :func:`group_obstacle_pixels`); ``None`` switches it off.
+    coplanar_colour_reach_cells, coplanar_max_chroma_distance : int, float
+        With a colour cue, groups whose mean colours lie closer than
+        ``coplanar_max_chroma_distance`` in ``(a*, b*)`` (one colour: half the colour split's
+        distinction) are tested for the joining up to ``coplanar_colour_reach_cells`` cells
+        apart, not only in neighbouring cells (1 switches that off).
     """
 
     cell_px: int = 8
@@ -85,14 +91,18 @@ class GroupingParameters:
     coplanar_tolerance_px: float = 0.15
     coplanar_rel_tolerance: float = 0.01
     colour_split: ColourSplitParameters | None = field(default_factory=ColourSplitParameters)
+    coplanar_colour_reach_cells: int = 2
+    coplanar_max_chroma_distance: float = 5.0
 
     def __post_init__(self) -> None:
-        check_integers(self, (("cell_px", 2, math.inf), ("min_object_pixels", 1, math.inf)))
+        check_integers(self, (("cell_px", 2, math.inf), ("min_object_pixels", 1, math.inf),
+                              ("coplanar_colour_reach_cells", 1, 16)))
         check_integers(self, (("min_cell_pixels", 1, self.cell_px ** 2),))
         check_positive(self, ("abs_tolerance_px",))
         check_numbers(self, (("rel_tolerance", 0.0, math.inf), ("min_pure_fraction", 0.0, 1.0),
                              ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf),
-                             ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf)))
+                             ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf),
+                             ("coplanar_max_chroma_distance", 0.0, 400.0)))
         if self.colour_split is not None and not isinstance(self.colour_split, ColourSplitParameters):
             raise InvalidInputError(f"colour_split must be ColourSplitParameters or None, got {self.colour_split!r}")
 
@@ -175,6 +185,17 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
     return out
 
 
+def _mean_chroma(groups: np.ndarray, chroma: np.ndarray) -> np.ndarray:
+    """``float64 (n, 2)``: the mean of ``chroma`` (``(H, W, 2)``) over each group's pixels
+    (``groups`` int64 ``(H, W)``, ``0..n-1``, -1 for none)."""
+    n = int(groups.max()) + 1
+    grouped = groups >= 0
+    labels = groups[grouped]
+    counts = np.maximum(np.bincount(labels, minlength=n), 1)
+    return np.stack([np.bincount(labels, weights=chroma[..., k][grouped], minlength=n) / counts for k in (0, 1)],
+                    axis=1)
+
+
 def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
                           params: GroupingParameters = GroupingParameters(), *,
                           colour: ColourCue | None = None) -> np.ndarray:
@@ -221,7 +242,10 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         split_from = np.zeros(int(raw.max()) + 1, dtype=np.int64)
         split_from[raw[raw >= 0]] = loose[raw >= 0]            # a layer lies within one loose group
         raw = merge_coplanar_groups(raw, d, cell_px=params.cell_px, tolerance_px=params.coplanar_tolerance_px,
-                                    rel_tolerance=params.coplanar_rel_tolerance, split_from=split_from)
+                                    rel_tolerance=params.coplanar_rel_tolerance, split_from=split_from,
+                                    colours=None if colour is None else _mean_chroma(raw, colour.chroma),
+                                    colour_reach_cells=params.coplanar_colour_reach_cells,
+                                    max_chroma_distance=params.coplanar_max_chroma_distance)
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     keep = np.flatnonzero(counts >= params.min_object_pixels)
     order = keep[np.argsort(-counts[keep], kind="stable")]
