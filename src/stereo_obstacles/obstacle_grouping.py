@@ -211,7 +211,8 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         Grouping parameters.
     colour
         The left image's colour cue (:func:`stereo_obstacles.colour_split.colour_cue`) for the
-        split along colour (``params.colour_split``); ``None``: no such split.
+        split along colour (``params.colour_split``) and the joining of groups of one colour a
+        few cells apart (``params.coplanar_colour_reach_cells``); ``None``: neither.
 
     Returns
     -------

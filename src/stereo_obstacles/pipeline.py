@@ -190,9 +190,10 @@ class DetectionResult:
     config
         The resolved configuration.
     timings_s
-        Wall seconds of each stage (``segmentation``: phase 1 and the colour cue of the split
-        along colour; ``rectification_check``, ``matching``, ``obstacles``) and in ``total``; the first two run on a second thread beside the
-        matching, so the stages add up to more than the total.
+        Wall seconds of each stage (``segmentation``: phase 1 and the colour cue of the
+        grouping; ``rectification_check``, ``matching``, ``obstacles``) and in ``total``; the
+        first two run on a second thread beside the matching, so the stages add up to more than
+        the total.
     rectification_check
         :class:`stereo_obstacles.rectification_check.RectificationCheck` of the input pair
         (a warning is logged when it is not rectified).
@@ -367,10 +368,10 @@ def warm_up() -> float:
     return time.perf_counter() - started
 
 
-def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig,
-                  timings: dict[str, float]) -> tuple[SegmentationResult, ColourCue | None, RectificationCheck | None]:
-    """Phase 1 with the colour cue of the split along colour (``None`` when that is off), and the
-    rectification check; their times written to ``timings`` (seconds)."""
+def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, timings: dict[str, float]
+                  ) -> tuple[SegmentationResult, ColourCue | None, RectificationCheck | None]:
+    """Phase 1 with the colour cue of the grouping (``None`` when the split along colour is off),
+    and the rectification check; their times written to ``timings`` (seconds)."""
     t = time.perf_counter()
     segmentation = segment(left, reference=config.reference, params=config.segmentation)
     colour = (colour_cue(left, segmentation.labels == Label.OBSTACLE.value, config.grouping.colour_split)
