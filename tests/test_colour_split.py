@@ -393,3 +393,13 @@ def test_one_per_block_kernel_takes_the_first_pixel_of_each_square():
     _, first = np.unique(keys, return_index=True)
     np.testing.assert_array_equal(np.sort(chosen), np.sort(first))
     np.testing.assert_array_equal(keys[chosen[square_of]], keys)
+
+
+def test_an_empty_cluster_is_not_apart_in_depth():
+    """A 2-means stopped by its round limit may leave a cluster without coloured pixels."""
+    from stereo_obstacles.colour_split import _median_gap
+
+    d = np.array([7.0, 8.0, 9.0])
+    params = ColourSplitParameters()
+    assert _median_gap(d, np.array([True, True, True]), np.zeros(3, bool), params) == (0.0, params.min_gap_px)
+    assert _median_gap(d, np.array([True, False, False]), np.array([False, False, True]), params)[0] == 2.0

@@ -261,8 +261,11 @@ def _colour_clusters(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, col
 def _median_gap(d: np.ndarray, first: np.ndarray, second: np.ndarray,
                 params: ColourSplitParameters) -> tuple[float, float]:
     """How far apart (pixels) the median disparities of the pixels ``first`` and ``second`` are
-    (``bool (n,)``, some pixels each), and the gap they must exceed, ``max(min_gap_px,
-    min_gap_rel * d)`` at the larger median."""
+    (``bool (n,)``), and the gap they must exceed, ``max(min_gap_px, min_gap_rel * d)`` at the
+    larger median; ``(0, min_gap_px)`` when either holds no pixel (a 2-means stopped by its round
+    limit can leave a coloured cluster empty)."""
+    if not (first.any() and second.any()):
+        return 0.0, params.min_gap_px
     medians = median(d[first]), median(d[second])
     return abs(medians[0] - medians[1]), max(params.min_gap_px, params.min_gap_rel * max(medians))
 
