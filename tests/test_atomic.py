@@ -6,7 +6,8 @@ import os
 
 import pytest
 
-from stereo_obstacles.atomic import atomic_path, staged_directory, write_text_atomic
+from stereo_obstacles.atomic import (atomic_path, check_output_file, check_output_folder, staged_directory,
+                                    write_text_atomic)
 from stereo_obstacles.errors import OutputError
 
 
@@ -80,3 +81,20 @@ def test_output_below_a_file_is_an_output_error(tmp_path):
     (tmp_path / "file").write_text("x")
     with pytest.raises(OutputError, match="cannot create folder"):
         write_text_atomic(tmp_path / "file" / "x.txt", "x")
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc, a folder where no file can be created")
+def test_folder_without_room_for_files_is_refused_before_any_work():
+    # the permission bits allow root to write anywhere; creating a file in /proc fails all the same
+    for check in (lambda: check_output_file("/proc/x.npy"), lambda: check_output_folder("/proc/report"),
+                  lambda: check_output_file("/proc/new/x.npy")):
+        with pytest.raises(OutputError, match="cannot create files in folder /proc"):
+            check()
+    with pytest.raises(OutputError, match="cannot write /proc/x.png"):
+        write_text_atomic("/proc/x.png", "never written")
+
+
+def test_checks_leave_nothing_behind(tmp_path):
+    check_output_file(tmp_path / "a.npy")
+    check_output_folder(tmp_path / "report" / "deeper")
+    assert list(tmp_path.iterdir()) == []

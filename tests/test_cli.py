@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import subprocess
 import sys
+import textwrap
 
 import pytest
 
@@ -45,9 +46,19 @@ def _parser_with(handler):
     return build
 
 
+def _wrapped_by_a_kernel(interrupt: BaseException) -> SystemError:
+    """The ``SystemError`` a numba kernel raises when a signal's exception lands inside it."""
+    error = SystemError("CPUDispatcher(<function _grow_kernel>) returned a result with an exception set")
+    error.__cause__ = interrupt
+    return error
+
+
 @pytest.mark.parametrize("exception, code, text", [
     (InputFileError("left.png does not exist"), cli.EXIT_ERROR, "error: left.png does not exist"),
     (KeyboardInterrupt(), cli.EXIT_INTERRUPTED, "interrupted"),
+    (_wrapped_by_a_kernel(KeyboardInterrupt()), cli.EXIT_INTERRUPTED, "interrupted"),
+    (cli.Terminated(), cli.EXIT_TERMINATED, "terminated"),
+    (_wrapped_by_a_kernel(cli.Terminated()), cli.EXIT_TERMINATED, "terminated"),
     (RuntimeError("boom\nsecond line"), cli.EXIT_INTERNAL, "internal error: RuntimeError: boom second line"),
 ])
 def test_errors_become_one_line_and_an_exit_code(monkeypatch, capsys, exception, code, text):
@@ -57,6 +68,32 @@ def test_errors_become_one_line_and_an_exit_code(monkeypatch, capsys, exception,
     assert cli.main([]) == code
     err = capsys.readouterr().err
     assert text in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_sigterm_removes_the_staged_report_and_exits_143(tmp_path):
+    """Python's default SIGTERM exits without clean-up: a half-written report would stay hidden beside ``--out``."""
+    script = textwrap.dedent("""
+        import argparse, os, signal, sys, time
+        from stereo_obstacles import cli
+        from stereo_obstacles.atomic import staged_directory
+
+        def handler(args):
+            with staged_directory(sys.argv[1]) as stage:
+                (stage / "obstacles.json").write_text("{}")
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(30)                          # never reached: the signal's handler raises
+
+        parser = argparse.ArgumentParser()
+        parser.add_argument("-v", "--verbose", action="count", default=0)
+        parser.set_defaults(handler=handler)
+        cli.build_parser = lambda: parser
+        sys.exit(cli.main([]))
+        """)
+    result = subprocess.run([sys.executable, "-c", script, str(tmp_path / "report")], capture_output=True, text=True,
+                            check=False, timeout=60)
+    assert result.returncode == cli.EXIT_TERMINATED, result.stderr
+    assert result.stderr.strip() == "stereo-obstacles: terminated"
+    assert list(tmp_path.iterdir()) == []                        # neither the report nor its staging folder
 
 
 def test_python_dash_m_runs_the_same_command():

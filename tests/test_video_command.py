@@ -87,6 +87,30 @@ def test_bad_counts_are_one_line_errors(tmp_path, capsys, option, message):
     assert message in err and "Traceback" not in err
 
 
+def test_odd_sized_frames_give_a_video_padded_by_one_black_row(tmp_path):
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    for image in [*left_dir.iterdir(), *right_dir.iterdir()]:        # 160 x 119: an odd height
+        cv2.imwrite(str(image), cv2.imread(str(image))[:-1])
+    out_video = tmp_path / "annotated.mp4"
+    assert main(["video", str(left_dir), str(right_dir), "--max-frames", "1", "--video-out", str(out_video)]) == 0
+    capture = cv2.VideoCapture(str(out_video))
+    ok, frame = capture.read()
+    capture.release()
+    assert ok and frame.shape[:2] == (120, 160)                     # not cropped to 118 rows
+    assert frame[-1].max() < 40 < frame[-2].max()                   # the added row is black, the last image row is not
+
+
+@pytest.mark.parametrize("option, message", [(["--forward-speed", "0.5"], "--forward-speed needs a calibration"),
+                                             (["--video-out", "{tmp}"], "is a folder; expected a file name"),
+                                             (["--jsonl", "{tmp}"], "is a folder; expected a file name")])
+def test_options_that_cannot_work_are_refused_before_any_frame(tmp_path, capsys, option, message):
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    option = [o.format(tmp=tmp_path) for o in option]
+    assert main(["video", str(left_dir), str(right_dir), *option]) == 1
+    captured = capsys.readouterr()
+    assert message in captured.err and "Traceback" not in captured.err and "frame 0" not in captured.out
+
+
 def _run_and_stop(tmp_path, how: int) -> tuple[int, list[str], str]:
     """Start the command on a long sequence, stop it with ``how`` once two frames are written."""
     left_dir, right_dir = write_sequences(tmp_path / "in", repeat=25)

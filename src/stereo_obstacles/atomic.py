@@ -41,7 +41,8 @@ def prepare_parent(path: Path) -> None:
 
 def _check_creatable(folder: Path) -> None:
     """Raise :class:`OutputError` unless ``folder`` exists as a writable folder or could be created
-    (its nearest existing ancestor is a writable folder). Creates nothing."""
+    (its nearest existing ancestor is a folder in which a file can be created). Leaves nothing
+    behind (the trial file is anonymous or removed at once)."""
     ancestor = folder
     while not ancestor.exists() and ancestor != ancestor.parent:
         ancestor = ancestor.parent
@@ -49,12 +50,18 @@ def _check_creatable(folder: Path) -> None:
         raise OutputError(f"cannot create folder {folder}: {ancestor} is not a folder")
     if not os.access(ancestor, os.W_OK):
         raise OutputError(f"cannot write to folder {ancestor}: permission denied")
+    # the permission bits do not tell everything (root, /proc, a full quota): try once
+    try:
+        with tempfile.TemporaryFile(dir=ancestor):
+            pass
+    except OSError as exc:
+        raise OutputError(f"cannot create files in folder {ancestor}: {exc.strerror or exc}") from exc
 
 
 def check_output_file(path: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
     """Check, before any work is done, that ``path`` can be written as a file and names none of the
     ``inputs`` (the files the run reads, or its other outputs; ``None`` entries are skipped): raise
-    :class:`OutputError` otherwise. Creates nothing."""
+    :class:`OutputError` otherwise. Leaves nothing behind."""
     target = Path(path)
     if target.is_dir():
         raise OutputError(f"{target} is a folder; expected a file name")
@@ -72,7 +79,7 @@ def check_output_folder(path: str | os.PathLike[str], names: Iterable[str] = (),
                         inputs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
     """Check, before any work is done, that the folder ``path`` can be written and that none of the
     file ``names`` to be written into it is one of the ``inputs``: raise :class:`OutputError`
-    otherwise. Creates nothing."""
+    otherwise. Leaves nothing behind."""
     folder = Path(path)
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"output folder {folder} exists and is not a folder")
@@ -90,9 +97,12 @@ def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:
     :func:`move_into_place`.
     """
     prepare_parent(path)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.",
-                                    suffix=".part" + (path.suffix if suffix is None else suffix),
-                                    dir=path.parent)
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.",
+                                        suffix=".part" + (path.suffix if suffix is None else suffix),
+                                        dir=path.parent)
+    except OSError as exc:
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from exc
     os.close(fd)
     return Path(tmp_name)
 

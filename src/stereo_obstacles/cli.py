@@ -6,8 +6,10 @@ parsed arguments and returning an exit code. Those modules import heavy dependen
 OpenCV, numba) inside their handlers so that ``--help`` stays instant.
 
 Errors the user can cause (:class:`~stereo_obstacles.errors.StereoObstaclesError`) are
-printed as one line on stderr with exit code 1; an interrupt exits with 130; an unexpected
-failure prints one line naming the bug report and exits with 3 (``-vv`` shows the traceback).
+printed as one line on stderr with exit code 1; an interrupt exits with 130 (also when it lands
+inside a compiled kernel), a SIGTERM with 143 after the same clean-up (staged outputs removed);
+an unexpected failure prints one line naming the bug report and exits with 3 (``-vv`` shows the
+traceback).
 """
 
 from __future__ import annotations
@@ -15,7 +17,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from stereo_obstacles import __version__
@@ -43,6 +47,7 @@ EXIT_ERROR = 1
 EXIT_USAGE = 2
 EXIT_INTERNAL = 3
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -72,12 +77,32 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
+class Terminated(KeyboardInterrupt):
+    """Raised by SIGTERM while a command runs: an interrupt, so that every clean-up an interrupt
+    gets (staged outputs removed, streams closed) runs too; Python's default would exit at once."""
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line and return its exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
     _configure_logging(args.verbose)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
+    try:
+        return _run(args)
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args: argparse.Namespace) -> int:
     from stereo_obstacles.errors import StereoObstaclesError
+    from stereo_obstacles.interrupts import is_interrupt
 
     try:
         return int(args.handler(args) or EXIT_OK)
@@ -86,13 +111,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             logging.getLogger(__name__).exception("details")
         print(f"{PROG}: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_ERROR
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
     except MemoryError:
         print(f"{PROG}: error: out of memory (try smaller images)", file=sys.stderr)
         return EXIT_ERROR
-    except Exception as exc:  # noqa: BLE001 - the last line of defence against tracebacks
+    except (KeyboardInterrupt, Exception) as exc:  # noqa: BLE001 - the last line of defence against tracebacks
+        if is_interrupt(exc):
+            terminated = isinstance(exc, Terminated) or isinstance(exc.__cause__, Terminated)
+            print(f"{PROG}: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
+            return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
         if args.verbose >= 2:
             raise
         print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(exc)} "

@@ -74,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     import json
     from pathlib import Path
 
+    from stereo_obstacles.atomic import check_output_file
     from stereo_obstacles.camera_calibration import write_camera_pair_json, write_opencv_yaml
     from stereo_obstacles.chessboard_calibration import Board, calibrate_pairs
     from stereo_obstacles.errors import InvalidInputError, OutputError
@@ -88,10 +89,13 @@ def run(args: argparse.Namespace) -> int:
         raise OutputError(f"--out {out} must end in .json (the OpenCV YAML is written beside it)")
     board = Board.parse(args.board, args.square)
     files = _pairs_from_folder(args.folder) if args.folder else _pairs_from_globs(args.left_glob, args.right_glob)
+    yaml_path = out.with_suffix(".yml")
+    images = tuple(name for pair in files for name in pair)
+    check_output_file(out, images)
+    check_output_file(yaml_path, images)
     pairs = [(f"{Path(left).name}+{Path(right).name}", read_image(left, mode="gray"), read_image(right, mode="gray"))
              for left, right in files]
     result = calibrate_pairs(pairs, board)
-    yaml_path = out.with_suffix(".yml")
     write_camera_pair_json(out, result.calibration)
     write_opencv_yaml(yaml_path, result.calibration, result.rectification.opencv_matrices())
     report = {"calibration": str(out), "opencv_yaml": str(yaml_path), **result.to_dict()}

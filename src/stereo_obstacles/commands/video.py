@@ -69,7 +69,10 @@ def _frame_line(record: dict, calibrated: bool) -> str:
 
 
 class _VideoOut:
-    """An mp4v video written beside its final name and renamed into place when closed."""
+    """An mp4v video written beside its final name and renamed into place when closed.
+
+    Frames of an odd width or height get one black column or row more (the mp4v encoder
+    takes even sizes only and would crop the last row or column)."""
 
     def __init__(self, path: str, fps: float, size: tuple[int, int]) -> None:
         from pathlib import Path
@@ -81,7 +84,9 @@ class _VideoOut:
 
         self.final = Path(path)
         self.tmp = temporary_beside(self.final, suffix=self.final.suffix or ".mp4")
-        self.writer = cv2.VideoWriter(str(self.tmp), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+        self.padding = (size[1] % 2, size[0] % 2)     # rows, columns
+        even = (size[0] + self.padding[1], size[1] + self.padding[0])
+        self.writer = cv2.VideoWriter(str(self.tmp), cv2.VideoWriter_fourcc(*"mp4v"), fps, even)
         if not self.writer.isOpened():
             self.tmp.unlink(missing_ok=True)
             raise OutputError(f"cannot write video {self.final} (OpenCV has no mp4v writer for it)")
@@ -90,7 +95,10 @@ class _VideoOut:
     def write(self, rgb) -> None:
         import cv2
 
-        self.writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+        bgr = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
+        if any(self.padding):
+            bgr = cv2.copyMakeBorder(bgr, 0, self.padding[0], 0, self.padding[1], cv2.BORDER_CONSTANT, value=0)
+        self.writer.write(bgr)
         self.frames += 1
 
     def close(self) -> None:
@@ -113,6 +121,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.allocator import keep_freed_memory
+    from stereo_obstacles.atomic import check_output_file, check_output_folder
     from stereo_obstacles.commands._calibration_options import calibration_from_args
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
@@ -133,6 +142,11 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidInputError(f"--in-flight must be >= 1, got {in_flight}")
     refine_frames = TemporalSeedParameters().refine_frames if args.refine_frames is None else args.refine_frames
     config = config_from_args(args)
+    for target in (args.video_out, None if args.jsonl == "-" else args.jsonl):
+        if target:
+            check_output_file(target)
+    if args.frames_out:
+        check_output_folder(args.frames_out)
     keep_freed_memory()  # a frame reuses the previous frames' arrays instead of faulting in fresh pages
     tracking = TrackingParameters()
     interrupted = False
@@ -146,8 +160,11 @@ def run(args: argparse.Namespace) -> int:
             raise InputFileError(f"{source.description}: no frames")
         height, width = first.left.shape[:2]
         calibration = calibration_from_args(args, width, height)
+        if args.forward_speed and calibration is None:
+            raise InvalidInputError("--forward-speed needs a calibration (--calib, or --focal and --baseline): "
+                                    "without one the motion cannot be turned into disparities")
         temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
-                                           forward_m_per_frame=args.forward_speed if calibration else 0.0,
+                                           forward_m_per_frame=args.forward_speed,
                                            refine_frames=refine_frames)
                     if args.temporal_seeds else None)
         jsonl = None
