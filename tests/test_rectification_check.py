@@ -9,7 +9,7 @@ import pytest
 
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.feature_matching import match_features
-from stereo_obstacles.rectification_check import check_rectification
+from stereo_obstacles.rectification_check import check_rectification, refuse_swapped
 from stereo_obstacles.synthetic import RenderOptions, RightCameraError, default_scene, render_pair
 
 
@@ -72,3 +72,14 @@ def test_pipeline_records_the_check(pairs, caplog):
     assert result.rectification_check.rectified is False
     assert "rectification_check" in result.timings_s
     assert "does not look rectified" in caplog.text
+
+
+def test_swapped_pair_is_recognised_and_refused(pairs):
+    check = check_rectification(pairs[0].right, pairs[0].left, method="orb", warn=False)
+    assert check.swapped is True and check.negative_fraction > 0.8
+    with pytest.raises(ImageMismatchError, match="look swapped"):
+        refuse_swapped(check)
+    as_given = check_rectification(pairs[0].left, pairs[0].right, method="orb", warn=False)
+    assert as_given.swapped is False and as_given.negative_fraction < 0.2
+    refuse_swapped(as_given)
+    refuse_swapped(None)                                         # no check made: nothing to refuse

@@ -53,6 +53,8 @@ class RectificationCheck:
     rectified: bool | None
     threshold_px: float
     swapped: bool | None = None
+    negative_fraction: float = 0.0
+    """Fraction of the consistent matches with a negative disparity (what ``swapped`` is decided on)."""
 
     def to_dict(self) -> dict:
         """JSON-ready mapping."""
@@ -136,4 +138,16 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
                        "in the right image (negative disparity); give the left camera's image first",
                        100 * negative, offsets.n_points)
     return RectificationCheck(offsets=offsets, rectified=rectified, threshold_px=float(threshold_px),
-                              swapped=swapped)
+                              swapped=swapped, negative_fraction=negative)
+
+
+def refuse_swapped(check: RectificationCheck | None) -> None:
+    """Raise :class:`~stereo_obstacles.errors.ImageMismatchError` when ``check`` found the pair
+    swapped: every disparity and obstacle of such a pair is wrong (the commands call this before
+    writing anything)."""
+    from stereo_obstacles.errors import ImageMismatchError
+
+    if check is not None and check.swapped:
+        raise ImageMismatchError(f"the left and right images look swapped ({100 * check.negative_fraction:.0f} % of "
+                                 f"{check.offsets.n_points} matched features lie further right in the right image); "
+                                 f"give the left camera's image first")

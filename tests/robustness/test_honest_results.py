@@ -1,4 +1,5 @@
-"""Uniform, textureless, identical and swapped pairs: an honest result with a warning, never a crash."""
+"""Uniform, textureless, identical and swapped pairs: an honest result with a warning (a swapped pair:
+an error), never a crash."""
 
 from __future__ import annotations
 
@@ -6,6 +7,8 @@ import json
 
 import numpy as np
 import pytest
+
+from robustness._inputs import error_line
 
 
 @pytest.mark.parametrize("image, reason", [("uniform.png", "no edges to start from (textureless)"),
@@ -45,11 +48,13 @@ def test_identical_images_report_no_obstacle(inputs, run_cli, tmp_path, calibrat
         assert "at infinity: median disparity 0.00 px" in out
 
 
-def test_swapped_images_are_flagged(inputs, run_cli, tmp_path):
-    code, _, _, log = run_cli("detect", inputs / "right.png", inputs / "left.png", "--out", tmp_path / "o",
-                              "--calib", inputs / "scene" / "calibration.json")
-    assert code == 0
-    assert "the left and right images look swapped" in log
+def test_swapped_images_are_refused_and_nothing_is_written(inputs, run_cli, tmp_path):
+    # every disparity of a swapped pair is negative: its "obstacles" would be noise in a confident table
+    code, out, err, log = run_cli("detect", inputs / "right.png", inputs / "left.png", "--out", tmp_path / "o",
+                                  "--calib", inputs / "scene" / "calibration.json")
+    assert code == 1 and "the left and right images look swapped" in log
+    assert "look swapped" in error_line(err) and "give the left camera's image first" in error_line(err)
+    assert out == "" and list(tmp_path.iterdir()) == []
 
 
 def test_the_right_order_is_not_flagged_as_swapped(inputs, run_cli, tmp_path):

@@ -103,3 +103,4 @@ def test_a_very_wide_image_matches(run_cli, tmp_path):
     assert code == 0
     d = np.load(tmp_path / "d.npy")
     assert d.shape == (8, 6000) and np.nanmedian(d) == pytest.approx(7, abs=0.25)
+

@@ -128,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.interrupts import StopRequest, is_interrupt
     from stereo_obstacles.jsonl import JsonLinesWriter
     from stereo_obstacles.progress import Progress
+    from stereo_obstacles.rectification_check import refuse_swapped
     from stereo_obstacles.report import write_detection_outputs
     from stereo_obstacles.stream_detection import (IN_FLIGHT, annotate_frame, detect_stream, frame_record,
                                                    header_record)
@@ -187,6 +188,7 @@ def run(args: argparse.Namespace) -> int:
         stop = stack.enter_context(StopRequest("the current frame"))
         try:
             for detection in stream:
+                refuse_swapped(detection.result.rectification_check)     # checked on the first frame only
                 record = frame_record(detection)
                 if jsonl is not None:
                     jsonl.write(record)
