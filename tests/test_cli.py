@@ -113,3 +113,33 @@ def test_every_reference_option_states_the_default_it_uses():
     stated = {name: text.rsplit(" ", 1)[-1].rstrip(")") for name, text in helps.items()}
     for name, value in stated.items():
         assert ReferenceArea.parse(value) == DEFAULT_REFERENCE_AREA, (name, helps[name])
+
+
+def test_a_cold_numba_cache_is_announced_and_a_warm_one_is_not(tmp_path, capsys):
+    """The first run after installing compiles for about 20 s: it says so instead of looking hung."""
+    import os
+
+    from stereo_obstacles.commands._warm_up import announce_compilation, kernels_cached
+    from stereo_obstacles.pipeline import warm_up
+
+    code = ("from stereo_obstacles.commands._warm_up import announce_compilation, kernels_cached\n"
+            "print(kernels_cached())\n"
+            "announce_compilation()\n")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}             # an empty cache: a fresh install
+    cold = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True,
+                          timeout=120)
+    assert cold.stdout.split() == ["False"] and cold.stderr.count("compiling the numba kernels first") == 1
+    warm_up()                                                           # this process's cache, filled
+    assert kernels_cached() is True
+    announce_compilation()
+    assert capsys.readouterr().err == ""
+
+
+def test_every_sentinel_kernel_exists_and_is_cached_by_numba():
+    import importlib
+
+    from stereo_obstacles.commands._warm_up import SENTINEL_KERNELS
+
+    for module_name, name in SENTINEL_KERNELS:
+        kernel = getattr(importlib.import_module(f"stereo_obstacles.{module_name}"), name)
+        assert kernel._cache._cache_file is not None, (module_name, name)     # @njit(cache=True)

@@ -47,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.batch import BatchJob, find_pairs, run_batch, write_summary
+    from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.interrupts import StopRequest, is_interrupt
@@ -59,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
     pairs = find_pairs(args.input_dir)
     out = Path(args.out)
     jobs = [BatchJob(pair, str(out / pair.name), args.task, config, args.calib, args.calib_unit) for pair in pairs]
+    announce_compilation()         # the workers compile on their first pair
     progress = Progress(len(jobs), label="pair")
 
     def report(outcome) -> None:

@@ -47,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_folder
     from stereo_obstacles.commands.detect import config_from_args, run_detection, timing_line, warn_if_out_of_reach
     from stereo_obstacles.commands._arguments import image_size
+    from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.detection_evaluation import compare_with_truth
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.pipeline import warm_up
@@ -66,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
     write_scene_folder(out / "scene", pair)
     print(f"rendered the {'built-in' if args.seed == 0 else f'seed {args.seed}'} scene "
           f"({width}x{height}) with its ground truth into {out / 'scene'}")
+    announce_compilation()
     started = time.perf_counter()
     warm_up()
     compile_s = time.perf_counter() - started

@@ -115,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.atomic import check_output_folder
+    from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.errors import ImageMismatchError
     from stereo_obstacles.fileio import read_image
     from stereo_obstacles.report import OUTPUT_FILES, format_obstacle_table
@@ -132,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
     left, right, calibration, rectification = prepare_pair(args, left, right)
     config = config_from_args(args)
     warn_if_out_of_reach(config, calibration)
+    announce_compilation()
     result = run_detection(left, right, calibration, config, args.out,
                            inputs={"left": str(args.left), "right": str(args.right),
                                    "calibration": args.calib, "rectification": rectification})

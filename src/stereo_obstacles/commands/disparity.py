@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles.atomic import check_output_file
     from stereo_obstacles.colorize import colorize_disparity
+    from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.fileio import read_image, write_disparity, write_image
     from stereo_obstacles.matching import match
     from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES
@@ -97,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._calibration_options import prepare_pair
 
     left, right, _, rectification = prepare_pair(args, left, right)
+    announce_compilation()
     named = args.seeds in SEED_SOURCES
     result = match(left, right, seeds=args.seeds if named else DEFAULT_SEEDS,
                    seed_points=None if named else _seed_points(args.seeds),

@@ -123,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.allocator import keep_freed_memory
     from stereo_obstacles.atomic import check_output_file, check_output_folder
     from stereo_obstacles.commands._calibration_options import calibration_from_args
+    from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
     from stereo_obstacles.interrupts import StopRequest, is_interrupt
@@ -149,6 +150,7 @@ def run(args: argparse.Namespace) -> int:
     if args.frames_out:
         check_output_folder(args.frames_out)
     keep_freed_memory()  # a frame reuses the previous frames' arrays instead of faulting in fresh pages
+    announce_compilation()
     tracking = TrackingParameters()
     interrupted = False
     count = 0
