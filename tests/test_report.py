@@ -35,7 +35,7 @@ def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
     written = _write(out)
     names = sorted(p.name for p in written)
     assert names == sorted(["obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply",
-                            "obstacles.png", "disparity.png", "depth.png", "labels_picture.png", "index.html"])
+                            "obstacles.png", "disparity_picture.png", "depth_picture.png", "labels_picture.png", "index.html"])
     assert sorted(p.name for p in out.iterdir()) == names  # nothing else, no staging left-overs
     assert sorted(report.OUTPUT_FILES) == names            # the list the input-overwrite check uses
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
@@ -45,7 +45,7 @@ def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
     np.testing.assert_array_equal(read_pfm(out / "disparity.pfm"), DETECTION.disparity)
     np.testing.assert_array_equal(read_depth(out / "depth.npy"), DETECTION.depth_m)
     np.testing.assert_array_equal(read_labels(out / "labels.png"), DETECTION.labels)
-    for picture in ("obstacles.png", "disparity.png", "depth.png", "labels_picture.png"):
+    for picture in ("obstacles.png", "disparity_picture.png", "depth_picture.png", "labels_picture.png"):
         image = read_image(out / picture, mode="color")
         assert image.shape[0] > DETECTION.left.shape[0] and image.shape[2] == 3  # the picture and its legend
 
@@ -81,11 +81,11 @@ def test_index_html_shows_every_picture_obstacle_rejection_timing_and_the_versio
 def test_uncalibrated_run_has_no_depth_files_and_says_pixels(tmp_path):
     written = _write(tmp_path, calibrated=False)
     names = {p.name for p in written}
-    assert not names & {"depth.npy", "points.ply", "depth.png"}
+    assert not names & {"depth.npy", "points.ply", "depth_picture.png"}
     assert {p.name for p in tmp_path.iterdir()} == names
     page = (tmp_path / "index.html").read_text(encoding="utf-8")
     assert "No calibration was given" in page and "distance [m]" not in page
-    assert "disparity [px]" in page and "depth.png" not in page
+    assert "disparity [px]" in page and "depth_picture.png" not in page
     assert read_obstacles_json(tmp_path / "obstacles.json").calibration is None
 
 

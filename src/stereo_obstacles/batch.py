@@ -229,7 +229,7 @@ def _run_task(job: BatchJob) -> dict:
     result = match(left, right, **job.config.matching.to_kwargs())
     with staged_directory(job.out_dir) as stage:
         write_pfm(stage / "disparity.pfm", result.disparity)
-        write_image(stage / "disparity.png", colorize_disparity(result.disparity, 0, result.stats.d_max))
+        write_image(stage / "disparity_picture.png", colorize_disparity(result.disparity, 0, result.stats.d_max))
     finite = result.disparity[np.isfinite(result.disparity)]
     return {"density": result.stats.density, "median_disparity_px": float(np.median(finite)) if finite.size else None,
             "inputs": inputs}

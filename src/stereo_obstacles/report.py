@@ -1,4 +1,4 @@
-"""Everything a detection leaves behind: data files, pictures and a self-contained HTML report.
+"""Everything a detection leaves behind: data files, pictures and an HTML report that shows them.
 
 :func:`write_detection_outputs` writes one folder, all or nothing (files are staged in a
 hidden folder and moved in only when every one is written):
@@ -10,8 +10,8 @@ hidden folder and moved in only when every one is written):
 ``labels.png``              the phase-1 labels as raw ``uint8`` values (:class:`~stereo_obstacles.labels.Label`)
 ``points.ply``              coloured 3-D points of every pixel with depth (with a calibration only)
 ``obstacles.png``           the left image with obstacle boxes and distances
-``disparity.png``           disparity in turbo with a colour bar
-``depth.png``               depth in magma with a colour bar (with a calibration only)
+``disparity_picture.png``   disparity in turbo with a colour bar
+``depth_picture.png``       depth in magma with a colour bar (with a calibration only)
 ``labels_picture.png``      the labels in colour with a legend
 ``index.html``              all of the above on one page, with the tables, timings and configuration
 ==========================  ==================================================================
@@ -48,8 +48,8 @@ logger = logging.getLogger(__name__)
 
 PICTURE_TITLES = {
     "obstacles.png": "Obstacles over the left image",
-    "disparity.png": "Disparity (pixels)",
-    "depth.png": "Depth (metres)",
+    "disparity_picture.png": "Disparity (pixels)",
+    "depth_picture.png": "Depth (metres)",
     "labels_picture.png": "Phase-1 labels (ground, shadow, obstacle)",
 }
 DATA_DESCRIPTIONS = {
@@ -225,10 +225,10 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
         raise InvalidInputError("depth_m was given without a calibration; pass the calibration it came from")
 
 
-CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth.png")
+CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
-OUTPUT_FILES = ("obstacles.json", "disparity.pfm", "labels.png", "obstacles.png", "disparity.png",
+OUTPUT_FILES = ("obstacles.json", "disparity.pfm", "labels.png", "obstacles.png", "disparity_picture.png",
                 "labels_picture.png", "index.html") + CALIBRATED_ONLY
 """Every file :func:`write_detection_outputs` may write into its folder."""
 
@@ -276,7 +276,7 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]
     data_files += ["points.ply"] if calibrated else []
-    pictures = ["obstacles.png", "disparity.png"] + (["depth.png"] if calibrated else []) + ["labels_picture.png"]
+    pictures = ["obstacles.png", "disparity_picture.png"] + (["depth_picture.png"] if calibrated else []) + ["labels_picture.png"]
     stale = tuple(name for name in CALIBRATED_ONLY if not calibrated)
     with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
@@ -287,9 +287,9 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
             write_depth(stage / "depth.npy", depth_m)
             write_ply(stage / "points.ply", points_from_depth(depth_m, calibration), left,
                       comments=[f"image size {np.shape(disparity)[1]}x{np.shape(disparity)[0]}"])
-            write_image(stage / "depth.png", depth_picture(depth_m))
+            write_image(stage / "depth_picture.png", depth_picture(depth_m))
         write_image(stage / "obstacles.png", draw_obstacles(left, obstacle_list, calibrated=calibrated))
-        write_image(stage / "disparity.png", disparity_picture(disparity))
+        write_image(stage / "disparity_picture.png", disparity_picture(disparity))
         write_image(stage / "labels_picture.png", labels_picture(np.asarray(labels)))
         write_text_atomic(stage / "index.html", _html_report(obstacle_list, calibration, pictures=pictures,
                                                              data_files=data_files, config=config,

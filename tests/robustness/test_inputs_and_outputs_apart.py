@@ -22,7 +22,7 @@ def test_an_output_that_names_an_input_is_refused_before_any_work(inputs, run_cl
                     ["disparity", left, right, "-o", tmp_path / "d.png", "--picture", right],
                     ["disparity", left, right, "-o", tmp_path / "d.png", "--picture", tmp_path / "d.png"],
                     ["segment", left, "-o", left],
-                    ["detect", tmp_path / "disparity.png", right, "--out", tmp_path],
+                    ["detect", tmp_path / "disparity_picture.png", right, "--out", tmp_path],
                     ["rectify", tmp_path / "left.png", right, "--uncalibrated", "--out", tmp_path]):
         if command[0] in ("detect", "rectify"):
             shutil.copy(inputs / "left.png", command[1])
@@ -54,7 +54,7 @@ def test_an_uncalibrated_rerun_removes_the_depth_files_of_a_calibrated_run(input
     assert run_cli("detect", *pair, "--out", out, "--calib", inputs / "scene" / "calibration.json")[0] == 0
     assert (out / "depth.npy").exists() and (out / "points.ply").exists()
     assert run_cli("detect", *pair, "--out", out)[0] == 0
-    assert not any((out / name).exists() for name in ("depth.npy", "points.ply", "depth.png"))
+    assert not any((out / name).exists() for name in ("depth.npy", "points.ply", "depth_picture.png"))
     assert (out / "obstacles.json").exists() and (out / "index.html").exists()
 
 
