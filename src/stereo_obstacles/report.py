@@ -50,7 +50,8 @@ PICTURE_TITLES = {
     "obstacles.png": "Obstacles over the left image",
     "disparity_picture.png": "Disparity (pixels)",
     "depth_picture.png": "Depth (metres)",
-    "labels_picture.png": "Phase-1 labels (ground, shadow, obstacle)",
+    "labels_picture.png": ("Phase-1 labels by colour (ground, shadow, obstacle); with a calibration, ground-coloured "
+                           "things standing above the ground plane become obstacles from the disparity"),
 }
 DATA_DESCRIPTIONS = {
     "obstacles.json": "obstacles, units, camera frame and calibration (JSON)",
