@@ -40,9 +40,21 @@ def test_parse_rejects(text):
         ReferenceArea.parse(text)
 
 
-def test_area_outside_image_is_an_error():
-    with pytest.raises(InvalidInputError, match="empty"):
+def test_fractions_mixed_with_pixels_are_refused_not_read_as_pixels():
+    with pytest.raises(InvalidInputError, match="mixes fractions of the image .* and pixels"):
+        ReferenceArea.parse("0,0.85,1,1.5")                 # meant 0,0.85,1,1: would be a 1x2 px area
+    assert ReferenceArea.parse("0,300,640,480").unit == "px"
+
+
+def test_area_outside_image_is_an_error_naming_its_corners_and_unit():
+    with pytest.raises(InvalidInputError, match=r"reference area 100,100,120,120 \(pixels\) is empty"):
         ReferenceArea(100, 100, 120, 120, unit="px").to_pixels(50, 50)
+
+
+def test_area_smaller_than_the_pixels_it_needs_says_so():
+    rgb = _noisy((120, 140, 90))[:4, :4]                     # 16 pixels, each bright enough
+    with pytest.raises(InvalidInputError, match="holds only 16 pixels; it needs at least 30"):
+        _stats(rgb)
 
 
 def test_circular_median_across_wrap():

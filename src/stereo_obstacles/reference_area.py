@@ -67,7 +67,8 @@ class ReferenceArea:
 
     @classmethod
     def parse(cls, text: str) -> ReferenceArea:
-        """Parse ``"x0,y0,x1,y1"``: fractions of the image when every value is <= 1, else pixels."""
+        """Parse ``"x0,y0,x1,y1"``: fractions of the image when every value is <= 1, else whole
+        pixels (a value with a fraction beside one above 1 is a mistake, e.g. ``0,0.85,1,1.5``)."""
         parts = text.split(",")
         try:
             values = [float(p) for p in parts]
@@ -76,7 +77,14 @@ class ReferenceArea:
         if len(values) != 4:
             raise InvalidInputError(f"reference must be x0,y0,x1,y1 (pixels or fractions), got {text!r}")
         unit = "fraction" if max(values) <= 1.0 else "px"
+        if unit == "px" and not all(v == math.floor(v) for v in values if math.isfinite(v)):
+            raise InvalidInputError(f"reference {text} mixes fractions of the image (all four <= 1) and pixels "
+                                    f"(whole numbers); give all four one way")
         return cls(*values, unit=unit)
+
+    def __str__(self) -> str:
+        corners = ",".join(f"{v:g}" for v in (self.x0, self.y0, self.x1, self.y1))
+        return f"{corners} ({'fractions of the image' if self.unit == 'fraction' else 'pixels'})"
 
     def to_pixels(self, height: int, width: int) -> tuple[int, int, int, int]:
         """Integer pixel bounds ``(x0, y0, x1, y1)`` (half-open) inside a ``height x width`` image.
@@ -300,6 +308,9 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
     saturation = hsi.saturation.ravel()
     intensity = hsi.intensity.ravel()
     n_pixels = intensity.size
+    if n_pixels < params.min_pixels:
+        raise InvalidInputError(f"reference area {box_px} holds only {n_pixels} pixels; it needs at least "
+                                f"{params.min_pixels}: choose a larger area with --reference")
     measurable = ~np.isnan(saturation)
     n_measurable = int(measurable.sum())
     if n_measurable < max(params.min_pixels, params.min_valid_fraction * n_pixels):
