@@ -58,6 +58,19 @@ def test_find_pairs_understands_the_usual_layouts(tmp_path):
     assert got["scene"].folder.endswith("scene") and got["scene"].left is None
 
 
+def test_find_pairs_looks_into_sub_folders_of_name_paired_images(tmp_path):
+    for sub in ("urban", "teddy"):
+        (tmp_path / sub).mkdir()
+    _write_pair(tmp_path / "urban", "urban1_left.png", "urban1_right.png")     # several pairs side by side
+    _write_pair(tmp_path / "urban", "urban2_left.png", "urban2_right.png")
+    _write_pair(tmp_path / "teddy", "teddy_left.ppm", "teddy_right.ppm")      # one pair: a dataset folder
+    got = {p.name: p for p in find_pairs(tmp_path)}
+    assert sorted(got) == ["teddy", "urban_urban1", "urban_urban2"]
+    assert got["urban_urban2"].left.endswith("urban2_left.png") and got["teddy"].folder.endswith("teddy")
+    assert main(["batch", str(tmp_path), "--out", str(tmp_path / "out"), "--workers", "1", "--task", "disparity",
+                 "--max-disparity", "40"]) == 0                                # every one of them loads
+
+
 def test_find_pairs_errors(tmp_path):
     with pytest.raises(InputFileError, match="does not exist"):
         find_pairs(tmp_path / "missing")

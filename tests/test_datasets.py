@@ -285,6 +285,15 @@ def test_kitti_pair_without_its_right_image(tmp_path):
         load_pair(tmp_path)
 
 
+def test_id_left_id_right_pair_of_another_image_format_without_ground_truth(tmp_path):
+    _images(tmp_path, "teddy_left.ppm", "teddy_right.ppm", (20, 10))
+    pair = load_pair(tmp_path)
+    assert pair.layout == "kitti-pair" and pair.left.shape == (10, 20, 3) and pair.gt_disparity is None
+    _images(tmp_path, "other_left.ppm", "other_right.ppm", (20, 10))
+    with pytest.raises(InputFileError, match="several \\*_left images"):
+        load_pair(tmp_path)
+
+
 def test_a_single_pair_folder_refuses_a_frame(tmp_path):
     _images(tmp_path, "left.png", "right.png", (20, 10))
     assert list_frames(tmp_path) == (None,)

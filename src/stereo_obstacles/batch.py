@@ -3,7 +3,9 @@
 :func:`find_pairs` lists the pairs under a folder:
 
 * every sub-folder that :func:`stereo_obstacles.datasets.load_pair` reads (a KITTI 2015
-  folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair;
+  folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair; a
+  sub-folder holding several pairs of images paired by name (below) gives each of them,
+  named ``<folder>_<key>``;
 * image files in the folder itself paired by name: ``<key>left<rest>`` with
   ``<key>right<rest>`` (any case), or ``<key>L.<ext>`` with ``<key>R.<ext>`` where the
   letter follows a non-letter (``0001_L.png``);
@@ -151,6 +153,10 @@ def find_pairs(input_dir: str | os.PathLike[str]) -> list[PairSpec]:
     for folder in subfolders:
         if folder in sides.values():
             continue
+        named = _pairs_by_name(folder, prefix=f"{folder.name}_")
+        if len(named) >= 2:            # several pairs side by side, not one dataset pair
+            pairs.extend(named)
+            continue
         try:
             frames = list_frames(folder)
         except InputFileError:
@@ -158,20 +164,7 @@ def find_pairs(input_dir: str | os.PathLike[str]) -> list[PairSpec]:
         for frame in frames:
             name = folder.name if frame is None else f"{folder.name}_{frame}"
             pairs.append(PairSpec(name, folder=str(folder), frame=frame))
-    found: dict[str, dict[str, Path]] = {}
-    for path in _image_files(root):
-        keyed = _side_key(path.stem)
-        if keyed is None:
-            continue
-        key, side = keyed
-        found.setdefault(key + path.suffix.lower(), {})[side] = path
-    for key, by_side in sorted(found.items()):
-        if set(by_side) == {"left", "right"}:
-            pairs.append(PairSpec(_pair_name(os.path.splitext(key)[0]), left=str(by_side["left"]),
-                                  right=str(by_side["right"])))
-        else:
-            logger.warning("%s has no %s partner", next(iter(by_side.values())),
-                           "right" if "left" in by_side else "left")
+    pairs.extend(_pairs_by_name(root, prefix="", warn=True))
     names = [p.name for p in pairs]
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
@@ -180,6 +173,27 @@ def find_pairs(input_dir: str | os.PathLike[str]) -> list[PairSpec]:
         raise InputFileError(f"{root}: no stereo pairs found (sub-folders of a known layout, <name>_left/"
                              f"<name>_right images, or left/ and right/ folders)")
     return sorted(pairs, key=lambda p: p.name)
+
+
+def _pairs_by_name(folder: Path, *, prefix: str, warn: bool = False) -> list[PairSpec]:
+    """The image files of ``folder`` paired by name (module docstring), each named ``prefix``
+    plus its key; with ``warn``, a file without its partner is logged."""
+    found: dict[str, dict[str, Path]] = {}
+    for path in _image_files(folder):
+        keyed = _side_key(path.stem)
+        if keyed is None:
+            continue
+        key, side = keyed
+        found.setdefault(key + path.suffix.lower(), {})[side] = path
+    pairs = []
+    for key, by_side in sorted(found.items()):
+        if set(by_side) == {"left", "right"}:
+            pairs.append(PairSpec(_pair_name(prefix + os.path.splitext(key)[0]), left=str(by_side["left"]),
+                                  right=str(by_side["right"])))
+        elif warn:
+            logger.warning("%s has no %s partner", next(iter(by_side.values())),
+                           "right" if "left" in by_side else "left")
+    return pairs
 
 
 def _load(job: BatchJob):

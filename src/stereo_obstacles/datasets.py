@@ -19,8 +19,8 @@ layout             files                                                  GT sca
 ``middlebury-v2``  ``imL.png imR.png groundtruth.png info.txt nonocc.png``  ``info.txt`` line 1
                    (the Middlebury v2 evaluation folders)
 ``opencv-sample``  ``<name>L.jpg <name>R.jpg <name>GT.png`` (OpenCV's aloe) 1
-``kitti-pair``     ``<id>_left.png <id>_right.png <id>_disp*.png            256 (16-bit PNG)
-                   [Calib.txt]``
+``kitti-pair``     ``<id>_left.png <id>_right.png [<id>_disp*.png           256 (16-bit PNG)
+                   Calib.txt]`` (also ``.ppm``, ``.pgm``, ``.jpg``)
 ``kitti2015``      ``image_2/ image_3/ disp_occ_0/ disp_noc_0/              256 (16-bit PNG)
                    calib_cam_to_cam/`` (one frame per ``<id>_10.png``)
 ================== ====================================================== =================
@@ -288,13 +288,14 @@ def _load_opencv_sample(root: Path, gt_scale: float | None) -> StereoPair | None
 
 
 def _load_kitti_pair(root: Path, gt_scale: float | None) -> StereoPair | None:
-    lefts = sorted(root.glob("*_left.png"))
+    lefts = sorted(p for p in root.glob("*_left.*") if p.suffix.lower() in _IMAGE_EXTENSIONS)
     if not lefts:
         return None
     if len(lefts) > 1:
-        raise InputFileError(f"{root}: several *_left.png files; one pair per folder expected")
-    stem = lefts[0].name[:-len("_left.png")]
-    right = root / f"{stem}_right.png"
+        raise InputFileError(f"{root}: several *_left images ({lefts[0].name}, {lefts[1].name}, ...); one pair per "
+                             f"folder expected")
+    stem = lefts[0].stem[:-len("_left")]
+    right = root / f"{stem}_right{lefts[0].suffix}"
     if not right.is_file():
         raise InputFileError(f"{root}: {right.name} is missing beside {lefts[0].name}")
     gts = sorted(root.glob(f"{stem}_disp*.png"))
