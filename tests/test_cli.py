@@ -37,6 +37,18 @@ def test_missing_command_is_a_usage_error(capsys):
     assert exit_info.value.code == 2
 
 
+@pytest.mark.parametrize("argv, text", [(["detect", "l.png", "r.png", "--focal", "abc", "--out", "o"],
+                                         "stereo-obstacles detect: error: argument --focal: invalid float value: 'abc'"),
+                                        (["detect"], "the following arguments are required: left, right, --out"),
+                                        (["frobnicate"], "invalid choice: 'frobnicate'")])
+def test_usage_errors_are_one_line_pointing_to_the_help(capsys, argv, text):
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(argv)
+    err = capsys.readouterr().err
+    assert exit_info.value.code == cli.EXIT_USAGE and err.count("\n") == 1
+    assert text in err and err.rstrip().endswith("--help)") and "usage:" not in err
+
+
 def _parser_with(handler):
     def build():
         parser = argparse.ArgumentParser(prog=cli.PROG)
@@ -94,6 +106,20 @@ def test_sigterm_removes_the_staged_report_and_exits_143(tmp_path):
     assert result.returncode == cli.EXIT_TERMINATED, result.stderr
     assert result.stderr.strip() == "stereo-obstacles: terminated"
     assert list(tmp_path.iterdir()) == []                        # neither the report nor its staging folder
+
+
+def test_a_truncated_image_is_one_line_without_opencvs_own_warning(tmp_path):
+    import cv2
+    import numpy as np
+
+    image = tmp_path / "left.png"
+    cv2.imwrite(str(image), np.random.default_rng(0).integers(0, 255, (60, 80, 3), dtype=np.uint8))
+    image.write_bytes(image.read_bytes()[:2000])
+    result = subprocess.run([sys.executable, "-m", "stereo_obstacles", "detect", str(image), str(image),
+                             "--uncalibrated", "--out", str(tmp_path / "out")], capture_output=True, text=True,
+                            check=False, timeout=120)
+    assert result.returncode == cli.EXIT_ERROR
+    assert result.stderr.count("\n") == 1 and "is not an image OpenCV can decode" in result.stderr
 
 
 def test_python_dash_m_runs_the_same_command():

@@ -147,3 +147,14 @@ def test_terminal_table_without_calibration_says_values_are_pixels():
 def test_terminal_table_when_nothing_was_found():
     empty = ObstacleList((), np.zeros((4, 4), np.int32))
     assert report.format_obstacle_table(empty, True) == "No obstacles found."
+
+
+def test_terminal_table_lists_the_largest_rejected_groups_and_sums_up_the_rest():
+    from stereo_obstacles.obstacles import RejectedGroup
+
+    rejected = tuple(RejectedGroup((i, 0, i + 4, 4), 100 + i, "flat on the ground plane") for i in range(8))
+    text = report.format_obstacle_table(ObstacleList((), np.zeros((4, 4), np.int32), rejected=rejected), True)
+    lines = text.splitlines()
+    assert [int(line.split()[1]) for line in lines[1:6]] == [107, 106, 105, 104, 103]
+    assert lines[6] == "Rejected 3 smaller groups too (303 px; every one with its reason in obstacles.json)"
+    assert len(lines) == 7

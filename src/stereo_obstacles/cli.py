@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import signal
 import sys
 import threading
@@ -50,9 +51,17 @@ EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """A parser whose usage errors are one line (argparse prints the whole usage block first,
+    nine lines for ``detect``); sub-command parsers are of this class too."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser with every sub-command registered."""
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog=PROG,
         description="Obstacles and their distances from a pair of colour stereo images.",
     )
@@ -71,6 +80,10 @@ def _configure_logging(verbosity: int) -> None:
     level = logging.WARNING if verbosity == 0 else logging.INFO if verbosity == 1 else logging.DEBUG
     logging.basicConfig(level=level, format=f"{PROG}: %(levelname)s: %(message)s", stream=sys.stderr)
     logging.captureWarnings(True)
+    if verbosity == 0:
+        # OpenCV's own "[ WARN:0@0.16] global grfmt_png.cpp:793 ..." lines would stand beside our one
+        # error line (a truncated image); read when cv2 is first imported, which the handlers do
+        os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
 
 
 def _one_line(exc: BaseException) -> str:

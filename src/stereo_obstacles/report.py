@@ -96,11 +96,16 @@ def _corridor_sentence(obstacle_list: ObstacleList) -> str | None:
             f"free for {corridor.free_distance_m:.2f} m.")
 
 
+MAX_REJECTED_LINES = 5
+"""The terminal table lists this many rejected groups, the largest, and sums up the rest (a
+scene without ground, such as OpenCV's aloe, has 80)."""
+
+
 def format_obstacle_table(obstacle_list: ObstacleList, calibrated: bool) -> str:
     """The obstacles as a plain-text table for a terminal, nearest first.
 
     Without a calibration the first line says that the values are pixels and disparities. The
-    corridor summary and the rejected groups (with their reasons) follow the table.
+    corridor summary and the largest rejected groups (with their reasons) follow the table.
 
     Examples
     --------
@@ -120,8 +125,13 @@ def format_obstacle_table(obstacle_list: ObstacleList, calibrated: bool) -> str:
     corridor = _corridor_sentence(obstacle_list)
     if corridor:
         lines.append(corridor)
-    for group in obstacle_list.rejected:
+    rejected = sorted(obstacle_list.rejected, key=lambda group: -group.pixel_count)
+    for group in rejected[:MAX_REJECTED_LINES]:
         lines.append(f"Rejected {group.pixel_count} px at box {','.join(map(str, group.box_px))}: {group.reason}")
+    if len(rejected) > MAX_REJECTED_LINES:
+        rest = rejected[MAX_REJECTED_LINES:]
+        lines.append(f"Rejected {len(rest)} smaller groups too ({sum(g.pixel_count for g in rest)} px; every one with "
+                     f"its reason in obstacles.json)")
     return "\n".join(lines)
 
 
