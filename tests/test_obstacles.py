@@ -193,3 +193,18 @@ def test_far_ground_raised_by_disparity_noise_does_not_stand():
     assert not loose[near].any() and not strict[near].any()
     disparity[near] += 2.0                            # 2.3 px above the plane at 5 m: ~35 cm, stands
     assert standing_pixels(everything, disparity, GROUND, RIG, min_excess_px=0.5)[near].all()
+
+
+@pytest.mark.parametrize("calibration", [RIG, None])
+def test_a_group_below_the_ground_plane_is_not_called_a_marking(calibration):
+    """A scene the plane does not describe (no ground in view) leaves groups far under it."""
+    scene = detection()
+    ys, xs = np.mgrid[228:236, 225:300]
+    disparity = np.full(scene.disparity.shape, np.nan, np.float32)
+    disparity[ys, xs] = GROUND.disparity_at(xs, ys) - 5.0          # 5 px farther than the ground there
+    groups = np.zeros(disparity.shape, np.int32)
+    groups[ys, xs] = 1
+    result = measure_obstacles(groups, disparity, calibration, GROUND)
+    assert result.obstacles == () and len(result.rejected) == 1
+    assert result.rejected[0].reason.startswith("below the fitted ground plane (at least ")
+    assert "does not fit this part of the scene" in result.rejected[0].reason

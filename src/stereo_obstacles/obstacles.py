@@ -234,7 +234,13 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected), corridor=corridor)
 
 
-def _flat(box, count: int, above: float, unit: str) -> RejectedGroup:
+def _flat(box, count: int, above: float, unit: str, tolerance: float) -> RejectedGroup:
+    """The rejection of a group not standing on the ground plane: ``above`` is its 99th
+    percentile height above the plane. A group wholly below the plane by more than the
+    ``tolerance`` is not a marking: the plane does not describe that part of the scene."""
+    if above < -tolerance:
+        return RejectedGroup(box, count, f"below the fitted ground plane (at least {-above:.2f} {unit} under it): "
+                                         f"the plane does not fit this part of the scene")
     return RejectedGroup(box, count, f"flat on the ground plane (a marking or puddle): at most {above:.2f} {unit} above it")
 
 
@@ -253,7 +259,8 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
             above_px = disparities - ground.disparity_at(xs, ys)
             standing = above_px >= params.flat_tolerance_px
             if standing.mean() < params.min_standing_fraction:
-                return _flat(box, count, quantiles.percentile(above_px, EXTENT_PERCENTILES[1]), "px")
+                return _flat(box, count, quantiles.percentile(above_px, EXTENT_PERCENTILES[1]), "px",
+                             params.flat_tolerance_px)
             disparities = disparities[standing]
         quartiles = _quartiles(disparities)
         if quartiles[1] < params.min_disparity_px:
@@ -274,7 +281,7 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
         standing = heights >= params.flat_tolerance_m
         high = quantiles.percentile(heights, EXTENT_PERCENTILES[1])
         if standing.mean() < params.min_standing_fraction:
-            return _flat(box, count, high, "m")
+            return _flat(box, count, high, "m", params.flat_tolerance_m)
         height_above = round(high, 3)
         points, disparities = points[standing], disparities[standing]
     distance = _near_face_depth(xs[standing] if ground is not None else xs,
