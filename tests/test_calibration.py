@@ -68,6 +68,13 @@ def test_missing_and_binary_files(tmp_path):
         read_calibration(tmp_path / "prose.txt")
 
 
+def test_kitti_file_without_the_right_projection_names_it(tmp_path):
+    projection = " ".join(["721.5", "0", "609.6", "0", "0", "721.5", "172.9", "0", "0", "0", "1", "0"])
+    (tmp_path / "calib.txt").write_text(f"P_rect_02: {projection}\n")
+    with pytest.raises(CalibrationError, match="with P_rect_02 but without P_rect_03"):
+        read_calibration(tmp_path / "calib.txt")
+
+
 def test_middlebury_2014_calib(shared_dataset):
     c = read_calibration(shared_dataset("calibration_examples") / "middlebury2014_Adirondack-perfect_calib.txt")
     assert (c.focal_px, c.cx_px, c.cy_px) == (4161.221, 1445.577, 984.686)

@@ -119,7 +119,7 @@ def test_side_by_side_video_of_odd_width_is_refused(monkeypatch):
 def test_open_source_checks_arguments(tmp_path):
     with pytest.raises(InvalidInputError, match="kind must be one of"):
         open_source(["a"], kind="tape")
-    with pytest.raises(InvalidInputError, match="takes 2 argument"):
+    with pytest.raises(InvalidInputError, match="takes two arguments"):
         open_source(["a"], kind="videos")
     with pytest.raises(InvalidInputError, match="device index"):
         open_source(["a", "b"], kind="cameras")

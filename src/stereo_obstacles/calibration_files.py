@@ -73,6 +73,11 @@ def read_calibration(path: str | os.PathLike[str], *, length_unit: str | None = 
     fields = _keyed_numbers(text)
     if ("P_rect_02" in fields and "P_rect_03" in fields) or ("P2" in fields and "P3" in fields):
         return _parse_kitti(fields, str(p))
+    for left_key, right_key in (("P_rect_02", "P_rect_03"), ("P2", "P3")):
+        if (left_key in fields) != (right_key in fields):
+            present, missing = (left_key, right_key) if left_key in fields else (right_key, left_key)
+            raise CalibrationError(f"{p}: a KITTI calibration with {present} but without {missing}; both colour "
+                                   f"cameras' projections are needed")
     numbers = [t for t in text.split() if _NUMBER.match(t)]
     if len(numbers) == 16 and len(numbers) == len(text.split()):
         return _parse_q_matrix(np.array(numbers, dtype=float).reshape(4, 4), str(p), length_unit)

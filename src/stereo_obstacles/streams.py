@@ -408,8 +408,8 @@ def open_source(sources: Sequence[str], *, kind: str = "auto", fps: float = 30.0
             kind = "images"
     expected = 1 if kind == "side-by-side" else 2
     if len(sources) != expected:
-        raise InvalidInputError(f"a {kind} source takes {expected} argument(s), got {len(sources)}: "
-                                f"{' '.join(sources)}")
+        raise InvalidInputError(f"a {kind} source takes {'one argument' if expected == 1 else 'two arguments'}, "
+                                f"got {len(sources)}: {' '.join(sources)}")
     if kind == "side-by-side":
         return SideBySideSource(sources[0])
     if kind == "videos":
