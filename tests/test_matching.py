@@ -172,3 +172,38 @@ def test_speckle_options_are_validated(kwargs, message):
     a = np.zeros((20, 30), np.uint8)
     with pytest.raises(InvalidInputError, match=message):
         match(a, a, **kwargs)
+
+
+def test_matches_piling_up_at_the_largest_disparity_searched_are_warned_about(caplog):
+    from stereo_obstacles.matching import CUT_OFF_FRACTION, warn_if_range_cut_off
+
+    d = np.full((100, 100), 10.0, np.float32)
+    d[:, :5] = np.nan
+    d[:2, 10:20] = 63.7                              # 20 of 9500 matches at the limit: 0.21 %
+    with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):
+        share = warn_if_range_cut_off(d, 64, limit_m=6.01)
+    assert share == pytest.approx(20 / 9500) and share > CUT_OFF_FRACTION
+    assert "lie at the largest disparity searched, 64 px: surfaces nearer than 6.01 m are cut off" in caplog.text
+    caplog.clear()
+    d[1, 10:20] = 63.4                               # below the half pixel: 10 left, 0.11 %
+    with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):
+        assert warn_if_range_cut_off(d, 64) == pytest.approx(10 / 9500)
+    assert caplog.text == ""
+
+
+def test_a_disparity_command_with_a_range_too_short_says_so(tmp_path, caplog):
+    from stereo_obstacles.cli import main
+    from stereo_obstacles.fileio import write_image
+    from stereo_obstacles.synthetic import default_scene, render_pair
+
+    pair = render_pair(default_scene(320, 240))
+    write_image(tmp_path / "l.png", pair.left)
+    write_image(tmp_path / "r.png", pair.right)
+    with caplog.at_level("WARNING"):
+        assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "d.npy"),
+                     "--max-disparity", "8"]) == 0
+    assert "lie at the largest disparity searched, 8 px" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "d.npy")]) == 0
+    assert "largest disparity searched" not in caplog.text

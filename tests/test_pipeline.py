@@ -10,7 +10,7 @@ import pytest
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.detection_evaluation import compare_with_truth
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
-from stereo_obstacles.pipeline import DetectionConfig, detect
+from stereo_obstacles.pipeline import DetectionConfig, MatchingOptions, detect
 from stereo_obstacles.synthetic import default_scene, render_pair
 
 
@@ -168,3 +168,13 @@ def test_a_box_just_in_front_of_a_wall_of_another_colour_is_its_own_obstacle():
                          and c.true_distance_m > 6}
     assert abs(errors[True]["wall"]) < 0.1 and abs(errors[True]["box"]) < 0.03
     assert errors[False]["wall"] < -0.2                         # reported at the box's distance
+
+
+def test_a_disparity_range_too_short_for_the_scene_is_warned_about_in_metres(default_pair, caplog):
+    # the built-in scene's nearest box is at 3.1 m (about 21 px at 640 x 480); 12 px stands for 5.4 m
+    with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):
+        result = detect(default_pair.left, default_pair.right, default_pair.calibration,
+                        config=DetectionConfig(matching=MatchingOptions(max_disparity=12)))
+    limit_m = default_pair.calibration.focal_baseline_px_m / 12
+    assert f"lie at the largest disparity searched, 12 px: surfaces nearer than {limit_m:.2f} m" in caplog.text
+    assert min(o.distance_m for o in result.obstacles.obstacles) >= limit_m * 0.97    # what the warning is about

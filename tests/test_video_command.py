@@ -111,6 +111,15 @@ def test_options_that_cannot_work_are_refused_before_any_frame(tmp_path, capsys,
     assert message in captured.err and "Traceback" not in captured.err and "frame 0" not in captured.out
 
 
+def test_a_warning_of_every_frame_is_shown_once(tmp_path, capsys, caplog):
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    with caplog.at_level("WARNING"):
+        assert main(["video", str(left_dir), str(right_dir), "--max-disparity", "3", "--no-temporal-seeds"]) == 0
+    assert caplog.text.count("lie at the largest disparity searched, 3 px") == 1      # not once per frame
+    err = capsys.readouterr().err
+    assert f"processed {N_FRAMES} frames" in err and "repeats of the warnings above not shown" in err
+
+
 def _run_and_stop(tmp_path, how: int) -> tuple[int, list[str], str]:
     """Start the command on a long sequence, stop it with ``how`` once two frames are written."""
     left_dir, right_dir = write_sequences(tmp_path / "in", repeat=25)

@@ -221,6 +221,31 @@ def _warn_if_doubtful(density: float, n_seed_pixels: int, n_seeds: int, zero_fra
                        100 * zero_fraction)
 
 
+CUT_OFF_FRACTION = 0.002
+"""A warning when more than this share of the matches lie at the largest disparity searched:
+0.003 % at most on the shared pairs with the default range, 1.6 % on KITTI and 5.7 % on
+OpenCV's aloe with ``max_disparity=64``."""
+
+
+def warn_if_range_cut_off(disparity: np.ndarray, d_max: int, limit_m: float | None = None) -> float:
+    """Warn when many matches of ``disparity`` (pixels, NaN unmatched) lie within half a pixel of
+    ``d_max``, the largest disparity searched: surfaces nearer than that were matched at the limit
+    and read farther than they are. Returns their share of the matches.
+
+    ``limit_m``: the depth ``d_max`` stands for (metres), named in the warning when given.
+    """
+    matched = np.isfinite(disparity)
+    n_matched = int(np.count_nonzero(matched))
+    n_at_limit = int(np.count_nonzero(disparity[matched] >= d_max - 0.5))
+    share = n_at_limit / n_matched if n_matched else 0.0
+    if share > CUT_OFF_FRACTION:
+        than = f" than {limit_m:.2f} m" if limit_m is not None else " than that"
+        logger.warning("%.1f %% of the matches (%d px) lie at the largest disparity searched, %d px: surfaces "
+                       "nearer%s are cut off there and read farther than they are; raise the maximum disparity "
+                       "(--max-disparity) or leave it unset", 100 * share, n_at_limit, d_max, than)
+    return share
+
+
 def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | None = None) -> tuple[int, int]:
     """The inclusive disparity range ``(d_min, d_max)`` in pixels :func:`match` searches in an image
     ``width`` pixels wide: up to ``max_disparity``, or a third of the width without it, and at most

@@ -51,6 +51,7 @@ from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
+from stereo_obstacles.matching import disparity_range, warn_if_range_cut_off
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, measure_obstacles,
@@ -463,6 +464,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         (_colour_stage, left, right, config, stage_times)])
     timings.update((name, stage_times[name]) for name in ("segmentation", "rectification_check", "matching"))
 
+    d_max = disparity_range(left.shape[1], 0, config.matching.max_disparity)[1]
+    warn_if_range_cut_off(disparity, d_max, None if calibration is None
+                          else calibration.focal_baseline_px_m / (d_max + calibration.doffs_px))
     t = time.perf_counter()
     ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None

@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.colorize import colorize_disparity
     from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.fileio import read_image, write_disparity, write_image
-    from stereo_obstacles.matching import match
+    from stereo_obstacles.matching import match, warn_if_range_cut_off
     from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES
 
     inputs = (args.left, args.right, getattr(args, "calib", None),
@@ -107,6 +107,7 @@ def run(args: argparse.Namespace) -> int:
                    variant=args.variant, rng_seed=args.rng_seed, bands=args.bands,
                    shifted_windows=args.shifted_windows, speckle_size=args.speckle_size,
                    speckle_range=args.speckle_range)
+    warn_if_range_cut_off(result.disparity, result.stats.d_max)
     write_disparity(args.output, result.disparity)
     if args.picture:
         write_image(args.picture, colorize_disparity(result.disparity, 0, result.stats.d_max))

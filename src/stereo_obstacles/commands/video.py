@@ -112,9 +112,28 @@ class _VideoOut:
             self.tmp.unlink(missing_ok=True)
 
 
+class _OncePerMessage:
+    """A logging filter that lets each warning through once: the same condition (a varied
+    reference area, a cut-off disparity range) would otherwise be logged for every frame.
+    Messages are told apart by their format string, so changing numbers do not repeat them."""
+
+    def __init__(self) -> None:
+        self.seen: set[tuple[str, str]] = set()
+        self.repeats = 0
+
+    def filter(self, record) -> bool:
+        key = (record.name, str(record.msg))
+        if key in self.seen:
+            self.repeats += 1
+            return False
+        self.seen.add(key)
+        return True
+
+
 def run(args: argparse.Namespace) -> int:
     """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C."""
     import itertools
+    import logging
     import sys
     import time
     from contextlib import ExitStack
@@ -155,7 +174,12 @@ def run(args: argparse.Namespace) -> int:
     interrupted = False
     count = 0
     start = time.monotonic()
+    filters = []                # one per handler: each handler sees every record
     with ExitStack() as stack:
+        for handler in logging.getLogger().handlers:
+            filters.append(_OncePerMessage())
+            handler.addFilter(filters[-1])
+            stack.callback(handler.removeFilter, filters[-1])
         source = stack.enter_context(open_source(args.source, kind=args.kind, fps=args.fps))
         frames = iter(source)
         first = next(frames, None)
@@ -224,6 +248,8 @@ def run(args: argparse.Namespace) -> int:
         if jsonl is not None:
             jsonl.write({"type": "end", "frames": count, "interrupted": interrupted, "seconds": round(elapsed, 3),
                          "frames_per_second": round(count / elapsed, 3) if elapsed > 0 else None})
+    hidden = max((f.repeats for f in filters), default=0)
+    repeats = f"; {hidden} repeats of the warnings above not shown" if hidden else ""
     print(f"{'interrupted after' if interrupted else 'processed'} {count} frame{'s' if count != 1 else ''} "
-          f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s)", file=sys.stderr)
+          f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s){repeats}", file=sys.stderr)
     return 130 if interrupted else 0
