@@ -230,7 +230,7 @@ def _run_task(job: BatchJob) -> dict:
     from stereo_obstacles.atomic import staged_directory
     from stereo_obstacles.colorize import colorize_disparity
     from stereo_obstacles.fileio import write_image, write_pfm
-    from stereo_obstacles.matching import match
+    from stereo_obstacles.matching import match, warn_if_range_cut_off
 
     left, right, calibration, inputs = _load(job)
     if job.task == "detect":
@@ -241,6 +241,7 @@ def _run_task(job: BatchJob) -> dict:
         return {"obstacles": len(result.obstacles.obstacles), "density": result.density,
                 "nearest_distance_m": nearest.distance_m if nearest is not None else None, "inputs": inputs}
     result = match(left, right, **job.config.matching.to_kwargs())
+    warn_if_range_cut_off(result.disparity, result.stats.d_max)
     with staged_directory(job.out_dir) as stage:
         write_pfm(stage / "disparity.pfm", result.disparity)
         write_image(stage / "disparity_picture.png", colorize_disparity(result.disparity, 0, result.stats.d_max))
