@@ -178,3 +178,34 @@ def test_a_disparity_range_too_short_for_the_scene_is_warned_about_in_metres(def
     limit_m = default_pair.calibration.focal_baseline_px_m / 12
     assert f"lie at the largest disparity searched, 12 px: surfaces nearer than {limit_m:.2f} m" in caplog.text
     assert min(o.distance_m for o in result.obstacles.obstacles) >= limit_m * 0.97    # what the warning is about
+
+
+def test_inputs_the_pipeline_cannot_use_are_refused_before_any_work():
+    import numpy as np
+
+    from stereo_obstacles.camera_calibration import CameraPairCalibration
+    from stereo_obstacles.errors import CalibrationError, InvalidInputError
+
+    for size in ((0, 320), (4, 320), (120, 3)):
+        image = np.zeros(size + (3,), np.uint8)
+        with pytest.raises(InvalidInputError, match="images must be at least 5x5 pixels"):
+            detect(image, image)
+    pair = render_pair(default_scene(160, 120))
+    k = np.array([[200.0, 0, 80], [0, 200, 60], [0, 0, 1]])
+    unrectified = CameraPairCalibration(k, np.zeros(5), k, np.zeros(5), np.eye(3), np.array([-0.1, 0, 0]), 160, 120)
+    with pytest.raises(CalibrationError, match="CameraPairCalibration: the two cameras before rectification"):
+        detect(pair.left, pair.right, unrectified)
+    with pytest.raises(CalibrationError, match="must be a StereoCalibration .* got dict"):
+        detect(pair.left, pair.right, {"focal_px": 200.0, "baseline_m": 0.1})
+
+
+@pytest.mark.parametrize("value", [-5, 0, 2.5])
+def test_a_maximum_disparity_below_one_pixel_is_refused_by_its_name(value):
+    from stereo_obstacles.errors import InvalidInputError
+    from stereo_obstacles.matching import disparity_range
+
+    with pytest.raises(InvalidInputError, match="max_disparity must be an integer in \\[1, inf\\]"):
+        MatchingOptions(max_disparity=value)
+    if value < 1:
+        with pytest.raises(InvalidInputError, match="max_disparity: expected an integer >= 1"):
+            disparity_range(320, 0, value)         # was "min_disparity: expected < image width 320, got 0"

@@ -257,6 +257,8 @@ def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | Non
     ((0, 213), (2, 64), (0, 39))
     """
     d_min = int(min_disparity)
+    if max_disparity is not None and max_disparity < max(d_min, 1):
+        raise InvalidInputError(f"max_disparity: expected an integer >= {max(d_min, 1)}, got {max_disparity}")
     d_max = (int(max_disparity) if max_disparity is not None
              else max(d_min, round(width * DEFAULT_MAX_DISPARITY_FRACTION)))
     d_max = min(d_max, width - 1)

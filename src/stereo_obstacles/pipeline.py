@@ -44,14 +44,16 @@ import numpy as np
 
 from stereo_obstacles.blind_strip import BlindStripParameters, extend_into_blind_strip
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.camera_calibration import CameraPairCalibration
 from stereo_obstacles.colour_split import ColourCue, colour_cue
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
-from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
+from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
+from stereo_obstacles.field_checks import check_integers
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
-from stereo_obstacles.matching import disparity_range, warn_if_range_cut_off
+from stereo_obstacles.matching import MIN_SIZE, disparity_range, warn_if_range_cut_off
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, measure_obstacles,
@@ -80,6 +82,10 @@ class MatchingOptions:
     variant: str | None = None
     speckle_size: int | None = None
     speckle_range: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.max_disparity is not None:
+            check_integers(self, (("max_disparity", 1, math.inf),))
 
     def to_kwargs(self) -> dict:
         """Keyword arguments for ``match`` with the unset options left out."""
@@ -218,12 +224,21 @@ class DetectionResult:
         return float(np.count_nonzero(np.isfinite(self.disparity))) / self.disparity.size
 
 
-def _check_pair(left: np.ndarray, right: np.ndarray) -> None:
+def _check_inputs(left: np.ndarray, right: np.ndarray, calibration) -> None:
     for name, image in (("left", left), ("right", right)):
         if not isinstance(image, np.ndarray) or image.ndim != 3 or image.shape[2] != 3:
             raise InvalidInputError(f"{name} must be an RGB (H, W, 3) image, got "
                                     f"{getattr(image, 'shape', type(image).__name__)}")
     check_same_size(left, right)
+    if min(left.shape[:2]) < MIN_SIZE:
+        raise InvalidInputError(f"images must be at least {MIN_SIZE}x{MIN_SIZE} pixels (one correlation window), got "
+                                f"{left.shape[1]}x{left.shape[0]}")
+    if calibration is not None and not isinstance(calibration, StereoCalibration):
+        hint = (": the two cameras before rectification; rectify them first "
+                "(stereo_obstacles.rectification.rectify_calibration(...).rectified, with .apply for the images)"
+                if isinstance(calibration, CameraPairCalibration) else "")
+        raise CalibrationError(f"calibration must be a StereoCalibration (a rectified pair) or None, got "
+                               f"{type(calibration).__name__}{hint}")
 
 
 GROUND_COLOUR_ROWS = 0.5
@@ -444,7 +459,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]
     [3.1, 3.9, 4.2, 6.4, 6.4, 8.7]
     """
-    _check_pair(left, right)
+    _check_inputs(left, right, calibration)
     if disparity_estimate is not None:
         if seed_points is not None:
             raise InvalidInputError("seed_points and disparity_estimate: give one or the other")
