@@ -207,3 +207,15 @@ def test_a_disparity_command_with_a_range_too_short_says_so(tmp_path, caplog):
     with caplog.at_level("WARNING"):
         assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "d.npy")]) == 0
     assert "largest disparity searched" not in caplog.text
+
+
+def test_float_images_of_0_to_1_match_like_their_8_bit_originals():
+    from stereo_obstacles.similarity import to_grey
+    from stereo_obstacles.synthetic import default_scene, render_pair
+
+    pair = render_pair(default_scene(160, 120))
+    assert to_grey(pair.left / 255.0) == pytest.approx(to_grey(pair.left), abs=1e-3)
+    as_bytes = match(pair.left, pair.right)
+    as_unit_floats = match(pair.left / 255.0, pair.right / 255.0)           # matched nothing before
+    assert as_unit_floats.stats.density == pytest.approx(as_bytes.stats.density, abs=0.01) > 0.5
+    assert to_grey(np.full((4, 4), 2.0)).max() == 2.0                       # other floats keep their units
