@@ -209,3 +209,17 @@ def test_a_maximum_disparity_below_one_pixel_is_refused_by_its_name(value):
     if value < 1:
         with pytest.raises(InvalidInputError, match="max_disparity: expected an integer >= 1"):
             disparity_range(320, 0, value)         # was "min_disparity: expected < image width 320, got 0"
+
+
+def test_the_result_is_frozen_down_to_its_images(default_result):
+    import dataclasses
+
+    import numpy as np
+
+    for image in (default_result.disparity, default_result.depth_m, default_result.segmentation.labels,
+                  default_result.obstacles.id_map):
+        with pytest.raises(ValueError, match="read-only"):
+            image[0, 0] = 0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        default_result.disparity = np.zeros(1)
+    assert np.isfinite(default_result.disparity.copy()).any()      # a copy is the caller's to change

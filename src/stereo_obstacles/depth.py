@@ -14,7 +14,9 @@ from stereo_obstacles.float_maps import check_float_map
 
 
 def disparity_to_depth(disparity: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
-    """Depth in metres, ``float32 (H, W)``, NaN where the disparity is missing or not positive.
+    """Depth in metres, ``float32 (H, W)``: ``Z = f B / (d + doffs)``, NaN where the disparity is
+    missing or ``d + doffs <= 0`` (with Middlebury's ``doffs`` a disparity of 0 is a finite, far
+    depth: mark unmatched pixels NaN, not 0).
 
     Parameters
     ----------

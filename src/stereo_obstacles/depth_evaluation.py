@@ -17,7 +17,11 @@ from stereo_obstacles.depth import disparity_to_depth
 
 @dataclass(frozen=True)
 class DepthAgreement:
-    """Relative depth error over the pixels compared (``None`` when there are none)."""
+    """Relative depth error over the pixels compared (``None`` when there are none).
+
+    ``median_relative_error_pct`` is in per cent; ``within_5pct`` is a fraction in [0, 1] (the
+    share of the pixels within 5 %), as the JSON of ``evaluate-detection`` has it.
+    """
 
     compared_px: int
     median_relative_error_pct: float | None

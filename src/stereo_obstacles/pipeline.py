@@ -204,6 +204,10 @@ class DetectionResult:
     rectification_check
         :class:`stereo_obstacles.rectification_check.RectificationCheck` of the input pair
         (a warning is logged when it is not rectified).
+
+    The result is frozen: its fields cannot be reassigned and its images (``disparity``,
+    ``depth_m``, the labels, the obstacles' ``id_map``) are read-only, so that what a caller
+    hands on stays consistent with the obstacles measured from it (copy an array to change it).
     """
 
     segmentation: SegmentationResult
@@ -216,6 +220,11 @@ class DetectionResult:
     config: DetectionConfig
     timings_s: dict
     rectification_check: object = None
+
+    def __post_init__(self) -> None:
+        for image in (self.disparity, self.depth_m, self.segmentation.labels, self.obstacles.id_map):
+            if isinstance(image, np.ndarray):
+                image.flags.writeable = False
 
     @property
     def density(self) -> float:
