@@ -294,6 +294,13 @@ def test_id_left_id_right_pair_of_another_image_format_without_ground_truth(tmp_
         load_pair(tmp_path)
 
 
+@pytest.mark.parametrize("scale", ["16", True, float("nan"), 0])
+def test_a_ground_truth_scale_that_is_not_a_positive_number_is_refused(tmp_path, scale):
+    _images(tmp_path, "left.png", "right.png", (20, 10))
+    with pytest.raises(InvalidInputError, match="gt_scale must be a finite number > 0"):
+        load_pair(tmp_path, gt_scale=scale)
+
+
 def test_a_single_pair_folder_refuses_a_frame(tmp_path):
     _images(tmp_path, "left.png", "right.png", (20, 10))
     assert list_frames(tmp_path) == (None,)

@@ -49,10 +49,16 @@ def test_registry_names_and_availability():
 
 
 @pytest.mark.parametrize(("names", "match"), [(["nope"], "unknown method 'nope'"),
-                                              ([], "at least one")])
+                                              ([], "at least one"),
+                                              ("gcs", "got the string 'gcs' \\(write \\['gcs'\\]\\)")])
 def test_resolve_methods_errors(names, match):
     with pytest.raises(InvalidInputError, match=match):
         resolve_methods(names)
+
+
+def test_evaluate_pair_wants_methods_not_their_names(shifted_scene):
+    with pytest.raises(InvalidInputError, match="expected Method objects"):
+        evaluate_pair(shifted_scene, ["gcs"])
 
 
 def test_evaluate_pair_times_a_first_call_and_repeat_runs(shifted_scene):

@@ -223,3 +223,14 @@ def test_the_result_is_frozen_down_to_its_images(default_result):
     with pytest.raises(dataclasses.FrozenInstanceError):
         default_result.disparity = np.zeros(1)
     assert np.isfinite(default_result.disparity.copy()).any()      # a copy is the caller's to change
+
+
+def test_depth_agreement_refuses_maps_of_different_shapes(default_pair):
+    from stereo_obstacles.depth_evaluation import depth_agreement
+    from stereo_obstacles.errors import InvalidInputError
+
+    gt = default_pair.disparity.astype("float32")
+    with pytest.raises(InvalidInputError, match="must have one shape"):
+        depth_agreement(gt[:10], gt, default_pair.calibration)
+    with pytest.raises(InvalidInputError, match="must have one shape"):
+        depth_agreement(gt, gt, default_pair.calibration, mask=gt[:10] > 0)

@@ -180,7 +180,8 @@ def load_pair(folder: PathLike, *, frame: str | None = None,
         The calibration does not parse or is for another image size.
     """
     root = _check_folder(folder)
-    if gt_scale is not None and (not math.isfinite(gt_scale) or gt_scale <= 0):
+    if gt_scale is not None and (isinstance(gt_scale, bool) or not isinstance(gt_scale, (int, float))
+                                 or not math.isfinite(gt_scale) or gt_scale <= 0):
         raise InvalidInputError(f"gt_scale must be a finite number > 0, got {gt_scale!r}")
     if (root / "image_2").is_dir() and (root / "image_3").is_dir():
         if frame is None:

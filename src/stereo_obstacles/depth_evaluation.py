@@ -13,6 +13,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import disparity_to_depth
+from stereo_obstacles.errors import InvalidInputError
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,9 @@ def depth_agreement(disparity: np.ndarray, gt_disparity: np.ndarray, calibration
     """
     z = disparity_to_depth(disparity, calibration)
     z_gt = disparity_to_depth(gt_disparity, calibration)
+    if z.shape != z_gt.shape or (mask is not None and np.shape(mask) != z.shape):
+        raise InvalidInputError(f"disparity {z.shape}, gt_disparity {z_gt.shape} and mask "
+                                f"{None if mask is None else np.shape(mask)} must have one shape")
     use = np.isfinite(z) & np.isfinite(z_gt)
     if mask is not None:
         use &= np.asarray(mask, dtype=bool)

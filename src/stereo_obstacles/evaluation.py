@@ -123,6 +123,9 @@ def resolve_methods(names: Sequence[str] | None) -> tuple[Method, ...]:
     """
     if names is None:
         return tuple(METHODS[n] for n in available_methods())
+    if isinstance(names, str):
+        raise InvalidInputError(f"methods: expected a sequence of method names, got the string {names!r} "
+                                f"(write [{names!r}])")
     if not names:
         raise InvalidInputError("methods: give at least one method")
     chosen = []
@@ -220,10 +223,13 @@ def evaluate_pair(pair: StereoPair, methods: Sequence[Method], *,
     Raises
     ------
     InvalidInputError
-        The pair has no ground truth, or ``repeat < 1``.
+        The pair has no ground truth, ``repeat < 1``, or a method that is not a :class:`Method`.
     """
     if not isinstance(repeat, int) or isinstance(repeat, bool) or repeat < 1:
         raise InvalidInputError(f"repeat must be an integer >= 1, got {repeat!r}")
+    if any(not isinstance(method, Method) for method in methods):
+        raise InvalidInputError("methods: expected Method objects (from resolve_methods(names)), got "
+                                f"{[type(m).__name__ for m in methods]}")
     max_gt = pair.max_gt_disparity
     if max_gt is None:
         raise InvalidInputError(f"{pair.source}: {pair.name} has no ground-truth disparity to "
