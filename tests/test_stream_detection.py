@@ -9,6 +9,7 @@ import pytest
 
 from _stream_frames import FPS, N_FRAMES, SIZE, frames
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.pipeline import detect
 from stereo_obstacles.stream_detection import annotate_frame, detect_stream, frame_record, tracked_list
 from stereo_obstacles.streams import StereoFrame
 from stereo_obstacles.temporal_seeds import TemporalSeedParameters
@@ -81,6 +82,20 @@ def test_refined_frames_alternate_with_grown_ones_by_default():
         stats = detection.result.match_stats
         assert (stats.growth_seconds == 0.0) == (detection.seeds == "refined")
         assert json.loads(json.dumps(frame_record(detection)))["seeds"] == detection.seeds
+
+
+def test_a_refined_frame_the_estimate_no_longer_fits_is_grown_again():
+    """A jolt: every disparity of the second frame is 6 px larger than the first frame's, beyond
+    the refinement's reach; it kept 16 % of the estimate, mostly wrong, and reported it."""
+    first = frames()[0]
+    jolted = np.roll(first.right, -6, axis=1)
+    stream = [StereoFrame(0, 0.0, first.left, first.right, "f0"), StereoFrame(1, 1 / FPS, first.left, jolted, "f1")]
+    detections = list(detect_stream(stream, first.calibration, in_flight=1))
+    assert [d.seeds for d in detections] == ["edge", "regrown"]
+    assert detections[1].result.match_stats.growth_seconds > 0.0            # grown, not refined
+    grown_alone = detect(first.left, jolted, first.calibration)
+    assert [o.distance_m for o in detections[1].result.obstacles.obstacles] == pytest.approx(
+        [o.distance_m for o in grown_alone.obstacles.obstacles], rel=0.02)
 
 
 def test_a_failing_source_still_delivers_the_frames_already_in_flight():
