@@ -13,7 +13,7 @@ from stereo_obstacles.camera_calibration import (CameraPairCalibration, read_cam
                                                  read_camera_pair_json, write_camera_pair_json, write_opencv_yaml)
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.disparity_metrics import evaluate_disparity
-from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
+from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError, OutputError
 from stereo_obstacles.matching import match
 from stereo_obstacles.rectification import rectify_calibration
 from stereo_obstacles.rectification_check import check_rectification
@@ -63,6 +63,8 @@ def test_json_and_yaml_round_trips(tmp_path):
     assert loaded.image_size == (320, 240)
     with pytest.raises(OutputError, match="must end in .yml"):
         write_opencv_yaml(tmp_path / "pair.txt", calibration)
+    with pytest.raises(InvalidInputError, match="rectified: expected a dict of named matrices"):
+        write_opencv_yaml(tmp_path / "pair.yml", calibration, rectified=rectify_calibration(calibration))
 
 
 def rotation_matrix_z(degrees: float) -> np.ndarray:

@@ -134,3 +134,9 @@ def test_every_material_gives_valid_albedo():
         a = material.albedo(s, t, np.full(200, 0.01))
         assert a.shape == (200, 3) and np.all((a >= 0) & (a <= 1.2)), material.name
         assert a.std(axis=0).max() > 0.002, material.name  # textured enough for stereo
+
+
+@pytest.mark.parametrize("rotation", [0.5, "1,2,3", (0.1, 0.2)])
+def test_a_right_camera_rotation_that_is_not_three_angles_is_refused(rotation):
+    with pytest.raises(InvalidInputError, match="rotation_deg needs 3 angles"):
+        RightCameraError(rotation_deg=rotation)

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from stereo_obstacles.atomic import atomic_path, write_text_atomic
-from stereo_obstacles.errors import CalibrationError, OutputError
+from stereo_obstacles.errors import CalibrationError, InvalidInputError, OutputError
 from stereo_obstacles.json_documents import check_document, load_json_file
 
 CAMERA_PAIR_FORMAT = "stereo-obstacles/camera-pair-calibration"
@@ -188,10 +188,14 @@ def write_opencv_yaml(path: str | os.PathLike[str], calibration: CameraPairCalib
     calibration
         What to write; ``T`` goes out in metres.
     rectified
-        Extra matrices to store beside it, e.g. ``R1``, ``R2``, ``P1``, ``P2``, ``Q``.
+        Extra matrices to store beside it by name, e.g. ``R1``, ``R2``, ``P1``, ``P2``, ``Q``
+        (:meth:`stereo_obstacles.rectification.Rectification.opencv_matrices` gives them).
     """
     import cv2
 
+    if rectified is not None and not isinstance(rectified, dict):
+        raise InvalidInputError(f"rectified: expected a dict of named matrices (Rectification.opencv_matrices()), "
+                                f"got {type(rectified).__name__}")
     suffix = Path(path).suffix.lower()
     if suffix not in (".yml", ".yaml", ".xml"):
         raise OutputError(f"OpenCV calibration file {path} must end in .yml, .yaml or .xml, not {suffix!r}")

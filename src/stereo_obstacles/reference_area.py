@@ -310,7 +310,7 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
     n_pixels = intensity.size
     if n_pixels < params.min_pixels:
         raise InvalidInputError(f"reference area {box_px} holds only {n_pixels} pixels; it needs at least "
-                                f"{params.min_pixels}: choose a larger area with --reference")
+                                f"{params.min_pixels}: choose a larger area (--reference, or a ReferenceArea)")
     measurable = ~np.isnan(saturation)
     n_measurable = int(measurable.sum())
     if n_measurable < max(params.min_pixels, params.min_valid_fraction * n_pixels):
@@ -318,7 +318,7 @@ def reference_statistics(rgb: np.ndarray, hsi: HSI, box_px: tuple[int, int, int,
             f"reference area {box_px} is unusable: only {n_measurable} of {n_pixels} pixels are "
             f"bright enough to measure colour (intensity >= {hsi.min_intensity}); need "
             f"{params.min_valid_fraction:.0%} and at least {params.min_pixels}. Choose another "
-            f"area with --reference or check the exposure")
+            f"area (--reference, or a ReferenceArea) or check the exposure")
     hue_valid = ~np.isnan(hue)
     grey = hue_valid.sum() < params.min_hue_fraction * n_measurable
     if grey:

@@ -151,6 +151,9 @@ class RightCameraError:
     vertical_offset_px: float = 0.0
 
     def __post_init__(self) -> None:
+        if not isinstance(self.rotation_deg, (tuple, list, np.ndarray)):
+            raise InvalidInputError(f"right camera rotation_deg needs 3 angles (degrees about x, y, z), got "
+                                    f"{self.rotation_deg!r}")
         rot = tuple(self.rotation_deg)
         if len(rot) != 3:
             raise InvalidInputError(f"right camera rotation_deg needs 3 angles, got {len(rot)}")
