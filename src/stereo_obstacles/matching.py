@@ -234,10 +234,11 @@ def warn_if_range_cut_off(disparity: np.ndarray, d_max: int, limit_m: float | No
 
     ``limit_m``: the depth ``d_max`` stands for (metres), named in the warning when given.
     """
-    matched = np.isfinite(disparity)
-    n_matched = int(np.count_nonzero(matched))
-    n_at_limit = int(np.count_nonzero(disparity[matched] >= d_max - 0.5))
-    share = n_at_limit / n_matched if n_matched else 0.0
+    with np.errstate(invalid="ignore"):
+        n_at_limit = int(np.count_nonzero(disparity >= d_max - 0.5))       # NaN compares false
+    if n_at_limit == 0:                                                     # the usual case: one pass
+        return 0.0
+    share = n_at_limit / int(np.count_nonzero(np.isfinite(disparity)))
     if share > CUT_OFF_FRACTION:
         than = f" than {limit_m:.2f} m" if limit_m is not None else " than that"
         logger.warning("%.1f %% of the matches (%d px) lie at the largest disparity searched, %d px: surfaces "
