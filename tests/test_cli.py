@@ -11,6 +11,7 @@ import pytest
 
 from stereo_obstacles import __version__, cli
 from stereo_obstacles.errors import InputFileError
+from stereo_obstacles.interrupts import Terminated
 
 
 def test_help_lists_every_sub_command(capsys):
@@ -69,8 +70,8 @@ def _wrapped_by_a_kernel(interrupt: BaseException) -> SystemError:
     (InputFileError("left.png does not exist"), cli.EXIT_ERROR, "error: left.png does not exist"),
     (KeyboardInterrupt(), cli.EXIT_INTERRUPTED, "interrupted"),
     (_wrapped_by_a_kernel(KeyboardInterrupt()), cli.EXIT_INTERRUPTED, "interrupted"),
-    (cli.Terminated(), cli.EXIT_TERMINATED, "terminated"),
-    (_wrapped_by_a_kernel(cli.Terminated()), cli.EXIT_TERMINATED, "terminated"),
+    (Terminated(), cli.EXIT_TERMINATED, "terminated"),
+    (_wrapped_by_a_kernel(Terminated()), cli.EXIT_TERMINATED, "terminated"),
     (RuntimeError("boom\nsecond line"), cli.EXIT_INTERNAL, "internal error: RuntimeError: boom second line"),
 ])
 def test_errors_become_one_line_and_an_exit_code(monkeypatch, capsys, exception, code, text):

@@ -145,6 +145,13 @@ def test_ctrl_c_stops_cleanly_with_only_complete_lines(tmp_path):
     assert 2 <= records[-1]["frames"] < 100 and len(records) == records[-1]["frames"] + 2
 
 
+def test_sigterm_stops_at_once_with_complete_lines_and_exit_143(tmp_path):
+    code, lines, err = _run_and_stop(tmp_path, signal.SIGTERM)
+    assert code == 143, err
+    records = [json.loads(line) for line in lines]
+    assert records[-1]["type"] == "end" and records[-1]["interrupted"] is True
+
+
 def test_killed_run_leaves_only_complete_lines(tmp_path):
     code, lines, _ = _run_and_stop(tmp_path, signal.SIGKILL)
     assert code == -signal.SIGKILL

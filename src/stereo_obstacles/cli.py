@@ -24,6 +24,7 @@ import threading
 from collections.abc import Sequence
 
 from stereo_obstacles import __version__
+from stereo_obstacles.interrupts import EXIT_INTERRUPTED, EXIT_TERMINATED, Terminated, interrupt_exit_code, is_interrupt
 
 PROG = "stereo-obstacles"
 
@@ -47,8 +48,6 @@ EXIT_OK = 0
 EXIT_ERROR = 1
 EXIT_USAGE = 2
 EXIT_INTERNAL = 3
-EXIT_INTERRUPTED = 130
-EXIT_TERMINATED = 143
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -90,11 +89,6 @@ def _one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-class Terminated(KeyboardInterrupt):
-    """Raised by SIGTERM while a command runs: an interrupt, so that every clean-up an interrupt
-    gets (staged outputs removed, streams closed) runs too; Python's default would exit at once."""
-
-
 def _terminate(signum, frame) -> None:
     raise Terminated
 
@@ -115,7 +109,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     from stereo_obstacles.errors import StereoObstaclesError
-    from stereo_obstacles.interrupts import is_interrupt
 
     try:
         return int(args.handler(args) or EXIT_OK)
@@ -129,9 +122,9 @@ def _run(args: argparse.Namespace) -> int:
         return EXIT_ERROR
     except (KeyboardInterrupt, Exception) as exc:  # noqa: BLE001 - the last line of defence against tracebacks
         if is_interrupt(exc):
-            terminated = isinstance(exc, Terminated) or isinstance(exc.__cause__, Terminated)
-            print(f"{PROG}: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
-            return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+            code = interrupt_exit_code(exc)
+            print(f"{PROG}: {'terminated' if code == EXIT_TERMINATED else 'interrupted'}", file=sys.stderr)
+            return code
         if args.verbose >= 2:
             raise
         print(f"{PROG}: internal error: {type(exc).__name__}: {_one_line(exc)} "

@@ -13,7 +13,19 @@ import logging
 import signal
 import threading
 
-__all__ = ["StopRequest", "is_interrupt"]
+__all__ = ["EXIT_INTERRUPTED", "EXIT_TERMINATED", "StopRequest", "Terminated", "interrupt_exit_code",
+           "is_interrupt"]
+
+EXIT_INTERRUPTED = 130
+"""Exit code after Ctrl-C (128 + SIGINT)."""
+EXIT_TERMINATED = 143
+"""Exit code after SIGTERM (128 + SIGTERM)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """Raised by the command line's SIGTERM handler: an interrupt, so that every clean-up an
+    interrupt gets (staged outputs removed, streams closed) runs too; Python's default would
+    exit at once."""
 
 logger = logging.getLogger(__name__)
 
@@ -58,3 +70,10 @@ def is_interrupt(exc: BaseException) -> bool:
     """True for a ``KeyboardInterrupt``, also when a compiled kernel wrapped it in a ``SystemError``."""
     return isinstance(exc, KeyboardInterrupt) or (isinstance(exc, SystemError)
                                                   and isinstance(exc.__cause__, KeyboardInterrupt))
+
+
+def interrupt_exit_code(exc: BaseException) -> int:
+    """:data:`EXIT_TERMINATED` for a :class:`Terminated` (also wrapped by a kernel), else
+    :data:`EXIT_INTERRUPTED`; ``exc`` is an interrupt (:func:`is_interrupt`)."""
+    terminated = isinstance(exc, Terminated) or isinstance(exc.__cause__, Terminated)
+    return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED

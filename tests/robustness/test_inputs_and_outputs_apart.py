@@ -31,6 +31,21 @@ def test_an_output_that_names_an_input_is_refused_before_any_work(inputs, run_cl
     assert left.read_bytes() == before and not (tmp_path / "d.png").exists()
 
 
+def test_video_outputs_that_would_replace_its_inputs_are_refused(inputs, run_cli, tmp_path):
+    for side in ("left", "right"):
+        (tmp_path / side).mkdir()
+        shutil.copy(inputs / f"{side}.png", tmp_path / side / "0000.png")
+    frame = (tmp_path / "left" / "0000.png").read_bytes()
+    sources = [tmp_path / "left", tmp_path / "right"]
+    for options, message in ((["--jsonl", tmp_path / "left" / "0000.png"], "lies in the input folder"),
+                             (["--video-out", tmp_path / "right" / "a.mp4"], "lies in the input folder"),
+                             (["--jsonl", tmp_path / "a.x", "--video-out", tmp_path / "a.x"],
+                              "is also an input or another output of this run")):
+        code, out, err, _ = run_cli("video", *sources, *options)
+        assert code == 1 and message in error_line(err) and out == "", options
+    assert (tmp_path / "left" / "0000.png").read_bytes() == frame and not (tmp_path / "a.x").exists()
+
+
 def test_a_failing_output_path_is_found_before_the_first_file_is_written(inputs, run_cli, tmp_path):
     (tmp_path / "file").write_text("not a folder")
     code, _, err, _ = run_cli("disparity", inputs / "left.png", inputs / "right.png", "-o", tmp_path / "d.npy",

@@ -14,7 +14,8 @@ layout (as 'evaluate' reads them; KITTI folders give one pair per frame), <name>
 outputs go to OUT/<name>/, and a done.json written last marks it complete: a second run skips
 completed pairs. A failing pair is reported with its reason and the batch goes on. The summary
 is written to OUT/batch_summary.json. Exit code 0 when every pair is done, 1 when some failed,
-130 on Ctrl-C (pairs already started are finished first; a second Ctrl-C stops at once)."""
+130 on Ctrl-C (pairs already started are finished first; a second Ctrl-C stops at once), 143 on
+SIGTERM."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -50,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InvalidInputError
-    from stereo_obstacles.interrupts import StopRequest, is_interrupt
+    from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt
     from stereo_obstacles.progress import Progress
 
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
@@ -73,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     start = time.monotonic()
     outcomes: list = []
     interrupted = False
+    exit_code = EXIT_INTERRUPTED           # when stopped by a Ctrl-C between pairs
     try:
         with StopRequest("the pairs already started") as stop:
             run_batch(jobs, workers=workers, scheduler=args.scheduler,
@@ -82,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         if not is_interrupt(exc):
             raise
         interrupted = True
+        exit_code = interrupt_exit_code(exc)
     finally:
         progress.close()
     seconds = time.monotonic() - start
@@ -93,5 +96,5 @@ def run(args: argparse.Namespace) -> int:
           f"{counts['failed']} failed{', interrupted' if interrupted else ''} in {seconds:.1f} s "
           f"({counts['done'] / seconds if seconds > 0 else 0:.2f} pairs/s); summary {summary}")
     if interrupted:
-        return 130
+        return exit_code
     return 1 if counts["failed"] else 0

@@ -15,8 +15,9 @@ to contact. SOURCE is one side-by-side video (left view in the left half), two v
 folders or glob patterns of images (paired by file name, else by sorted order), or two camera
 device indices. With --jsonl every frame is one line of JSON, written and synced line by line:
 a run stopped by Ctrl-C (it finishes the current frame, closes every output and exits with 130;
-a second Ctrl-C stops at once) or killed leaves only complete lines (the first line is a header,
-the last one, after a clean or Ctrl-C stop, a summary)."""
+a second Ctrl-C stops at once), by SIGTERM (at once, exit 143) or killed leaves only complete
+lines (the first line is a header, the last one, after a clean, Ctrl-C or SIGTERM stop, a
+summary)."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -130,8 +131,21 @@ class _OncePerMessage:
         return True
 
 
+def _refuse_inside_a_source_folder(target: str, sources: list[str]) -> None:
+    """Raise :class:`~stereo_obstacles.errors.OutputError` when the output file ``target`` would
+    lie in a folder of images the run reads (it would replace a frame, or join the sequence)."""
+    from pathlib import Path
+
+    from stereo_obstacles.errors import OutputError
+
+    for source in sources:
+        if Path(source).is_dir() and Path(target).resolve().parent == Path(source).resolve():
+            raise OutputError(f"{target} lies in the input folder {source}; write it elsewhere")
+
+
 def run(args: argparse.Namespace) -> int:
-    """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C."""
+    """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C, 143 on
+    SIGTERM."""
     import itertools
     import logging
     import sys
@@ -145,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._warm_up import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
-    from stereo_obstacles.interrupts import StopRequest, is_interrupt
+    from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt
     from stereo_obstacles.jsonl import JsonLinesWriter
     from stereo_obstacles.progress import Progress
     from stereo_obstacles.rectification_check import refuse_swapped
@@ -163,15 +177,19 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidInputError(f"--in-flight must be >= 1, got {in_flight}")
     refine_frames = TemporalSeedParameters().refine_frames if args.refine_frames is None else args.refine_frames
     config = config_from_args(args)
+    written = tuple(args.source) + ((args.calib,) if args.calib else ())
     for target in (args.video_out, None if args.jsonl == "-" else args.jsonl):
         if target:
-            check_output_file(target)
+            check_output_file(target, inputs=written)       # neither an input nor the other output
+            _refuse_inside_a_source_folder(target, args.source)
+            written += (target,)
     if args.frames_out:
-        check_output_folder(args.frames_out)
+        check_output_folder(args.frames_out, inputs=written)
     keep_freed_memory()  # a frame reuses the previous frames' arrays instead of faulting in fresh pages
     announce_compilation()
     tracking = TrackingParameters()
     interrupted = False
+    exit_code = EXIT_INTERRUPTED           # when stopped by a Ctrl-C between frames
     count = 0
     start = time.monotonic()
     filters = []                # one per handler: each handler sees every record
@@ -242,6 +260,7 @@ def run(args: argparse.Namespace) -> int:
             if not is_interrupt(exc):
                 raise
             interrupted = True
+            exit_code = interrupt_exit_code(exc)
         finally:
             stream.close()
         elapsed = time.monotonic() - start
@@ -252,4 +271,4 @@ def run(args: argparse.Namespace) -> int:
     repeats = f"; {hidden} repeats of the warnings above not shown" if hidden else ""
     print(f"{'interrupted after' if interrupted else 'processed'} {count} frame{'s' if count != 1 else ''} "
           f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s){repeats}", file=sys.stderr)
-    return 130 if interrupted else 0
+    return exit_code if interrupted else 0
