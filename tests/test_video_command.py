@@ -111,6 +111,14 @@ def test_options_that_cannot_work_are_refused_before_any_frame(tmp_path, capsys,
     assert message in captured.err and "Traceback" not in captured.err and "frame 0" not in captured.out
 
 
+def test_a_swapped_stream_is_refused_on_its_first_frame_before_any_output(tmp_path, capsys):
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    jsonl, out_video = tmp_path / "frames.jsonl", tmp_path / "annotated.mp4"
+    assert main(["video", str(right_dir), str(left_dir), "--jsonl", str(jsonl), "--video-out", str(out_video)]) == 1
+    assert "look swapped" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == [tmp_path / "in"]                  # no header-only JSON lines, no video
+
+
 def test_a_warning_of_every_frame_is_shown_once(tmp_path, capsys, caplog):
     left_dir, right_dir = write_sequences(tmp_path / "in")
     with caplog.at_level("WARNING"):
@@ -118,6 +126,10 @@ def test_a_warning_of_every_frame_is_shown_once(tmp_path, capsys, caplog):
     assert caplog.text.count("lie at the largest disparity searched, 3 px") == 1      # not once per frame
     err = capsys.readouterr().err
     assert f"processed {N_FRAMES} frames" in err and "repeats of the warnings above not shown" in err
+    caplog.clear()
+    with caplog.at_level("WARNING"):                                    # -v: everything, every frame
+        assert main(["-v", "video", str(left_dir), str(right_dir), "--max-disparity", "3", "--no-temporal-seeds"]) == 0
+    assert caplog.text.count("lie at the largest disparity searched, 3 px") == N_FRAMES
 
 
 def _run_and_stop(tmp_path, how: int) -> tuple[int, list[str], str]:

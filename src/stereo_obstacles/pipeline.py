@@ -403,12 +403,17 @@ def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, 
               if config.grouping.colour_split is not None else None)
     timings["segmentation"] = time.perf_counter() - t
     t = time.perf_counter()
-    rectification = (check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX,
-                                         max_features=RECTIFICATION_CHECK_FEATURES,
-                                         orb_levels=RECTIFICATION_CHECK_ORB_LEVELS)
-                     if config.check_rectification else None)
+    rectification = pair_rectification_check(left, right) if config.check_rectification else None
     timings["rectification_check"] = time.perf_counter() - t
     return segmentation, colour, rectification
+
+
+def pair_rectification_check(left: np.ndarray, right: np.ndarray) -> RectificationCheck:
+    """The rectification check :func:`detect` makes of a pair (ORB features on copies of at most
+    :data:`RECTIFICATION_CHECK_SIDE_PX`; a warning is logged when the pair is not rectified or
+    looks swapped), for a caller that checks a stream's first frame before writing anything."""
+    return check_rectification(left, right, method="orb", max_side_px=RECTIFICATION_CHECK_SIDE_PX,
+                               max_features=RECTIFICATION_CHECK_FEATURES, orb_levels=RECTIFICATION_CHECK_ORB_LEVELS)
 
 
 def _match_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, seed_points, disparity_estimate,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 
 from stereo_obstacles.commands._arguments import output_path
 from stereo_obstacles.commands._calibration_options import add_calibration_options
@@ -116,13 +117,16 @@ class _VideoOut:
 class _OncePerMessage:
     """A logging filter that lets each warning through once: the same condition (a varied
     reference area, a cut-off disparity range) would otherwise be logged for every frame.
-    Messages are told apart by their format string, so changing numbers do not repeat them."""
+    Warnings are told apart by their format string, so changing numbers do not repeat them;
+    other levels (info, errors) pass. Not used with ``-v``."""
 
     def __init__(self) -> None:
         self.seen: set[tuple[str, str]] = set()
         self.repeats = 0
 
     def filter(self, record) -> bool:
+        if record.levelno != logging.WARNING:
+            return True
         key = (record.name, str(record.msg))
         if key in self.seen:
             self.repeats += 1
@@ -147,8 +151,8 @@ def run(args: argparse.Namespace) -> int:
     """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C, 143 on
     SIGTERM."""
     import itertools
-    import logging
     import sys
+    from dataclasses import replace
     import time
     from contextlib import ExitStack
     from pathlib import Path
@@ -162,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt
     from stereo_obstacles.jsonl import JsonLinesWriter
     from stereo_obstacles.progress import Progress
+    from stereo_obstacles.pipeline import pair_rectification_check
     from stereo_obstacles.rectification_check import refuse_swapped
     from stereo_obstacles.report import write_detection_outputs
     from stereo_obstacles.stream_detection import (IN_FLIGHT, annotate_frame, detect_stream, frame_record,
@@ -194,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
     start = time.monotonic()
     filters = []                # one per handler: each handler sees every record
     with ExitStack() as stack:
-        for handler in logging.getLogger().handlers:
+        for handler in logging.getLogger().handlers if not args.verbose else ():
             filters.append(_OncePerMessage())
             handler.addFilter(filters[-1])
             stack.callback(handler.removeFilter, filters[-1])
@@ -208,6 +213,8 @@ def run(args: argparse.Namespace) -> int:
         if args.forward_speed and calibration is None:
             raise InvalidInputError("--forward-speed needs a calibration (--calib, or --focal and --baseline): "
                                     "without one the motion cannot be turned into disparities")
+        refuse_swapped(pair_rectification_check(first.left, first.right))     # before any output is written
+        checked = replace(config, check_rectification=False)                # done: the rig does not change
         temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
                                            forward_m_per_frame=args.forward_speed,
                                            refine_frames=refine_frames)
@@ -227,12 +234,11 @@ def run(args: argparse.Namespace) -> int:
             total = min(total, args.max_frames)
         progress = Progress(total, label="frame")
         stack.callback(progress.close)
-        stream = detect_stream(itertools.chain([first], frames), calibration, config=config, temporal=temporal,
+        stream = detect_stream(itertools.chain([first], frames), calibration, config=checked, temporal=temporal,
                                tracking=tracking, in_flight=in_flight)
         stop = stack.enter_context(StopRequest("the current frame"))
         try:
             for detection in stream:
-                refuse_swapped(detection.result.rectification_check)     # checked on the first frame only
                 record = frame_record(detection)
                 if jsonl is not None:
                     jsonl.write(record)
