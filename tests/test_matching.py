@@ -210,13 +210,17 @@ def test_a_disparity_command_with_a_range_too_short_says_so(tmp_path, caplog):
 
 
 def test_float_images_of_0_to_1_match_like_their_8_bit_originals():
-    from stereo_obstacles.similarity import to_grey
+    from stereo_obstacles.similarity import grey_pair, to_grey
     from stereo_obstacles.synthetic import default_scene, render_pair
 
     pair = render_pair(default_scene(160, 120))
-    assert to_grey(pair.left / 255.0) == pytest.approx(to_grey(pair.left), abs=1e-3)
+    unit = pair.left / 255.0, pair.right / 255.0
+    assert grey_pair(*unit)[1] == pytest.approx(to_grey(pair.right), abs=1e-3)
     as_bytes = match(pair.left, pair.right)
-    as_unit_floats = match(pair.left / 255.0, pair.right / 255.0)           # matched nothing before
+    as_unit_floats = match(*unit)                                           # matched nothing before
     assert as_unit_floats.stats.density == pytest.approx(as_bytes.stats.density, abs=0.01)
     assert as_bytes.stats.density > 0.5
-    assert to_grey(np.full((4, 4), 2.0)).max() == 2.0                       # other floats keep their units
+    overshoot = unit[1].copy()
+    overshoot[0, 0, 0] = 1.02                 # one value above 1: the pair keeps its own units, both images
+    assert max(g.max() for g in grey_pair(unit[0], overshoot)) < 1.1
+    assert to_grey(np.full((4, 4), 0.5)).max() == 0.5                       # a single image is never rescaled

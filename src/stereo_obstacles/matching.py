@@ -25,7 +25,7 @@ from stereo_obstacles.growing import MARGIN_REFERENCES
 from stereo_obstacles.match_memory import check_matching_size
 from stereo_obstacles.seeds import DEFAULT_SEEDS, NOT_SCANNED, SEED_SOURCES, find_seeds, user_seeds
 from stereo_obstacles.speckles import speckle_mask
-from stereo_obstacles.similarity import KINDS, RADIUS, prepare_similarity, to_grey
+from stereo_obstacles.similarity import KINDS, RADIUS, grey_pair, prepare_similarity
 
 __all__ = ["BANDS", "DEFAULT_MAX_DISPARITY_FRACTION", "MIN_SIZE", "SEED_SPACING", "SPECKLE_RANGE", "SPECKLE_SIZE",
            "VARIANTS", "MatchResult", "MatchStats", "disparity_range", "match", "warm_up"]
@@ -367,8 +367,7 @@ def match(left: np.ndarray, right: np.ndarray, *, seeds: str = DEFAULT_SEEDS, ma
     t0 = time.perf_counter()
     _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity, max_disparity,
                    margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands, speckle_size, speckle_range)
-    left_grey = to_grey(left, "left")
-    right_grey = to_grey(right, "right")
+    left_grey, right_grey = grey_pair(left, right)
     check_same_size(left_grey, right_grey)
     h, w = left_grey.shape
     if h < MIN_SIZE or w < MIN_SIZE:

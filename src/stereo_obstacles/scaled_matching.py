@@ -25,7 +25,7 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.matching import MatchResult, MatchStats, disparity_range, match
 from stereo_obstacles.refinement import refine_disparity
 from stereo_obstacles.shifted_windows import shifted_window_check
-from stereo_obstacles.similarity import prepare_similarity, to_grey
+from stereo_obstacles.similarity import grey_pair, prepare_similarity
 
 __all__ = ["MIN_REDUCED_SIDE", "check_scale", "effective_scale", "match_at_scale", "refine_at_full_size",
            "scaled_size"]
@@ -96,7 +96,7 @@ def refine_at_full_size(left: np.ndarray, right: np.ndarray, estimate: np.ndarra
     h, w = left.shape[:2]
     d_min, d_max = disparity_range(w, _match_option(options, "min_disparity"), max_disparity)
     n_threads = int(_match_option(options, "bands"))
-    inputs = prepare_similarity(to_grey(left, "left"), to_grey(right, "right"),
+    inputs = prepare_similarity(*grey_pair(left, right),
                                 kind=_match_option(options, "similarity"), min_std=_match_option(options, "min_std"),
                                 n_threads=n_threads)
     t1 = time.perf_counter()

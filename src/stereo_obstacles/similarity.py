@@ -44,23 +44,19 @@ def _numeric_image(image, name: str) -> np.ndarray:
 
 
 def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
-    """Grey float32 copy of an image, in grey levels of 0..255 for 8-bit and 0..1 float images.
+    """Grey float32 copy of an image, without rescaling intensities.
 
     Parameters
     ----------
     image : ndarray, shape (H, W) or (H, W, 3)
         Grey or RGB image, any integer or float dtype (RGB weighted 0.299, 0.587, 0.114).
-        A float image whose values all lie in [0, 1] is taken as 0..1 intensities and scaled
-        by 255, so that thresholds in grey levels (the matcher's ``min_std``, the edge
-        thresholds of the seeds) mean the same as for 8-bit images; an image of 0..1 floats
-        left as it was matched nothing.
     name : str
         Argument name used in error messages.
 
     Returns
     -------
     ndarray of float32, shape (H, W)
-        Intensities in the input's own units (other integer and float images).
+        Intensities in the input's own units.
 
     Raises
     ------
@@ -76,9 +72,25 @@ def to_grey(image: np.ndarray, name: str = "image") -> np.ndarray:
         raise InvalidInputError(f"{name}: expected shape (H, W) or (H, W, 3), got {a.shape}")
     if not np.isfinite(grey).all():
         raise InvalidInputError(f"{name}: contains NaN or infinite values")
-    if np.issubdtype(a.dtype, np.floating) and grey.size and grey.min() >= 0.0 and grey.max() <= 1.0:
-        grey *= np.float32(255.0)
     return np.ascontiguousarray(grey)
+
+
+def grey_pair(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`to_grey` of both images of a pair, in grey levels of 0..255 when the pair is of
+    0..1 floats.
+
+    A pair of float images whose values all lie in [0, 1] is taken as 0..1 intensities and both
+    are scaled by 255, so that thresholds in grey levels (the matcher's ``min_std``, the seeds'
+    edge thresholds) mean what they mean for 8-bit images: left as they were, no window was
+    textured enough and nothing matched. The pair is decided on as a whole, so that both images
+    stay in one unit.
+    """
+    greys = to_grey(left, "left"), to_grey(right, "right")
+    images = [np.asarray(image) for image in (left, right)]
+    if all(np.issubdtype(a.dtype, np.floating) and a.size and a.min() >= 0.0 and a.max() <= 1.0 for a in images):
+        for grey in greys:
+            grey *= np.float32(255.0)
+    return greys
 
 
 @dataclass(frozen=True)
