@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import textwrap
@@ -142,14 +143,17 @@ def test_every_reference_option_states_the_default_it_uses():
         assert ReferenceArea.parse(value) == DEFAULT_REFERENCE_AREA, (name, helps[name])
 
 
+NUMBA_CACHE_IN_USE = os.environ.get("NUMBA_DISABLE_JIT", "0") == "0" and os.environ.get(
+    "STEREO_OBSTACLES_NUMBA_CACHE", "1") != "0"
+
+
+@pytest.mark.skipif(not NUMBA_CACHE_IN_USE, reason="numba's JIT or the kernel cache is switched off here")
 def test_a_cold_numba_cache_is_announced_and_a_warm_one_is_not(tmp_path, capsys):
     """The first run after installing compiles for about 20 s: it says so instead of looking hung."""
-    import os
-
-    from stereo_obstacles.commands._warm_up import announce_compilation, kernels_cached
+    from stereo_obstacles.commands._compile_notice import announce_compilation, kernels_cached
     from stereo_obstacles.pipeline import warm_up
 
-    code = ("from stereo_obstacles.commands._warm_up import announce_compilation, kernels_cached\n"
+    code = ("from stereo_obstacles.commands._compile_notice import announce_compilation, kernels_cached\n"
             "print(kernels_cached())\n"
             "announce_compilation()\n")
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}             # an empty cache: a fresh install
@@ -162,10 +166,11 @@ def test_a_cold_numba_cache_is_announced_and_a_warm_one_is_not(tmp_path, capsys)
     assert capsys.readouterr().err == ""
 
 
+@pytest.mark.skipif(not NUMBA_CACHE_IN_USE, reason="numba's JIT or the kernel cache is switched off here")
 def test_every_sentinel_kernel_exists_and_is_cached_by_numba():
     import importlib
 
-    from stereo_obstacles.commands._warm_up import SENTINEL_KERNELS
+    from stereo_obstacles.commands._compile_notice import SENTINEL_KERNELS
 
     for module_name, name in SENTINEL_KERNELS:
         kernel = getattr(importlib.import_module(f"stereo_obstacles.{module_name}"), name)

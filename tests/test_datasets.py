@@ -301,6 +301,11 @@ def test_a_ground_truth_scale_that_is_not_a_positive_number_is_refused(tmp_path,
         load_pair(tmp_path, gt_scale=scale)
 
 
+def test_a_numpy_number_is_a_ground_truth_scale(tmp_path):
+    _images(tmp_path, "left.png", "right.png", (20, 10))
+    assert load_pair(tmp_path, gt_scale=np.float32(16)).left.shape == (10, 20, 3)
+
+
 def test_a_single_pair_folder_refuses_a_frame(tmp_path):
     _images(tmp_path, "left.png", "right.png", (20, 10))
     assert list_frames(tmp_path) == (None,)

@@ -57,8 +57,11 @@ def test_resolve_methods_errors(names, match):
 
 
 def test_evaluate_pair_wants_methods_not_their_names(shifted_scene):
+    pair = load_pair(shifted_scene)
     with pytest.raises(InvalidInputError, match="expected Method objects"):
-        evaluate_pair(shifted_scene, ["gcs"])
+        evaluate_pair(pair, ["gcs"])
+    [result] = evaluate_pair(pair, (m for m in resolve_methods(["gcs"])), repeat=1)   # any iterable of methods
+    assert result.method == "gcs"
 
 
 def test_evaluate_pair_times_a_first_call_and_repeat_runs(shifted_scene):

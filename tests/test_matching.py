@@ -189,6 +189,7 @@ def test_matches_piling_up_at_the_largest_disparity_searched_are_warned_about(ca
     with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):
         assert warn_if_range_cut_off(d, 64) == pytest.approx(10 / 9500)
     assert caplog.text == ""
+    assert warn_if_range_cut_off(np.full((4, 4), np.inf, np.float32), 64) == 0.0    # PFM's "none": no match
 
 
 def test_a_disparity_command_with_a_range_too_short_says_so(tmp_path, caplog):

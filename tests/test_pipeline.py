@@ -223,6 +223,9 @@ def test_the_result_is_frozen_down_to_its_images(default_result):
     with pytest.raises(dataclasses.FrozenInstanceError):
         default_result.disparity = np.zeros(1)
     assert np.isfinite(default_result.disparity.copy()).any()      # a copy is the caller's to change
+    mine = np.zeros_like(default_result.disparity)
+    dataclasses.replace(default_result, disparity=mine)
+    mine[0, 0] = 1.0                                                # the caller's own array stays writeable
 
 
 def test_depth_agreement_refuses_maps_of_different_shapes(default_pair):

@@ -44,6 +44,8 @@ def test_fractions_mixed_with_pixels_are_refused_not_read_as_pixels():
     with pytest.raises(InvalidInputError, match="mixes fractions of the image .* and pixels"):
         ReferenceArea.parse("0,0.85,1,1.5")                 # meant 0,0.85,1,1: would be a 1x2 px area
     assert ReferenceArea.parse("0,300,640,480").unit == "px"
+    with pytest.raises(InvalidInputError, match="corners in pixels must be whole numbers"):
+        ReferenceArea.parse("10.5,20,100,200")
 
 
 def test_area_outside_image_is_an_error_naming_its_corners_and_unit():

@@ -158,3 +158,14 @@ def test_terminal_table_lists_the_largest_rejected_groups_and_sums_up_the_rest()
     assert [int(line.split()[1]) for line in lines[1:6]] == [107, 106, 105, 104, 103]
     assert lines[6] == "Rejected 3 smaller groups too (303 px; every one with its reason in obstacles.json)"
     assert len(lines) == 7
+
+
+def test_a_rerun_removes_the_pictures_of_their_former_names(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in report.FORMER_PICTURE_NAMES:                 # an earlier version's 8-bit pictures
+        (out / name).write_bytes(b"picture")
+    (out / "notes.txt").write_text("the user's")
+    _write(out)
+    assert not any((out / name).exists() for name in report.FORMER_PICTURE_NAMES)
+    assert (out / "notes.txt").exists() and (out / "disparity_picture.png").exists()

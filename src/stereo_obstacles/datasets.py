@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import logging
 import math
+import numbers
 import os
 import re
 from dataclasses import dataclass, replace
@@ -180,7 +181,7 @@ def load_pair(folder: PathLike, *, frame: str | None = None,
         The calibration does not parse or is for another image size.
     """
     root = _check_folder(folder)
-    if gt_scale is not None and (isinstance(gt_scale, bool) or not isinstance(gt_scale, (int, float))
+    if gt_scale is not None and (isinstance(gt_scale, bool) or not isinstance(gt_scale, numbers.Real)
                                  or not math.isfinite(gt_scale) or gt_scale <= 0):
         raise InvalidInputError(f"gt_scale must be a finite number > 0, got {gt_scale!r}")
     if (root / "image_2").is_dir() and (root / "image_3").is_dir():

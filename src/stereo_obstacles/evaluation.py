@@ -227,6 +227,7 @@ def evaluate_pair(pair: StereoPair, methods: Sequence[Method], *,
     """
     if not isinstance(repeat, int) or isinstance(repeat, bool) or repeat < 1:
         raise InvalidInputError(f"repeat must be an integer >= 1, got {repeat!r}")
+    methods = tuple(methods)
     if any(not isinstance(method, Method) for method in methods):
         raise InvalidInputError("methods: expected Method objects (from resolve_methods(names)), got "
                                 f"{[type(m).__name__ for m in methods]}")

@@ -235,8 +235,8 @@ def warn_if_range_cut_off(disparity: np.ndarray, d_max: int, limit_m: float | No
     ``limit_m``: the depth ``d_max`` stands for (metres), named in the warning when given.
     """
     with np.errstate(invalid="ignore"):
-        n_at_limit = int(np.count_nonzero(disparity >= d_max - 0.5))       # NaN compares false
-    if n_at_limit == 0:                                                     # the usual case: one pass
+        n_at_limit = int(np.count_nonzero((disparity >= d_max - 0.5) & (disparity < np.inf)))   # NaN: false
+    if n_at_limit == 0:                                                     # the usual case
         return 0.0
     share = n_at_limit / int(np.count_nonzero(np.isfinite(disparity)))
     if share > CUT_OFF_FRACTION:
@@ -258,7 +258,7 @@ def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | Non
     ((0, 213), (2, 64), (0, 39))
     """
     d_min = int(min_disparity)
-    if max_disparity is not None and max_disparity < max(d_min, 1):
+    if max_disparity is not None and (max_disparity != int(max_disparity) or max_disparity < max(d_min, 1)):
         raise InvalidInputError(f"max_disparity: expected an integer >= {max(d_min, 1)}, got {max_disparity}")
     d_max = (int(max_disparity) if max_disparity is not None
              else max(d_min, round(width * DEFAULT_MAX_DISPARITY_FRACTION)))

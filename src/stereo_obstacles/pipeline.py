@@ -206,8 +206,9 @@ class DetectionResult:
         (a warning is logged when it is not rectified).
 
     The result is frozen: its fields cannot be reassigned and its images (``disparity``,
-    ``depth_m``, the labels, the obstacles' ``id_map``) are read-only, so that what a caller
-    hands on stays consistent with the obstacles measured from it (copy an array to change it).
+    ``depth_m``, the labels, the obstacles' ``id_map``) are read-only views, so that what a
+    caller hands on stays consistent with the obstacles measured from it (copy an array to
+    change it; the arrays a result is made from stay writeable).
     """
 
     segmentation: SegmentationResult
@@ -222,15 +223,24 @@ class DetectionResult:
     rectification_check: object = None
 
     def __post_init__(self) -> None:
-        for image in (self.disparity, self.depth_m, self.segmentation.labels, self.obstacles.id_map):
-            if isinstance(image, np.ndarray):
-                image.flags.writeable = False
+        object.__setattr__(self, "disparity", _read_only(self.disparity))
+        object.__setattr__(self, "depth_m", None if self.depth_m is None else _read_only(self.depth_m))
+        object.__setattr__(self, "segmentation", replace(self.segmentation,
+                                                         labels=_read_only(self.segmentation.labels)))
+        object.__setattr__(self, "obstacles", replace(self.obstacles, id_map=_read_only(self.obstacles.id_map)))
 
     @property
     def density(self) -> float:
         """Share of the image's pixels with a disparity in :attr:`disparity` (the delivered,
         full-size map; ``match_stats.density`` counts the matcher's own, possibly reduced, pair)."""
         return float(np.count_nonzero(np.isfinite(self.disparity))) / self.disparity.size
+
+
+def _read_only(image: np.ndarray) -> np.ndarray:
+    """A read-only view of ``image`` (the array itself stays writeable)."""
+    view = np.asarray(image).view()
+    view.flags.writeable = False
+    return view
 
 
 def _check_inputs(left: np.ndarray, right: np.ndarray, calibration) -> None:

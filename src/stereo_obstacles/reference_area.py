@@ -78,8 +78,10 @@ class ReferenceArea:
             raise InvalidInputError(f"reference must be x0,y0,x1,y1 (pixels or fractions), got {text!r}")
         unit = "fraction" if max(values) <= 1.0 else "px"
         if unit == "px" and not all(v == math.floor(v) for v in values if math.isfinite(v)):
-            raise InvalidInputError(f"reference {text} mixes fractions of the image (all four <= 1) and pixels "
-                                    f"(whole numbers); give all four one way")
+            if any(0 < v < 1 for v in values):
+                raise InvalidInputError(f"reference {text} mixes fractions of the image (all four <= 1) and pixels "
+                                        f"(whole numbers); give all four one way")
+            raise InvalidInputError(f"reference {text}: corners in pixels must be whole numbers")
         return cls(*values, unit=unit)
 
     def __str__(self) -> str:

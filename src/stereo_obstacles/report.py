@@ -239,6 +239,11 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
 CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
+FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
+"""The pictures' names until session 18, removed from a folder a report is written into again:
+read the way the README's format table reads a ``.png`` disparity or depth (16-bit values),
+they are wrong."""
+
 OUTPUT_FILES = ("obstacles.json", "disparity.pfm", "labels.png", "obstacles.png", "disparity_picture.png",
                 "labels_picture.png", "index.html") + CALIBRATED_ONLY
 """Every file :func:`write_detection_outputs` may write into its folder."""
@@ -287,8 +292,9 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]
     data_files += ["points.ply"] if calibrated else []
-    pictures = ["obstacles.png", "disparity_picture.png"] + (["depth_picture.png"] if calibrated else []) + ["labels_picture.png"]
-    stale = tuple(name for name in CALIBRATED_ONLY if not calibrated)
+    pictures = (["obstacles.png", "disparity_picture.png"] + (["depth_picture.png"] if calibrated else [])
+                + ["labels_picture.png"])
+    stale = tuple(name for name in CALIBRATED_ONLY if not calibrated) + FORMER_PICTURE_NAMES
     with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.batch import BatchJob, find_pairs, run_batch, write_summary
-    from stereo_obstacles.commands._warm_up import announce_compilation
+    from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt

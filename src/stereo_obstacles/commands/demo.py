@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_folder
     from stereo_obstacles.commands.detect import config_from_args, run_detection, timing_line, warn_if_out_of_reach
     from stereo_obstacles.commands._arguments import image_size
-    from stereo_obstacles.commands._warm_up import announce_compilation
+    from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.detection_evaluation import compare_with_truth
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.pipeline import warm_up

@@ -115,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.atomic import check_output_folder
-    from stereo_obstacles.commands._warm_up import announce_compilation
+    from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.errors import ImageMismatchError
     from stereo_obstacles.fileio import read_image
     from stereo_obstacles.report import OUTPUT_FILES, format_obstacle_table

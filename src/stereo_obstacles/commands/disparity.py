@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles.atomic import check_output_file
     from stereo_obstacles.colorize import colorize_disparity
-    from stereo_obstacles.commands._warm_up import announce_compilation
+    from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.fileio import read_image, write_disparity, write_image
     from stereo_obstacles.matching import match, warn_if_range_cut_off
     from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES

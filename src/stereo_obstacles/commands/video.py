@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.allocator import keep_freed_memory
     from stereo_obstacles.atomic import check_output_file, check_output_folder
     from stereo_obstacles.commands._calibration_options import calibration_from_args
-    from stereo_obstacles.commands._warm_up import announce_compilation
+    from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
     from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt

@@ -30,7 +30,14 @@ commands only, and helpers compiled into their callers are never cached themselv
 
 def kernels_cached() -> bool | None:
     """Whether numba's on-disk cache holds an up-to-date copy of every :data:`SENTINEL_KERNELS`;
-    ``None`` when numba's cache cannot be inspected."""
+    ``None`` when that cannot be told: numba's JIT is off (``NUMBA_DISABLE_JIT=1``: nothing is
+    compiled), the cache is off (``STEREO_OBSTACLES_NUMBA_CACHE=0``), or its layout is unknown."""
+    from numba.core.config import DISABLE_JIT
+
+    from stereo_obstacles._similarity_kernel import CACHE
+
+    if DISABLE_JIT or not CACHE:
+        return None
     try:
         for module_name, name in SENTINEL_KERNELS:
             kernel = getattr(importlib.import_module(f"stereo_obstacles.{module_name}"), name)
