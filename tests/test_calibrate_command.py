@@ -72,6 +72,11 @@ def test_calibrate_argument_errors(chessboard, tmp_path, capsys):
     assert main(["calibrate", "--folder", str(chessboard), "--board", "9-6", "--square", "0.025",
                  "--out", str(tmp_path / "c.json")]) == 1
     assert "COLUMNSxROWS" in capsys.readouterr().err
+    (tmp_path / "a_file").write_text("x")
+    # checked before the boards are searched (the write itself would fail with "File exists")
+    assert main(["calibrate", "--folder", str(chessboard), "--square", "0.025", "--out",
+                 str(tmp_path / "a_file" / "c.json")]) == 1
+    assert "a_file is not a folder" in capsys.readouterr().err
 
 
 def test_rectify_with_the_new_calibration(calibrated, chessboard, tmp_path, capsys):
