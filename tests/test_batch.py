@@ -171,3 +171,17 @@ def test_warnings_name_their_pair(tmp_path, caplog):
     assert named and all(message.startswith("same: ") for message in named)
     assert json.loads((out / "same" / DONE_FILE).read_text())["warnings"]
     assert json.loads((out / "good" / DONE_FILE).read_text())["warnings"] == []
+
+
+def test_an_output_folder_that_is_the_input_folder_is_refused_and_one_inside_it_is_skipped(pairs_dir, tmp_path,
+                                                                                            capsys):
+    write_scene_folder(tmp_path / "in" / "scene", frames()[0])
+    labels = (tmp_path / "in" / "scene" / "labels.png").read_bytes()
+    assert main(["batch", str(tmp_path / "in"), "--out", str(tmp_path / "in")]) == 1     # would replace labels.png
+    assert "is the input folder" in capsys.readouterr().err
+    assert (tmp_path / "in" / "scene" / "labels.png").read_bytes() == labels
+    args = ["batch", str(tmp_path / "in"), "--out", str(tmp_path / "in" / "results"), "--task", "disparity",
+            "--workers", "1", "--max-disparity", "40"]
+    assert main(args) == 0
+    assert main(args) == 0                                    # the results folder is not taken for a pair
+    assert _summary(tmp_path / "in" / "results")["counts"] == {"done": 0, "skipped": 1, "failed": 0}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -139,3 +140,21 @@ def test_detect_refuses_calib_with_uncalibrated(synthetic_files, tmp_path, capsy
     assert main(["detect", str(synthetic_files / "left.png"), str(synthetic_files / "right.png"), "--out",
                  str(tmp_path / "o"), "--uncalibrated", "--calib", str(synthetic_files / "rig.json")]) == 1
     assert "not both" in capsys.readouterr().err
+
+
+def test_batch_rectifies_with_the_calibration_calibrate_wrote_and_matches_grey_pairs(calibrated, chessboard, tmp_path,
+                                                                                      capsys):
+    calibrated, _ = calibrated
+    pairs = tmp_path / "pairs"
+    pairs.mkdir()
+    for k in ("01", "02"):                                   # grey JPEGs of the raw (unrectified) cameras
+        shutil.copy(chessboard / f"left{k}.jpg", pairs / f"p{k}_left.jpg")
+        shutil.copy(chessboard / f"right{k}.jpg", pairs / f"p{k}_right.jpg")
+    for calib in (calibrated, calibrated.with_suffix(".yml")):
+        out = tmp_path / f"out_{calib.suffix[1:]}"
+        assert main(["batch", str(pairs), "--out", str(out), "--task", "disparity", "--workers", "1",
+                     "--calib", str(calib)]) == 0, capsys.readouterr().err
+        summary = json.loads((out / "batch_summary.json").read_text())
+        assert summary["counts"] == {"done": 2, "skipped": 0, "failed": 0}
+    assert main(["batch", str(pairs), "--out", str(tmp_path / "o"), "--calib", str(tmp_path / "none.json")]) == 1
+    assert capsys.readouterr().err.count("\n") == 1                          # one error, not one per pair

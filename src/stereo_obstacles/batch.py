@@ -127,8 +127,9 @@ def _image_files(folder: Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in _IMAGE_EXTENSIONS)
 
 
-def find_pairs(input_dir: str | os.PathLike[str]) -> list[PairSpec]:
-    """Every stereo pair under ``input_dir`` (see the module docstring), sorted by name.
+def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str] | None = None) -> list[PairSpec]:
+    """Every stereo pair under ``input_dir`` (see the module docstring), sorted by name; the
+    sub-folder ``skip`` (a batch's output folder inside its input folder) is left out.
 
     Raises
     ------
@@ -141,7 +142,9 @@ def find_pairs(input_dir: str | os.PathLike[str]) -> list[PairSpec]:
     if not root.is_dir():
         raise InputFileError(f"input folder {root} does not exist or is not a folder")
     pairs: list[PairSpec] = []
-    subfolders = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith("."))
+    skipped = None if skip is None else Path(skip).resolve()
+    subfolders = sorted(p for p in root.iterdir()
+                        if p.is_dir() and not p.name.startswith(".") and p.resolve() != skipped)
     sides = {p.name.lower(): p for p in subfolders if p.name.lower() in ("left", "right")}
     if len(sides) == 2:
         right_names = {p.name for p in _image_files(sides["right"])}
@@ -197,11 +200,14 @@ def _pairs_by_name(folder: Path, *, prefix: str, warn: bool = False) -> list[Pai
 
 
 def _load(job: BatchJob):
-    """``(left, right, calibration, inputs)`` of a job's pair."""
-    from stereo_obstacles.calibration_files import read_calibration
+    """``(left, right, calibration, inputs)`` of a job's pair: the images (rectified first when
+    ``--calib`` describes the raw cameras, as ``calibrate`` writes them), grey ones kept for the
+    disparity task."""
+    from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.errors import ImageMismatchError
     from stereo_obstacles.fileio import read_image
+    from stereo_obstacles.rectification import rectify_calibration
 
     pair = job.pair
     if pair.folder is not None:
@@ -209,15 +215,21 @@ def _load(job: BatchJob):
         left, right, calibration = stereo.left, stereo.right, stereo.calibration
         inputs = {"folder": pair.folder, "frame": pair.frame, "layout": stereo.layout}
     else:
-        left, right = read_image(pair.left, mode="color"), read_image(pair.right, mode="color")
+        mode = "color" if job.task == "detect" else "any"     # the matcher takes grey pairs too
+        left, right = read_image(pair.left, mode=mode), read_image(pair.right, mode=mode)
         if left.shape != right.shape or left.dtype != right.dtype:
             raise ImageMismatchError(f"{pair.left} is {left.shape[1]}x{left.shape[0]} {left.dtype} but "
                                      f"{pair.right} is {right.shape[1]}x{right.shape[0]} {right.dtype}")
         calibration = None
         inputs = {"left": pair.left, "right": pair.right}
     if job.calib_file is not None:
-        calibration = read_calibration(job.calib_file, length_unit=job.calib_unit)
+        calibration = read_camera_calibration(job.calib_file, length_unit=job.calib_unit)
         inputs["calibration"] = job.calib_file
+        if isinstance(calibration, CameraPairCalibration):
+            calibration.check_image_size(left.shape[1], left.shape[0])
+            rectification = rectify_calibration(calibration)
+            left, right = rectification.apply(left, right)
+            calibration = rectification.rectified
     if calibration is not None:
         calibration.check_image_size(left.shape[1], left.shape[0])
     return left, right, calibration, inputs

@@ -50,7 +50,9 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.batch import BatchJob, find_pairs, run_batch, write_summary
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
-    from stereo_obstacles.errors import InvalidInputError
+    from stereo_obstacles.atomic import check_output_folder
+    from stereo_obstacles.camera_calibration import read_camera_calibration
+    from stereo_obstacles.errors import InvalidInputError, OutputError
     from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt
     from stereo_obstacles.progress import Progress
 
@@ -58,8 +60,13 @@ def run(args: argparse.Namespace) -> int:
     if workers < 1:
         raise InvalidInputError(f"--workers must be >= 1, got {workers}")
     config = config_from_args(args)
-    pairs = find_pairs(args.input_dir)
     out = Path(args.out)
+    check_output_folder(out)
+    if out.resolve() == Path(args.input_dir).resolve():
+        raise OutputError(f"--out {out} is the input folder: the pairs' outputs would replace their inputs")
+    if args.calib is not None:
+        read_camera_calibration(args.calib, length_unit=args.calib_unit)    # a bad file: one error, before any pair
+    pairs = find_pairs(args.input_dir, skip=out)
     jobs = [BatchJob(pair, str(out / pair.name), args.task, config, args.calib, args.calib_unit) for pair in pairs]
     announce_compilation()         # the workers compile on their first pair
     progress = Progress(len(jobs), label="pair")
