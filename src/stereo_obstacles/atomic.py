@@ -58,13 +58,18 @@ def _check_creatable(folder: Path) -> None:
         raise OutputError(f"cannot create files in folder {ancestor}: {exc.strerror or exc}") from exc
 
 
-def check_output_file(path: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str] | None] = ()) -> None:
-    """Check, before any work is done, that ``path`` can be written as a file and names none of the
-    ``inputs`` (the files the run reads, or its other outputs; ``None`` entries are skipped): raise
-    :class:`OutputError` otherwise. Leaves nothing behind."""
+def check_output_file(path: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str] | None] = (), *,
+                      input_folders: Iterable[str | os.PathLike[str]] = ()) -> None:
+    """Check, before any work is done, that ``path`` can be written as a file, names none of the
+    ``inputs`` (the files the run reads, or its other outputs; ``None`` entries are skipped) and
+    lies in none of the ``input_folders`` (datasets, folders of frames: a file there may be read,
+    or replace one that is): raise :class:`OutputError` otherwise. Leaves nothing behind."""
     target = Path(path)
     if target.is_dir():
         raise OutputError(f"{target} is a folder; expected a file name")
+    for folder in input_folders:
+        if Path(folder).is_dir() and Path(folder).resolve() in target.resolve().parents:
+            raise OutputError(f"{target} lies in the input folder {folder}; write it elsewhere")
     _check_creatable(target.parent)
     for source in inputs:
         if source is None:

@@ -137,3 +137,25 @@ def test_limits_that_leave_no_true_obstacle_to_score_are_said(run_cli):
     code, out, _, log = run_cli("evaluate-detection", "--scenes", "1", "--size", "64x48", "--supersample", "1",
                                 "--min-height", "100")
     assert code == 0 and "0/0 true obstacles" in out and "nothing was scored" in log
+
+
+def test_evaluation_outputs_inside_a_dataset_folder_are_refused(inputs, run_cli, tmp_path):
+    scene = tmp_path / "scene"
+    shutil.copytree(inputs / "scene", scene)
+    truth = (scene / "disparity.pfm").read_bytes()
+    for command in (["evaluate", scene, "--methods", "bm", "--json", scene / "disparity.pfm"],
+                    ["evaluate-detection", "--scenes", "0", "--dataset", scene, "--json", scene / "figures.json"],
+                    ["evaluate-segmentation", "--scenes", "0", "--dataset", scene, "--json", scene / "left.png"]):
+        code, _, err, _ = run_cli(*command)
+        assert code == 1 and "lies in the input folder" in error_line(err), command
+    assert (scene / "disparity.pfm").read_bytes() == truth and not (scene / "figures.json").exists()
+
+
+def test_evaluations_check_their_datasets_before_the_scenes(inputs, run_cli):
+    # 50 scenes would take minutes: the errors come at once
+    code, _, err, _ = run_cli("evaluate-detection", "--scenes", "50", "--dataset", inputs / "nowhere")
+    assert code == 1 and "does not exist" in error_line(err)
+    code, _, err, _ = run_cli("evaluate-segmentation", "--scenes", "50", "--dataset", inputs / "scene")
+    assert code == 1 and "only KITTI folders are scored" in error_line(err)
+    code, _, err, _ = run_cli("evaluate-segmentation", "--scenes", "0")
+    assert code == 1 and "nothing to evaluate" in error_line(err)

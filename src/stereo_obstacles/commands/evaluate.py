@@ -56,8 +56,8 @@ def run(args: argparse.Namespace) -> int:
     log = logging.getLogger(__name__)
     methods = resolve_methods(args.methods)
     if args.json:
-        check_output_file(args.json)
-    frames = [(folder, frame) for folder in args.datasets
+        check_output_file(args.json, input_folders=args.datasets)
+    frames = [(folder, frame) for folder in dict.fromkeys(args.datasets)
               for frame in list_frames(folder)[:args.max_frames]]
     results = []
     for folder, frame in frames:

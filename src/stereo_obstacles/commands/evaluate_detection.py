@@ -46,16 +46,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def _dataset_figures(folder: str, config: DetectionConfig) -> dict:
-    """Depth from ``detect`` (with ``config``) against the folder's ground-truth disparity."""
+def _dataset_pair(folder: str):
+    """The folder's pair, which must have a calibration and a ground-truth disparity (read before
+    any scene is evaluated, so that a bad folder fails at once)."""
     from stereo_obstacles.datasets import load_pair
-    from stereo_obstacles.depth_evaluation import depth_agreement
     from stereo_obstacles.errors import InvalidInputError
-    from stereo_obstacles.pipeline import detect
 
     pair = load_pair(folder)
     if pair.calibration is None or pair.gt_disparity is None:
         raise InvalidInputError(f"{folder} needs a calibration and a ground-truth disparity for the depth comparison")
+    return pair
+
+
+def _dataset_figures(pair, config: DetectionConfig) -> dict:
+    """Depth from ``detect`` (with ``config``) against the pair's ground-truth disparity."""
+    from stereo_obstacles.depth_evaluation import depth_agreement
+    from stereo_obstacles.pipeline import detect
+
     result = detect(pair.left, pair.right, pair.calibration, config=config)
     return {"name": pair.name, "density_pct": 100 * result.density,
             "matched": depth_agreement(result.disparity, pair.gt_disparity, pair.calibration).to_dict(),
@@ -81,8 +88,10 @@ def run(args: argparse.Namespace) -> int:
     width, height = image_size(args.size)
     if args.scenes == 0 and not args.dataset:
         raise InvalidInputError("nothing to evaluate: --scenes 0 and no --dataset")
+    datasets = list(dict.fromkeys(args.dataset))          # each once, in the order given
     if args.json:
-        check_output_file(args.json)
+        check_output_file(args.json, input_folders=datasets)
+    pairs = [_dataset_pair(folder) for folder in datasets]
     config = DetectionConfig()
     if args.matching_scale is not None:
         config = DetectionConfig(matching_scale=args.matching_scale)
@@ -96,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     report = {"machine": machine_info(), "config": config.to_dict(),
               "synthetic": {**summary.to_dict(), "supersample": supersample, "noise_sigma": args.noise,
                             "jpeg_quality": args.jpeg_quality},
-              "datasets": [_dataset_figures(folder, config) for folder in args.dataset]}
+              "datasets": [_dataset_figures(pair, config) for pair in pairs]}
     s = summary
     if s.n_scenes:
         degraded = "".join([f", noise {args.noise:g}" if args.noise else "",

@@ -68,15 +68,25 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.datasets import load_pair
-    from stereo_obstacles.errors import InputFileError
+    from stereo_obstacles.errors import InputFileError, InvalidInputError
     from stereo_obstacles.segmentation import SegmentationParameters
     from stereo_obstacles.segmentation_evaluation import (KittiTruthParameters, evaluate_synthetic,
                                                           kitti_truth, score_image, total)
 
     log = logging.getLogger(__name__)
     width, height = image_size(args.size)
+    folders = list(dict.fromkeys(args.kitti))            # each once, in the order given
+    if args.scenes == 0 and not folders:
+        raise InvalidInputError("nothing to evaluate: --scenes 0 and no --dataset")
     if args.json:
-        check_output_file(args.json)
+        check_output_file(args.json, input_folders=folders)
+    pairs = [load_pair(folder) for folder in folders]     # a bad folder fails before the scenes are run
+    for folder, pair in zip(folders, pairs):
+        if not pair.layout.startswith("kitti"):
+            raise InvalidInputError(f"{folder} is a {pair.layout} folder; the labels are derived from the road plane "
+                                    f"of a KITTI frame's ground-truth disparity, so only KITTI folders are scored")
+        if pair.gt_disparity is None:
+            raise InputFileError(f"{folder}: no ground-truth disparity to derive labels from")
     params = SegmentationParameters()
     quiet = not sys.stderr.isatty()
 
@@ -90,10 +100,7 @@ def run(args: argparse.Namespace) -> int:
                                    width_px=width, height_px=height, stereo=stereo, progress=progress)
     kitti = []
     truth_params = KittiTruthParameters()
-    for folder in args.kitti:
-        pair = load_pair(folder)
-        if pair.gt_disparity is None:
-            raise InputFileError(f"{folder}: no ground-truth disparity to derive labels from")
+    for pair in pairs:
         truth, plane = kitti_truth(pair.gt_disparity, params=truth_params)
         log.info("%s: road plane %s", pair.name, plane)
         kitti.append(score_image(pair.left, truth, name=pair.name, ground="road", params=params,

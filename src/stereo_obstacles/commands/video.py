@@ -135,18 +135,6 @@ class _OncePerMessage:
         return True
 
 
-def _refuse_inside_a_source_folder(target: str, sources: list[str]) -> None:
-    """Raise :class:`~stereo_obstacles.errors.OutputError` when the output file ``target`` would
-    lie in a folder of images the run reads (it would replace a frame, or join the sequence)."""
-    from pathlib import Path
-
-    from stereo_obstacles.errors import OutputError
-
-    for source in sources:
-        if Path(source).is_dir() and Path(target).resolve().parent == Path(source).resolve():
-            raise OutputError(f"{target} lies in the input folder {source}; write it elsewhere")
-
-
 def run(args: argparse.Namespace) -> int:
     """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C, 143 on
     SIGTERM."""
@@ -185,8 +173,7 @@ def run(args: argparse.Namespace) -> int:
     written = tuple(args.source) + ((args.calib,) if args.calib else ())
     for target in (args.video_out, None if args.jsonl == "-" else args.jsonl):
         if target:
-            check_output_file(target, inputs=written)       # neither an input nor the other output
-            _refuse_inside_a_source_folder(target, args.source)
+            check_output_file(target, inputs=written, input_folders=args.source)   # nor the other output
             written += (target,)
     if args.frames_out:
         check_output_folder(args.frames_out, inputs=written)
