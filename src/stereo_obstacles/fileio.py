@@ -152,12 +152,19 @@ def _is_grey_content(rgb: np.ndarray) -> bool:
     return bool(np.array_equal(rgb[..., 0], rgb[..., 1]) and np.array_equal(rgb[..., 1], rgb[..., 2]))
 
 
+def check_image_path(path: PathLike) -> None:
+    """Raise :class:`OutputError` unless ``path`` ends in an image extension :func:`write_image`
+    writes (commands check this before any work, so that no output is written without the next)."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in _IMAGE_SUFFIXES:
+        raise OutputError(f"{path}: unknown image extension {suffix!r} (use .png, .jpg, ...)")
+
+
 def write_image(path: PathLike, image: np.ndarray) -> Path:
     """Write an 8- or 16-bit grey ``(H, W)`` or RGB ``(H, W, 3)`` image, format by extension."""
     p = Path(path)
+    check_image_path(p)
     suffix = p.suffix.lower()
-    if suffix not in _IMAGE_SUFFIXES:
-        raise OutputError(f"{p}: unknown image extension {suffix!r} (use .png, .jpg, ...)")
     array = np.asarray(image)
     if array.dtype not in (np.uint8, np.uint16):
         raise InvalidInputError(f"image to write must be uint8 or uint16, got {array.dtype}")
@@ -264,13 +271,18 @@ def read_npy(path: PathLike) -> np.ndarray:
     return a
 
 
+def check_disparity_path(path: PathLike) -> None:
+    """Raise :class:`OutputError` unless ``path`` ends in ``.npy``, ``.pfm`` or ``.png``."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".npy", ".pfm", ".png"):
+        raise OutputError(f"{path}: disparity can be written as .npy, .pfm or .png, not {suffix!r}")
+
+
 def write_disparity(path: PathLike, disparity: np.ndarray) -> Path:
     """Write a disparity map, the format chosen by extension: ``.npy``, ``.pfm`` or ``.png`` (KITTI)."""
-    suffix = Path(path).suffix.lower()
+    check_disparity_path(path)
     writers = {".npy": write_npy, ".pfm": write_pfm, ".png": write_kitti_disparity}
-    if suffix not in writers:
-        raise OutputError(f"{path}: disparity can be written as .npy, .pfm or .png, not {suffix!r}")
-    return writers[suffix](path, disparity)
+    return writers[Path(path).suffix.lower()](path, disparity)
 
 
 def read_disparity(path: PathLike) -> np.ndarray:
@@ -325,9 +337,14 @@ def write_labels(path: PathLike, labels: np.ndarray) -> Path:
     a = np.asarray(labels)
     if a.ndim != 2 or a.dtype != np.uint8:
         raise InvalidInputError(f"labels must be uint8 (H, W), got {a.dtype} {a.shape}")
+    check_labels_path(path)
+    return write_image(path, a)
+
+
+def check_labels_path(path: PathLike) -> None:
+    """Raise :class:`OutputError` unless ``path`` ends in ``.png`` (labels must be lossless)."""
     if Path(path).suffix.lower() != ".png":
         raise OutputError(f"{path}: labels are written as .png (lossless)")
-    return write_image(path, a)
 
 
 def read_labels(path: PathLike) -> np.ndarray:

@@ -159,3 +159,14 @@ def test_evaluations_check_their_datasets_before_the_scenes(inputs, run_cli):
     assert code == 1 and "only KITTI folders are scored" in error_line(err)
     code, _, err, _ = run_cli("evaluate-segmentation", "--scenes", "0")
     assert code == 1 and "nothing to evaluate" in error_line(err)
+
+
+def test_an_output_of_an_unknown_format_is_refused_before_the_first_file_is_written(inputs, run_cli, tmp_path):
+    for command in (["segment", inputs / "left.png", "-o", tmp_path / "labels.png", "--overlay", tmp_path / "o.xyz"],
+                    ["segment", inputs / "left.png", "-o", tmp_path / "labels.jpg"],
+                    ["disparity", inputs / "left.png", inputs / "right.png", "-o", tmp_path / "d.npy", "--picture",
+                     tmp_path / "p.xyz"],
+                    ["disparity", inputs / "left.png", inputs / "right.png", "-o", tmp_path / "d.tif"]):
+        code, _, err, _ = run_cli(*command)
+        assert code == 1 and ("extension" in error_line(err) or "written as" in error_line(err)), command
+    assert list(tmp_path.iterdir()) == []                     # not the labels or disparity without the rest

@@ -84,15 +84,17 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_file
     from stereo_obstacles.colorize import colorize_disparity
     from stereo_obstacles.commands._compile_notice import announce_compilation
-    from stereo_obstacles.fileio import read_image, write_disparity, write_image
+    from stereo_obstacles.fileio import check_disparity_path, check_image_path, read_image, write_disparity, write_image
     from stereo_obstacles.matching import match, warn_if_range_cut_off
     from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES
 
     inputs = (args.left, args.right, getattr(args, "calib", None),
               None if args.seeds in SEED_SOURCES else args.seeds)
     check_output_file(args.output, inputs)
+    check_disparity_path(args.output)
     if args.picture:
         check_output_file(args.picture, inputs + (args.output,))
+        check_image_path(args.picture)
     left = read_image(args.left)
     right = read_image(args.right)
     from stereo_obstacles.commands._calibration_options import prepare_pair

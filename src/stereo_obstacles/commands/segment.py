@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_file, write_text_atomic
-    from stereo_obstacles.fileio import read_image, write_image, write_labels
+    from stereo_obstacles.fileio import check_image_path, check_labels_path, read_image, write_image, write_labels
     from stereo_obstacles.labels import Label, colorize_labels
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
     from stereo_obstacles.segmentation import SegmentationParameters, segment
@@ -79,6 +79,9 @@ def run(args: argparse.Namespace) -> int:
         if target is not None:
             check_output_file(target, inputs)
             inputs += (target,)
+    check_labels_path(args.output)                       # the formats too, before the first file is written
+    if args.overlay:
+        check_image_path(args.overlay)
     rgb = read_image(args.image, mode="color")
     right = None if args.right is None else read_image(args.right, mode="color")
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
