@@ -158,3 +158,10 @@ def test_batch_rectifies_with_the_calibration_calibrate_wrote_and_matches_grey_p
         assert summary["counts"] == {"done": 2, "skipped": 0, "failed": 0}
     assert main(["batch", str(pairs), "--out", str(tmp_path / "o"), "--calib", str(tmp_path / "none.json")]) == 1
     assert capsys.readouterr().err.count("\n") == 1                          # one error, not one per pair
+
+
+def test_rectify_refuses_images_given_the_wrong_way_round(calibrated, chessboard, tmp_path, capsys):
+    calibrated, _ = calibrated
+    assert main(["rectify", str(chessboard / "right01.jpg"), str(chessboard / "left01.jpg"), "--calib",
+                 str(calibrated), "--out", str(tmp_path / "out")]) == 1
+    assert "look swapped" in capsys.readouterr().err and not (tmp_path / "out").exists()

@@ -38,6 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Rectify, measure, write the set of files atomically, print the report."""
     import json
+    import logging
 
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_folder, staged_directory
@@ -45,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError, ImageMismatchError
     from stereo_obstacles.fileio import read_image, write_image
-    from stereo_obstacles.rectification_check import check_rectification
+    from stereo_obstacles.rectification_check import check_rectification, refuse_swapped
 
     check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))
     left = read_image(args.left)
@@ -78,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
     after = check_rectification(new_left, new_right, warn=False)
     report["features_before"] = before.to_dict()
     report["features_after"] = after.to_dict()
+    refuse_swapped(after)       # rectified with the calibration, the features say the images were exchanged
     with staged_directory(args.out) as stage:
         write_image(stage / "left.png", new_left)
         write_image(stage / "right.png", new_right)
@@ -95,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
               f"{rectified_calibration.baseline_m:.4f} m, principal point ({rectified_calibration.cx_px:.1f}, "
               f"{rectified_calibration.cy_px:.1f}) px")
     if after.rectified is False:
-        print("warning: the rectified pair still shows a vertical offset above "
-              f"{after.threshold_px:g} px; check the calibration")
+        logging.getLogger(__name__).warning("the rectified pair still shows a vertical offset above %g px; check "
+                                            "the calibration", after.threshold_px)
     print(f"wrote {args.out}")
     return 0
