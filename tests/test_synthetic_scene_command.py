@@ -60,6 +60,19 @@ def test_scene_command_writes_a_sequence(tmp_path):
     assert second["forward_m"] == 0.25
 
 
+def test_a_sequence_replaces_a_single_scene_and_loads_back_frame_by_frame(tmp_path, capsys):
+    from stereo_obstacles.datasets import list_frames, load_pair
+
+    out = tmp_path / "walk"
+    assert main(["scene", "--out", str(out), "--size", "64x48", "--seed", "7"]) == 0
+    assert main(["scene", "--out", str(out), "--size", "64x48", "--seed", "5", "--frames", "2"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["frame_0000", "frame_0001"]    # no stale seed-7 files
+    assert list_frames(out) == ("frame_0000", "frame_0001")
+    assert load_pair(out, frame="frame_0001").layout == "synthetic"
+    assert main(["scene", "--out", str(tmp_path / "one"), "--size", "64x48", "--speed", "0.1"]) == 1
+    assert "give --frames N" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("size", ["640", "0x480", "axb", "20000x10"])
 def test_bad_size_fails_with_one_line_and_writes_nothing(tmp_path, capsys, size):
     out = tmp_path / "scene"

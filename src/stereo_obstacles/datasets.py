@@ -25,6 +25,9 @@ layout             files                                                  GT sca
                    calib_cam_to_cam/`` (one frame per ``<id>_10.png``)
 ================== ====================================================== =================
 
+A folder of ``frame_0000/``, ``frame_0001/``, ... scene folders (``stereo-obstacles scene
+--frames N``) is multi-frame like a KITTI 2015 folder: :func:`list_frames` names the frames.
+
 8-bit ground truth stores ``disparity * scale`` with 0 = unknown. The scale is not in the
 files, so it is derived from the image size (pass ``gt_scale`` to override):
 
@@ -140,7 +143,8 @@ class StereoPair:
 
 
 def list_frames(folder: PathLike) -> tuple[str | None, ...]:
-    """Frame names of a multi-frame folder (KITTI 2015 ``image_2/``), else ``(None,)``.
+    """Frame names of a multi-frame folder (KITTI 2015 ``image_2/``; the ``frame_0000/``, ...
+    scene folders of ``stereo-obstacles scene --frames N``), else ``(None,)``.
 
     Each name can be passed as ``frame`` to :func:`load_pair`.
     """
@@ -150,7 +154,12 @@ def list_frames(folder: PathLike) -> tuple[str | None, ...]:
         if not frames:
             raise InputFileError(f"{root}: KITTI folder image_2/ holds no *_10.png frame")
         return frames
-    return (None,)
+    return _scene_frames(root) or (None,)
+
+
+def _scene_frames(root: Path) -> tuple[str, ...]:
+    """The ``frame_*`` sub-folders of ``root`` that hold a rendered scene (``scene.json``), sorted."""
+    return tuple(sorted(p.name for p in root.glob("frame_*") if (p / "scene.json").is_file()))
 
 
 def load_pair(folder: PathLike, *, frame: str | None = None,
@@ -189,6 +198,8 @@ def load_pair(folder: PathLike, *, frame: str | None = None,
             raise InvalidInputError(f"{root} holds several KITTI frames; pass frame= "
                                     f"(one of list_frames(folder))")
         return _load_kitti2015(root, frame)
+    if frame is not None and frame in _scene_frames(root):
+        return load_pair(root / frame, gt_scale=gt_scale)
     if frame is not None:
         raise InvalidInputError(f"{root} holds a single pair; frame={frame!r} does not apply")
     for loader in (_load_synthetic, _load_middlebury2014, _load_middlebury2005,

@@ -7,6 +7,8 @@ import argparse
 from stereo_obstacles.commands._arguments import jpeg_quality, output_path
 
 GROUNDS = ("pavement", "grass", "tiles", "asphalt")
+DEFAULT_SPEED_M = 0.05
+"""Forward motion of the rig per frame of ``--frames``, metres (a walk at 1.5 m/s, 30 frames/s)."""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -46,8 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="sun height above the horizon, degrees")
     parser.add_argument("--frames", type=int, default=1, metavar="N",
                         help="render N frames with the rig walking forward (folders frame_0000, ...)")
-    parser.add_argument("--speed", type=float, default=0.05, metavar="M",
-                        help="forward motion per frame in metres (default 0.05)")
+    parser.add_argument("--speed", type=float, default=None, metavar="M",
+                        help=f"forward motion per frame in metres, with --frames (default {DEFAULT_SPEED_M})")
     parser.set_defaults(handler=run)
 
 
@@ -60,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.synthetic import (Lighting, RenderOptions, RightCameraError, default_scene,
                                             random_scene, render_pair, render_sequence, write_scene_folder)
+    from stereo_obstacles.synthetic.scene_files import SCENE_FILES
 
     from stereo_obstacles.commands._arguments import image_size
 
@@ -83,11 +86,13 @@ def run(args: argparse.Namespace) -> int:
         jpeg_quality=args.jpeg_quality)
     out = Path(args.out)
     if args.frames == 1:
+        if args.speed is not None:
+            raise InvalidInputError("--speed moves the rig between frames: give --frames N (N >= 2) too")
         write_scene_folder(out, render_pair(scene, options))
         print(f"wrote scene (seed {scene.seed}, {width}x{height}) to {out}")
         return 0
-    frames = render_sequence(scene, args.frames, args.speed, options)
-    with staged_directory(out) as stage:
+    frames = render_sequence(scene, args.frames, DEFAULT_SPEED_M if args.speed is None else args.speed, options)
+    with staged_directory(out, stale=SCENE_FILES) as stage:      # a single scene written there before goes
         for k, pair in enumerate(frames):
             write_scene_folder(stage / f"frame_{k:04d}", pair)
     print(f"wrote {args.frames} frames (seed {scene.seed}, {width}x{height}) to {out}/frame_*")
