@@ -8,7 +8,7 @@ import shutil
 import cv2
 import pytest
 
-from _stream_frames import frames
+from _stream_frames import N_FRAMES, frames
 from stereo_obstacles.batch import (DONE_FILE, SUMMARY_FILE, BatchJob, PairSpec, find_pairs, process_pair,
                                     run_batch)
 from stereo_obstacles.cli import main
@@ -148,6 +148,18 @@ def test_should_stop_ends_the_batch_after_the_current_pair(pairs_dir, tmp_path):
     outcomes = run_batch(jobs, should_stop=lambda: True)
     assert [o.name for o in outcomes] == ["a"]
     assert not (tmp_path / "out" / "c").exists()
+
+
+def test_stopped_worker_processes_report_every_pair_they_finished(tmp_path):
+    folder = tmp_path / "pairs"
+    folder.mkdir()
+    for k in range(8):
+        _write_pair(folder, f"p{k}_left.png", f"p{k}_right.png", k % N_FRAMES)
+    jobs = [BatchJob(p, str(tmp_path / "out" / p.name), "disparity", CONFIG) for p in find_pairs(folder)]
+    outcomes = run_batch(jobs, workers=2, should_stop=lambda: True)       # stop at the first finished pair
+    done = sorted(p.parent.name for p in (tmp_path / "out").glob(f"*/{DONE_FILE}"))
+    assert 1 <= len(done) < len(jobs)                   # the pairs already started finished, no new one began
+    assert sorted(o.name for o in outcomes) == done      # and each of them is reported (3-5 were not)
 
 
 def test_process_pair_never_raises(tmp_path):

@@ -324,9 +324,12 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _local_results(jobs: list[BatchJob], workers: int) -> Iterable[PairOutcome]:
+def _local_results(jobs: list[BatchJob], workers: int, should_stop: Callable[[], bool]) -> Iterable[PairOutcome]:
     if workers == 1:
-        yield from (process_pair(job) for job in jobs)
+        for job in jobs:
+            yield process_pair(job)
+            if should_stop():
+                return
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -334,15 +337,17 @@ def _local_results(jobs: list[BatchJob], workers: int) -> Iterable[PairOutcome]:
     with ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
                              initializer=_ignore_sigint) as pool:
         futures = [pool.submit(process_pair, job) for job in jobs]
-        try:
-            for future in as_completed(futures):
-                yield future.result()
-        finally:
+
+        def cancel() -> None:
             for future in futures:
-                future.cancel()
+                future.cancel()            # only those not started: the others finish
+        try:
+            yield from _until_stopped(as_completed(futures), cancel, should_stop)
+        finally:
+            cancel()
 
 
-def _dask_results(jobs: list[BatchJob], scheduler: str) -> Iterable[PairOutcome]:
+def _dask_results(jobs: list[BatchJob], scheduler: str, should_stop: Callable[[], bool]) -> Iterable[PairOutcome]:
     try:
         from distributed import Client, as_completed
     except ImportError as exc:
@@ -354,10 +359,24 @@ def _dask_results(jobs: list[BatchJob], scheduler: str) -> Iterable[PairOutcome]
     with client:
         futures = client.map(process_pair, jobs, pure=False)
         try:
-            for future in as_completed(futures):
-                yield future.result()
+            yield from _until_stopped(as_completed(futures), lambda: client.cancel(futures), should_stop)
         finally:
             client.cancel(futures)
+
+
+def _until_stopped(completed: Iterable, cancel: Callable[[], object],
+                   should_stop: Callable[[], bool]) -> Iterator[PairOutcome]:
+    """The outcomes of the ``completed`` futures; once ``should_stop()`` says so, ``cancel()`` the
+    ones not started and go on with those already running, so that every pair that finishes (and
+    wrote its done file) is reported."""
+    stopping = False
+    for future in completed:
+        if future.cancelled():
+            continue
+        yield future.result()
+        if not stopping and should_stop():
+            stopping = True
+            cancel()
 
 
 def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None = None,
@@ -377,7 +396,8 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         Called with each outcome as it arrives (skipped pairs first).
     should_stop : callable, optional
         Asked after each finished pair; when it returns True no further pair is started,
-        pairs not yet started are cancelled, and the outcomes so far are returned.
+        pairs not yet started are cancelled, those already running are waited for, and the
+        outcomes are returned.
 
     Returns
     -------
@@ -403,12 +423,9 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         else:
             todo.append(job)
     if todo:
-        results = _dask_results(todo, scheduler) if scheduler else _local_results(todo, int(workers))
-        for outcome in results:
+        stop = should_stop or (lambda: False)
+        for outcome in _dask_results(todo, scheduler, stop) if scheduler else _local_results(todo, int(workers), stop):
             record(outcome)
-            if should_stop is not None and should_stop():
-                results.close()
-                break
     return outcomes
 
 
