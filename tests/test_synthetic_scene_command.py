@@ -110,3 +110,9 @@ def test_bad_jpeg_quality_is_refused_by_the_scene_command(tmp_path, capsys):
     assert exit_info.value.code == 2
     assert "expected a JPEG quality 1..100" in capsys.readouterr().err
     assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.parametrize("gain", ["-1", "-2", "nan"])
+def test_a_right_gain_of_zero_or_less_is_refused_by_the_option_name(tmp_path, capsys, gain):
+    assert main(["scene", "--out", str(tmp_path / "s"), "--size", "48x36", "--gain-diff", gain]) == 1
+    assert "--gain-diff must be > -1" in capsys.readouterr().err and not (tmp_path / "s").exists()

@@ -69,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.errors import InputFileError, InvalidInputError
+    from stereo_obstacles.obstacle_json import jsonable
     from stereo_obstacles.segmentation import SegmentationParameters
     from stereo_obstacles.segmentation_evaluation import (KittiTruthParameters, evaluate_synthetic,
                                                           kitti_truth, score_image, total)
@@ -126,5 +127,5 @@ def run(args: argparse.Namespace) -> int:
                   "synthetic_total": {"shadow_rule_on": total(synthetic).summary(),
                                       "shadow_rule_off": total(synthetic, rule=False).summary()},
                   "kitti": [s.summary() for s in kitti]}
-        write_text_atomic(args.json, json.dumps(report, indent=2, allow_nan=True) + "\n")
+        write_text_atomic(args.json, json.dumps(jsonable(report), indent=2, allow_nan=False) + "\n")   # NaN: null
     return 0

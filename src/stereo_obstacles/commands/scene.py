@@ -67,6 +67,8 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._arguments import image_size
 
     width, height = image_size(args.size)
+    if not args.gain_diff > -1.0:                        # NaN too
+        raise InvalidInputError(f"--gain-diff must be > -1 (the right camera's gain is 1 + G), got {args.gain_diff}")
     if args.seed < 0:
         raise InvalidInputError(f"--seed must be >= 0, got {args.seed}")
     if args.seed == 0:
