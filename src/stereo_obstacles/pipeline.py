@@ -395,7 +395,8 @@ def warm_up() -> float:
     numba caches the compiled code on disk, so only the first process pays in full. The pair is
     320 x 240, the smallest matched as 640 x 480 pairs are (grown at half size, refined at full
     size); at 160 x 120 (matched at full size) the first 640 x 480 pair still compiled for
-    0.6 s. A warm call takes 1.4 s either way, most of it rendering the scene's textures.
+    0.6 s. With the kernels cached, a first call in a process takes 1.4 s at either size, most
+    of it making the scene's textures (once per process: 0.4 s in ``demo``, which has rendered).
     """
     from stereo_obstacles.synthetic import default_scene, render_pair
 
