@@ -197,3 +197,47 @@ def test_an_output_folder_that_is_the_input_folder_is_refused_and_one_inside_it_
     assert main(args) == 0
     assert main(args) == 0                                    # the results folder is not taken for a pair
     assert _summary(tmp_path / "in" / "results")["counts"] == {"done": 0, "skipped": 1, "failed": 0}
+
+
+def test_sigterm_ends_a_batch_with_143_and_a_summary_of_every_finished_pair(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    folder = tmp_path / "pairs"
+    folder.mkdir()
+    for k in range(24):
+        _write_pair(folder, f"p{k:02d}_left.png", f"p{k:02d}_right.png", k % N_FRAMES)
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, "-m", "stereo_obstacles", "batch", str(folder), "--out", str(out),
+                                "--workers", "2"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and process.poll() is None and not list(out.glob(f"*/{DONE_FILE}")):
+        time.sleep(0.05)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 143, err
+    summary = _summary(out)
+    written = len(list(out.glob(f"*/{DONE_FILE}")))
+    assert summary["interrupted"] is True and summary["counts"]["done"] == written < 24
+
+
+def test_finished_unreported_reads_back_the_done_files_of_this_run_only(tmp_path):
+    import json
+    import os
+    import time
+
+    from stereo_obstacles.batch import PairOutcome, finished_unreported
+
+    jobs = [BatchJob(PairSpec(name, folder="in"), str(tmp_path / name), "disparity", CONFIG)
+            for name in ("reported", "finished", "earlier", "running")]
+    for name in ("reported", "finished", "earlier"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / DONE_FILE).write_text(json.dumps({"name": name, "task": "disparity", "seconds": 0.5,
+                                                             "density": 0.7, "warnings": ["w"]}))
+    since = time.time() - 60
+    os.utime(tmp_path / "earlier" / DONE_FILE, (since - 3600, since - 3600))       # done by an earlier run
+    found = finished_unreported(jobs, [PairOutcome("reported", "done", 0.1)], since=since)
+    assert [(o.name, o.status, o.seconds, o.details, o.warnings) for o in found] == [
+        ("finished", "done", 0.5, {"density": 0.7}, ("w",))]

@@ -156,6 +156,12 @@ def test_batch_rectifies_with_the_calibration_calibrate_wrote_and_matches_grey_p
                      "--calib", str(calib)]) == 0, capsys.readouterr().err
         summary = json.loads((out / "batch_summary.json").read_text())
         assert summary["counts"] == {"done": 2, "skipped": 0, "failed": 0}
+    # the same disparity as the disparity command's, which rectifies with the calibration first
+    assert main(["disparity", str(pairs / "p01_left.jpg"), str(pairs / "p01_right.jpg"), "--calib", str(calibrated),
+                 "-o", str(tmp_path / "single.pfm")]) == 0
+    from stereo_obstacles.fileio import read_pfm
+    assert np.array_equal(read_pfm(tmp_path / "out_json" / "p01" / "disparity.pfm"), read_pfm(tmp_path / "single.pfm"),
+                          equal_nan=True)
     assert main(["batch", str(pairs), "--out", str(tmp_path / "o"), "--calib", str(tmp_path / "none.json")]) == 1
     assert capsys.readouterr().err.count("\n") == 1                          # one error, not one per pair
 

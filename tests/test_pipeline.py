@@ -199,16 +199,15 @@ def test_inputs_the_pipeline_cannot_use_are_refused_before_any_work():
         detect(pair.left, pair.right, {"focal_px": 200.0, "baseline_m": 0.1})
 
 
-@pytest.mark.parametrize("value", [-5, 0, 2.5])
-def test_a_maximum_disparity_below_one_pixel_is_refused_by_its_name(value):
+@pytest.mark.parametrize("value", [-5, 0, 2.5, float("nan"), float("inf")])
+def test_a_maximum_disparity_that_is_not_a_whole_pixel_count_is_refused_by_its_name(value):
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.matching import disparity_range
 
     with pytest.raises(InvalidInputError, match="max_disparity must be an integer in \\[1, inf\\]"):
         MatchingOptions(max_disparity=value)
-    if value < 1:
-        with pytest.raises(InvalidInputError, match="max_disparity: expected an integer >= 1"):
-            disparity_range(320, 0, value)         # was "min_disparity: expected < image width 320, got 0"
+    with pytest.raises(InvalidInputError, match="max_disparity: expected an integer >= 1"):
+        disparity_range(320, 0, value)             # was "min_disparity: expected < image width 320, got 0"
 
 
 def test_the_result_is_frozen_down_to_its_images(default_result):

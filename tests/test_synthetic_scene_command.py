@@ -71,6 +71,11 @@ def test_a_sequence_replaces_a_single_scene_and_loads_back_frame_by_frame(tmp_pa
     assert load_pair(out, frame="frame_0001").layout == "synthetic"
     assert main(["scene", "--out", str(tmp_path / "one"), "--size", "64x48", "--speed", "0.1"]) == 1
     assert "give --frames N" in capsys.readouterr().err
+    assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "3"]) == 0
+    assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "2"]) == 0
+    assert list_frames(out) == ("frame_0000", "frame_0001")                 # not the longer walk's third
+    assert main(["scene", "--out", str(out), "--size", "64x48"]) == 0
+    assert list_frames(out) == (None,) and load_pair(out).layout == "synthetic"   # one scene, no stale frames
 
 
 @pytest.mark.parametrize("size", ["640", "0x480", "axb", "20000x10"])
@@ -112,7 +117,7 @@ def test_bad_jpeg_quality_is_refused_by_the_scene_command(tmp_path, capsys):
     assert not (tmp_path / "s").exists()
 
 
-@pytest.mark.parametrize("gain", ["-1", "-2", "nan"])
-def test_a_right_gain_of_zero_or_less_is_refused_by_the_option_name(tmp_path, capsys, gain):
+@pytest.mark.parametrize("gain", ["-1", "-0.9", "3.5", "inf", "nan"])
+def test_a_right_gain_out_of_range_is_refused_by_the_option_name(tmp_path, capsys, gain):
     assert main(["scene", "--out", str(tmp_path / "s"), "--size", "48x36", "--gain-diff", gain]) == 1
-    assert "--gain-diff must be > -1" in capsys.readouterr().err and not (tmp_path / "s").exists()
+    assert "--gain-diff must be in [-0.75, 3]" in capsys.readouterr().err and not (tmp_path / "s").exists()

@@ -33,7 +33,7 @@ from pathlib import Path
 from stereo_obstacles.errors import InputFileError, InvalidInputError
 
 __all__ = ["DONE_FILE", "SUMMARY_FILE", "TASKS", "BatchJob", "PairOutcome", "PairSpec", "find_pairs",
-           "process_pair", "run_batch", "write_summary"]
+           "finished_unreported", "process_pair", "run_batch", "write_summary"]
 
 logger = logging.getLogger(__name__)
 
@@ -129,7 +129,7 @@ def _image_files(folder: Path) -> list[Path]:
 
 def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str] | None = None) -> list[PairSpec]:
     """Every stereo pair under ``input_dir`` (see the module docstring), sorted by name; the
-    sub-folder ``skip`` (a batch's output folder inside its input folder) is left out.
+    sub-folder holding ``skip`` (a batch's output folder inside its input folder) is left out.
 
     Raises
     ------
@@ -143,8 +143,8 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
         raise InputFileError(f"input folder {root} does not exist or is not a folder")
     pairs: list[PairSpec] = []
     skipped = None if skip is None else Path(skip).resolve()
-    subfolders = sorted(p for p in root.iterdir()
-                        if p.is_dir() and not p.name.startswith(".") and p.resolve() != skipped)
+    subfolders = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")
+                        and (skipped is None or (p.resolve() != skipped and p.resolve() not in skipped.parents)))
     sides = {p.name.lower(): p for p in subfolders if p.name.lower() in ("left", "right")}
     if len(sides) == 2:
         right_names = {p.name for p in _image_files(sides["right"])}
@@ -217,9 +217,9 @@ def _load(job: BatchJob):
     else:
         mode = "color" if job.task == "detect" else "any"     # the matcher takes grey pairs too
         left, right = read_image(pair.left, mode=mode), read_image(pair.right, mode=mode)
-        if left.shape != right.shape or left.dtype != right.dtype:
-            raise ImageMismatchError(f"{pair.left} is {left.shape[1]}x{left.shape[0]} {left.dtype} but "
-                                     f"{pair.right} is {right.shape[1]}x{right.shape[0]} {right.dtype}")
+        if left.shape[:2] != right.shape[:2] or left.dtype != right.dtype or (job.task == "detect"
+                                                                           and left.shape != right.shape):
+            raise ImageMismatchError(f"{pair.left} is {_describe(left)} but {pair.right} is {_describe(right)}")
         calibration = None
         inputs = {"left": pair.left, "right": pair.right}
     if job.calib_file is not None:
@@ -233,6 +233,11 @@ def _load(job: BatchJob):
     if calibration is not None:
         calibration.check_image_size(left.shape[1], left.shape[0])
     return left, right, calibration, inputs
+
+
+def _describe(image) -> str:
+    """``640x480 uint8 RGB`` (or grey) of an image array."""
+    return f"{image.shape[1]}x{image.shape[0]} {image.dtype} {'RGB' if image.ndim == 3 else 'grey'}"
 
 
 def _run_task(job: BatchJob) -> dict:
@@ -315,6 +320,28 @@ def process_pair(job: BatchJob) -> PairOutcome:
     if outcome.status == "failed":
         logger.debug("pair %s failed: %s", job.pair.name, outcome.reason)
     return outcome
+
+
+def finished_unreported(jobs: Iterable[BatchJob], outcomes: Iterable[PairOutcome], *,
+                        since: float) -> list[PairOutcome]:
+    """Outcomes for the ``jobs`` that have none in ``outcomes`` but wrote their done file at or
+    after ``since`` (``time.time()`` seconds): pairs a stopped batch did not wait for (a second
+    Ctrl-C, SIGTERM, tasks Dask cancels while they run) finish anyway, and the summary must
+    count them. Read back from each ``done.json``."""
+    reported = {o.name for o in outcomes}
+    found = []
+    for job in jobs:
+        done = Path(job.out_dir) / DONE_FILE
+        if job.pair.name in reported or not done.is_file() or done.stat().st_mtime < since:
+            continue
+        try:
+            record = json.loads(done.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue                                # torn or unreadable: the pair is not done
+        details = {k: v for k, v in record.items() if k not in ("name", "task", "seconds", "warnings")}
+        found.append(PairOutcome(job.pair.name, "done", float(record.get("seconds", 0.0)), None, details,
+                                 tuple(record.get("warnings", ()))))
+    return found
 
 
 def _ignore_sigint() -> None:
@@ -416,6 +443,7 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         if on_outcome is not None:
             on_outcome(outcome)
 
+    started = time.time()
     todo = []
     for job in jobs:
         if (Path(job.out_dir) / DONE_FILE).is_file():
@@ -425,6 +453,8 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
     if todo:
         stop = should_stop or (lambda: False)
         for outcome in _dask_results(todo, scheduler, stop) if scheduler else _local_results(todo, int(workers), stop):
+            record(outcome)
+        for outcome in finished_unreported(todo, outcomes, since=started):   # Dask cancels running tasks too
             record(outcome)
     return outcomes
 

@@ -12,6 +12,7 @@ speckle removal (:mod:`stereo_obstacles.speckles`). See ``docs/matching.md``.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import asdict, dataclass
 
@@ -258,7 +259,8 @@ def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | Non
     ((0, 213), (2, 64), (0, 39))
     """
     d_min = int(min_disparity)
-    if max_disparity is not None and (max_disparity != int(max_disparity) or max_disparity < max(d_min, 1)):
+    if max_disparity is not None and (not math.isfinite(max_disparity) or max_disparity != int(max_disparity)
+                                      or max_disparity < max(d_min, 1)):
         raise InvalidInputError(f"max_disparity: expected an integer >= {max(d_min, 1)}, got {max_disparity}")
     d_max = (int(max_disparity) if max_disparity is not None
              else max(d_min, round(width * DEFAULT_MAX_DISPARITY_FRACTION)))

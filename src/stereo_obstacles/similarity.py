@@ -16,6 +16,7 @@ so that border pixels have full windows.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +27,9 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.thread_pool import run_in_threads
 
-__all__ = ["KINDS", "RADIUS", "UNDEFINED", "SimilarityInputs", "prepare_similarity", "similarity_at",
+logger = logging.getLogger(__name__)
+
+__all__ = ["KINDS", "RADIUS", "UNDEFINED", "SimilarityInputs", "grey_pair", "prepare_similarity", "similarity_at",
            "to_grey"]
 
 KINDS = {"ncc": KIND_NCC, "mncc": KIND_MNCC}
@@ -88,6 +91,7 @@ def grey_pair(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarr
     greys = to_grey(left, "left"), to_grey(right, "right")
     images = [np.asarray(image) for image in (left, right)]
     if all(np.issubdtype(a.dtype, np.floating) and a.size and a.min() >= 0.0 and a.max() <= 1.0 for a in images):
+        logger.info("float images of 0..1: matched as grey levels of 0..255")
         for grey in greys:
             grey *= np.float32(255.0)
     return greys

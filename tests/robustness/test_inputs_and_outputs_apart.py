@@ -151,8 +151,14 @@ def test_evaluation_outputs_inside_a_dataset_folder_are_refused(inputs, run_cli,
     assert (scene / "disparity.pfm").read_bytes() == truth and not (scene / "figures.json").exists()
 
 
-def test_evaluations_check_their_datasets_before_the_scenes(inputs, run_cli):
-    # 50 scenes would take minutes: the errors come at once
+def test_evaluations_check_their_datasets_before_the_scenes(inputs, run_cli, monkeypatch):
+    from stereo_obstacles import detection_evaluation, segmentation_evaluation
+
+    def no_scene(*args, **kwargs):
+        raise AssertionError("a scene was evaluated before the datasets were checked")
+
+    monkeypatch.setattr(detection_evaluation, "evaluate_synthetic_scene", no_scene)
+    monkeypatch.setattr(segmentation_evaluation, "evaluate_synthetic", no_scene)
     code, _, err, _ = run_cli("evaluate-detection", "--scenes", "50", "--dataset", inputs / "nowhere")
     assert code == 1 and "does not exist" in error_line(err)
     code, _, err, _ = run_cli("evaluate-segmentation", "--scenes", "50", "--dataset", inputs / "scene")

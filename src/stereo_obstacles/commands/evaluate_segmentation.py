@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
         check_output_file(args.json, input_folders=folders)
     pairs = [load_pair(folder) for folder in folders]     # a bad folder fails before the scenes are run
     for folder, pair in zip(folders, pairs):
-        if not pair.layout.startswith("kitti"):
+        if not pair.is_kitti:
             raise InvalidInputError(f"{folder} is a {pair.layout} folder; the labels are derived from the road plane "
                                     f"of a KITTI frame's ground-truth disparity, so only KITTI folders are scored")
         if pair.gt_disparity is None:

@@ -53,6 +53,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
+def _remove_frames(folder, keep) -> None:
+    """Remove the ``frame_*`` scene folders (holding a ``scene.json``) of ``folder`` not named in
+    ``keep``: frames of an earlier sequence, which the dataset reader would take for this one's."""
+    import shutil
+    from pathlib import Path
+
+    for frame in Path(folder).glob("frame_*"):
+        if frame.name not in keep and (frame / "scene.json").is_file():
+            shutil.rmtree(frame)
+
+
 def run(args: argparse.Namespace) -> int:
     """Render the scene and write its folder."""
     from dataclasses import replace
@@ -67,8 +78,9 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._arguments import image_size
 
     width, height = image_size(args.size)
-    if not args.gain_diff > -1.0:                        # NaN too
-        raise InvalidInputError(f"--gain-diff must be > -1 (the right camera's gain is 1 + G), got {args.gain_diff}")
+    if not -0.75 <= args.gain_diff <= 3.0:                # NaN too; the renderer's gain range [0.25, 4]
+        raise InvalidInputError(f"--gain-diff must be in [-0.75, 3] (the right camera's gain is 1 + G), got "
+                                f"{args.gain_diff}")
     if args.seed < 0:
         raise InvalidInputError(f"--seed must be >= 0, got {args.seed}")
     if args.seed == 0:
@@ -91,11 +103,14 @@ def run(args: argparse.Namespace) -> int:
         if args.speed is not None:
             raise InvalidInputError("--speed moves the rig between frames: give --frames N (N >= 2) too")
         write_scene_folder(out, render_pair(scene, options))
+        _remove_frames(out, keep=())                    # a sequence written there before
         print(f"wrote scene (seed {scene.seed}, {width}x{height}) to {out}")
         return 0
     frames = render_sequence(scene, args.frames, DEFAULT_SPEED_M if args.speed is None else args.speed, options)
+    names = [f"frame_{k:04d}" for k in range(args.frames)]
     with staged_directory(out, stale=SCENE_FILES) as stage:      # a single scene written there before goes
-        for k, pair in enumerate(frames):
-            write_scene_folder(stage / f"frame_{k:04d}", pair)
+        for name, pair in zip(names, frames):
+            write_scene_folder(stage / name, pair)
+    _remove_frames(out, keep=names)                              # and the frames of a longer sequence
     print(f"wrote {args.frames} frames (seed {scene.seed}, {width}x{height}) to {out}/frame_*")
     return 0

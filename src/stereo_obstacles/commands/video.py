@@ -140,9 +140,9 @@ def run(args: argparse.Namespace) -> int:
     SIGTERM."""
     import itertools
     import sys
-    from dataclasses import replace
     import time
     from contextlib import ExitStack
+    from dataclasses import replace
     from pathlib import Path
 
     from stereo_obstacles.allocator import keep_freed_memory
