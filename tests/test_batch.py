@@ -223,21 +223,48 @@ def test_sigterm_ends_a_batch_with_143_and_a_summary_of_every_finished_pair(tmp_
     assert summary["interrupted"] is True and summary["counts"]["done"] == written < 24
 
 
-def test_finished_unreported_reads_back_the_done_files_of_this_run_only(tmp_path):
+def test_finished_unreported_reads_back_the_done_files_of_the_pending_pairs(tmp_path):
     import json
-    import os
-    import time
 
     from stereo_obstacles.batch import PairOutcome, finished_unreported
 
-    jobs = [BatchJob(PairSpec(name, folder="in"), str(tmp_path / name), "disparity", CONFIG)
-            for name in ("reported", "finished", "earlier", "running")]
-    for name in ("reported", "finished", "earlier"):
+    jobs = {name: BatchJob(PairSpec(name, folder="in"), str(tmp_path / name), "disparity", CONFIG)
+            for name in ("reported", "finished", "torn", "listed", "running")}
+    for name in ("reported", "finished"):
         (tmp_path / name).mkdir()
         (tmp_path / name / DONE_FILE).write_text(json.dumps({"name": name, "task": "disparity", "seconds": 0.5,
                                                              "density": 0.7, "warnings": ["w"]}))
-    since = time.time() - 60
-    os.utime(tmp_path / "earlier" / DONE_FILE, (since - 3600, since - 3600))       # done by an earlier run
-    found = finished_unreported(jobs, [PairOutcome("reported", "done", 0.1)], since=since)
+    for name, text in (("torn", '{"name": "to'), ("listed", "[1, 2]")):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / DONE_FILE).write_text(text)
+    found = finished_unreported(jobs.values(), [PairOutcome("reported", "done", 0.1)])
     assert [(o.name, o.status, o.seconds, o.details, o.warnings) for o in found] == [
         ("finished", "done", 0.5, {"density": 0.7}, ("w",))]
+
+
+@pytest.mark.parametrize("out", ["res/run1", "grp/results"])
+def test_an_output_folder_deep_in_the_input_skips_only_the_folders_on_its_way(tmp_path, out):
+    (tmp_path / "in" / "grp").mkdir(parents=True)
+    _write_pair(tmp_path / "in" / "grp", "a_left.png", "a_right.png")
+    _write_pair(tmp_path / "in" / "grp", "b_left.png", "b_right.png")
+    (tmp_path / "in" / out).mkdir(parents=True)
+    # res/ holds nothing but the way to the output: skipped; grp/ holds pairs beside it: kept
+    assert sorted(p.name for p in find_pairs(tmp_path / "in", skip=tmp_path / "in" / out)) == ["grp_a", "grp_b"]
+
+
+def test_a_grey_and_a_colour_image_make_a_pair_for_the_disparity_task(tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    _write_pair(folder, "p_left.png", "p_right.png")
+    grey = cv2.cvtColor(cv2.imread(str(folder / "p_left.png")), cv2.COLOR_BGR2GRAY)
+    cv2.imwrite(str(folder / "p_left.png"), grey)
+    assert main(["batch", str(folder), "--out", str(tmp_path / "out"), "--task", "disparity", "--workers", "1",
+                 "--max-disparity", "40"]) == 0
+    assert (tmp_path / "out" / "p" / DONE_FILE).is_file()
+
+
+def test_pair_names_differing_only_in_case_are_refused(tmp_path):
+    _write_pair(tmp_path, "Teddy_left.png", "Teddy_right.png")
+    _write_pair(tmp_path, "teddy_left.png", "teddy_right.png")
+    with pytest.raises(InputFileError, match="share the output name"):
+        find_pairs(tmp_path)

@@ -163,11 +163,16 @@ def test_terminal_table_lists_the_largest_rejected_groups_and_sums_up_the_rest()
 def test_a_rerun_removes_the_pictures_of_their_former_names_from_its_own_folder_only(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    for name in report.FORMER_PICTURE_NAMES:                 # an earlier version's 8-bit pictures
-        (out / name).write_bytes(b"picture")
-    (out / "notes.txt").write_text("the user's")
-    _write(out)
-    assert (out / "depth.png").exists()                    # no earlier report here: the user's own file
-    _write(out)                                           # a rerun over the report
-    assert not any((out / name).exists() for name in report.FORMER_PICTURE_NAMES)
-    assert (out / "notes.txt").exists() and (out / "disparity_picture.png").exists()
+    for name in report.FORMER_PICTURE_NAMES + ("depth.npy",):             # the user's own files
+        (out / name).write_bytes(b"user")
+    _write(out, calibrated=False)
+    assert all((out / name).read_bytes() == b"user" for name in report.FORMER_PICTURE_NAMES + ("depth.npy",))
+    _write(out, calibrated=False)                                         # a rerun over a current report
+    assert all((out / name).exists() for name in report.FORMER_PICTURE_NAMES)
+    former = tmp_path / "former"                                          # a report of the former kind
+    _write(former)
+    (former / "disparity_picture.png").rename(former / "disparity.png")
+    (former / "depth_picture.png").rename(former / "depth.png")
+    _write(former)
+    assert not any((former / name).exists() for name in report.FORMER_PICTURE_NAMES)
+    assert (former / "disparity_picture.png").exists()

@@ -121,3 +121,28 @@ def test_bad_jpeg_quality_is_refused_by_the_scene_command(tmp_path, capsys):
 def test_a_right_gain_out_of_range_is_refused_by_the_option_name(tmp_path, capsys, gain):
     assert main(["scene", "--out", str(tmp_path / "s"), "--size", "48x36", "--gain-diff", gain]) == 1
     assert "--gain-diff must be in [-0.75, 3]" in capsys.readouterr().err and not (tmp_path / "s").exists()
+
+
+def test_frames_of_an_earlier_sequence_go_but_nothing_of_the_users(tmp_path):
+    import json
+
+    out = tmp_path / "walk"
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "3"]) == 0
+    (out / "frame_0002" / "my_results").mkdir()
+    (out / "frame_0002" / "my_results" / "notes.txt").write_text("mine")
+    (out / "frame_0009").mkdir()                                           # someone else's frame
+    (out / "frame_0009" / "scene.json").write_text(json.dumps({"format": "blender-export"}))
+    (out / "frame_0010").symlink_to(out / "frame_0000")
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 0
+    assert (out / "frame_0002" / "my_results" / "notes.txt").read_text() == "mine"
+    assert not (out / "frame_0002" / "scene.json").exists() and not (out / "frame_0002" / "left.png").exists()
+    assert (out / "frame_0009" / "scene.json").exists() and (out / "frame_0010").is_symlink()
+
+
+def test_a_sequence_into_a_folder_of_the_users_own_files_keeps_them(tmp_path):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "left.png").write_bytes(b"my picture")
+    (out / "obstacles.json").write_text("{}")
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 0
+    assert (out / "left.png").read_bytes() == b"my picture" and (out / "obstacles.json").read_text() == "{}"

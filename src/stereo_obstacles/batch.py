@@ -129,7 +129,8 @@ def _image_files(folder: Path) -> list[Path]:
 
 def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str] | None = None) -> list[PairSpec]:
     """Every stereo pair under ``input_dir`` (see the module docstring), sorted by name; the
-    sub-folder holding ``skip`` (a batch's output folder inside its input folder) is left out.
+    folder ``skip`` (a batch's output folder inside its input folder), and a sub-folder that holds
+    nothing but the way down to it, are left out.
 
     Raises
     ------
@@ -143,8 +144,8 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
         raise InputFileError(f"input folder {root} does not exist or is not a folder")
     pairs: list[PairSpec] = []
     skipped = None if skip is None else Path(skip).resolve()
-    subfolders = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")
-                        and (skipped is None or (p.resolve() != skipped and p.resolve() not in skipped.parents)))
+    subfolders = sorted(p for p in root.iterdir()
+                        if p.is_dir() and not p.name.startswith(".") and not _only_leads_to(p, skipped))
     sides = {p.name.lower(): p for p in subfolders if p.name.lower() in ("left", "right")}
     if len(sides) == 2:
         right_names = {p.name for p in _image_files(sides["right"])}
@@ -168,14 +169,28 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
             name = folder.name if frame is None else f"{folder.name}_{frame}"
             pairs.append(PairSpec(name, folder=str(folder), frame=frame))
     pairs.extend(_pairs_by_name(root, prefix="", warn=True))
-    names = [p.name for p in pairs]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
+    names = [p.name.casefold() for p in pairs]               # one output folder on a case-insensitive disk
+    duplicates = sorted({p.name for p in pairs if names.count(p.name.casefold()) > 1})
     if duplicates:
         raise InputFileError(f"{root}: several pairs would share the output name(s) {', '.join(duplicates)}")
     if not pairs:
         raise InputFileError(f"{root}: no stereo pairs found (sub-folders of a known layout, <name>_left/"
                              f"<name>_right images, or left/ and right/ folders)")
     return sorted(pairs, key=lambda p: p.name)
+
+
+def _only_leads_to(folder: Path, target: Path | None) -> bool:
+    """Whether ``folder`` is ``target`` (resolved) or holds nothing but the way down to it: a
+    batch's output folder inside its input folder, not a pair."""
+    if target is None:
+        return False
+    here = folder.resolve()
+    if here == target:
+        return True
+    if here not in target.parents:
+        return False
+    entries = [entry for entry in folder.iterdir() if not entry.name.startswith(".")]
+    return len(entries) == 1 and entries[0].is_dir() and _only_leads_to(entries[0], target)
 
 
 def _pairs_by_name(folder: Path, *, prefix: str, warn: bool = False) -> list[PairSpec]:
@@ -322,22 +337,23 @@ def process_pair(job: BatchJob) -> PairOutcome:
     return outcome
 
 
-def finished_unreported(jobs: Iterable[BatchJob], outcomes: Iterable[PairOutcome], *,
-                        since: float) -> list[PairOutcome]:
-    """Outcomes for the ``jobs`` that have none in ``outcomes`` but wrote their done file at or
-    after ``since`` (``time.time()`` seconds): pairs a stopped batch did not wait for (a second
-    Ctrl-C, SIGTERM, tasks Dask cancels while they run) finish anyway, and the summary must
-    count them. Read back from each ``done.json``."""
+def finished_unreported(pending: Iterable[BatchJob], outcomes: Iterable[PairOutcome]) -> list[PairOutcome]:
+    """Outcomes for the ``pending`` jobs (those without a done file when the run started) that
+    have none in ``outcomes`` but wrote their done file since: pairs a stopped batch did not wait
+    for (a second Ctrl-C, SIGTERM) finish anyway, and the summary must count them. Read back from
+    each ``done.json``."""
     reported = {o.name for o in outcomes}
     found = []
-    for job in jobs:
+    for job in pending:
         done = Path(job.out_dir) / DONE_FILE
-        if job.pair.name in reported or not done.is_file() or done.stat().st_mtime < since:
+        if job.pair.name in reported or not done.is_file():
             continue
         try:
             record = json.loads(done.read_text(encoding="utf-8"))
         except (OSError, ValueError):
-            continue                                # torn or unreadable: the pair is not done
+            continue                                # unreadable: not this tool's done file
+        if not isinstance(record, dict):
+            continue
         details = {k: v for k, v in record.items() if k not in ("name", "task", "seconds", "warnings")}
         found.append(PairOutcome(job.pair.name, "done", float(record.get("seconds", 0.0)), None, details,
                                  tuple(record.get("warnings", ()))))
@@ -423,8 +439,11 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         Called with each outcome as it arrives (skipped pairs first).
     should_stop : callable, optional
         Asked after each finished pair; when it returns True no further pair is started,
-        pairs not yet started are cancelled, those already running are waited for, and the
-        outcomes are returned.
+        pairs not yet started are cancelled, those already running are waited for (local
+        processes), and the outcomes are returned. Dask cannot tell a running task from a
+        queued one: its cancel reaches running tasks too, which finish anyway; those done by
+        the time the outcomes are returned are read back from their done files, later ones are
+        not in the outcomes (a rerun skips them).
 
     Returns
     -------
@@ -443,7 +462,6 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         if on_outcome is not None:
             on_outcome(outcome)
 
-    started = time.time()
     todo = []
     for job in jobs:
         if (Path(job.out_dir) / DONE_FILE).is_file():
@@ -454,7 +472,7 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         stop = should_stop or (lambda: False)
         for outcome in _dask_results(todo, scheduler, stop) if scheduler else _local_results(todo, int(workers), stop):
             record(outcome)
-        for outcome in finished_unreported(todo, outcomes, since=started):   # Dask cancels running tasks too
+        for outcome in finished_unreported(todo, outcomes):     # those Dask had running when it cancelled them
             record(outcome)
     return outcomes
 

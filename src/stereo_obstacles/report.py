@@ -240,10 +240,10 @@ CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
-"""The pictures' former names, removed when a report is written again into a folder that holds
-an earlier report (its ``obstacles.json``): read the way the README's format table reads a
-``.png`` disparity or depth (16-bit values), they are wrong. In any other folder a file of
-these names is the user's and stays."""
+"""The pictures' former names, removed when a report is written again over a report of the
+former kind (an ``obstacles.json`` without a ``disparity_picture.png``): read the way the
+README's format table reads a ``.png`` disparity or depth (16-bit values), they are wrong. In
+any other folder, a current report's included, a file of these names is the user's and stays."""
 
 OUTPUT_FILES = ("obstacles.json", "disparity.pfm", "labels.png", "obstacles.png", "disparity_picture.png",
                 "labels_picture.png", "index.html") + CALIBRATED_ONLY
@@ -295,9 +295,10 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     data_files += ["points.ply"] if calibrated else []
     pictures = (["obstacles.png", "disparity_picture.png"] + (["depth_picture.png"] if calibrated else [])
                 + ["labels_picture.png"])
-    earlier_report = (Path(out_dir) / "obstacles.json").is_file()
-    stale = tuple(name for name in CALIBRATED_ONLY if not calibrated) + (FORMER_PICTURE_NAMES if earlier_report
-                                                                        else ())
+    earlier_report = (Path(out_dir) / "obstacles.json").is_file()        # else the files there are the user's
+    former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
+    stale = (tuple(name for name in CALIBRATED_ONLY if not calibrated and earlier_report)
+             + (FORMER_PICTURE_NAMES if former_kind else ()))
     with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)

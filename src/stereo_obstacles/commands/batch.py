@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.atomic import check_output_folder
-    from stereo_obstacles.batch import BatchJob, find_pairs, finished_unreported, run_batch, write_summary
+    from stereo_obstacles.batch import DONE_FILE, BatchJob, find_pairs, finished_unreported, run_batch, write_summary
     from stereo_obstacles.camera_calibration import read_camera_calibration
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
@@ -78,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"{outcome.name}: failed: {outcome.reason}", file=sys.stderr)
         progress.update(note=outcome.name)
 
-    start, started_at = time.monotonic(), time.time()
+    start = time.monotonic()
+    pending = [job for job in jobs if not (Path(job.out_dir) / DONE_FILE).is_file()]
     outcomes: list = []
     interrupted = False
     exit_code = EXIT_INTERRUPTED           # when stopped by a Ctrl-C between pairs
@@ -94,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         exit_code = interrupt_exit_code(exc)
     finally:
         progress.close()
-    outcomes += finished_unreported(jobs, outcomes, since=started_at)   # an interrupt did not wait for them
+    outcomes += finished_unreported(pending, outcomes)      # pairs an interrupt did not wait for
     seconds = time.monotonic() - start
     settings = {"input_dir": str(args.input_dir), "task": args.task, "workers": None if args.scheduler else workers,
                 "scheduler": args.scheduler, "calib": args.calib, "config": config.to_dict()}

@@ -53,15 +53,38 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def _remove_frames(folder, keep) -> None:
-    """Remove the ``frame_*`` scene folders (holding a ``scene.json``) of ``folder`` not named in
-    ``keep``: frames of an earlier sequence, which the dataset reader would take for this one's."""
-    import shutil
+def _is_scene_folder(folder) -> bool:
+    """Whether ``folder`` (not a link) holds a scene this command wrote: a ``scene.json`` of the
+    scene format."""
+    import json
     from pathlib import Path
 
+    from stereo_obstacles.synthetic.scene_files import SCENE_FORMAT
+
+    document = Path(folder) / "scene.json"
+    if Path(folder).is_symlink() or not document.is_file():
+        return False
+    try:
+        return json.loads(document.read_text(encoding="utf-8")).get("format") == SCENE_FORMAT
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def _remove_frames(folder, keep) -> None:
+    """Remove the scene files of the ``frame_*`` scene folders of ``folder`` not named in ``keep``
+    (frames of an earlier sequence, which the dataset reader would take for this one's), and each
+    such folder when nothing else is left in it; anything else there is the user's and stays."""
+    from pathlib import Path
+
+    from stereo_obstacles.synthetic.scene_files import SCENE_FILES
+
     for frame in Path(folder).glob("frame_*"):
-        if frame.name not in keep and (frame / "scene.json").is_file():
-            shutil.rmtree(frame)
+        if frame.name in keep or not _is_scene_folder(frame):
+            continue
+        for name in SCENE_FILES:
+            (frame / name).unlink(missing_ok=True)
+        if not any(frame.iterdir()):
+            frame.rmdir()
 
 
 def run(args: argparse.Namespace) -> int:
@@ -108,7 +131,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     frames = render_sequence(scene, args.frames, DEFAULT_SPEED_M if args.speed is None else args.speed, options)
     names = [f"frame_{k:04d}" for k in range(args.frames)]
-    with staged_directory(out, stale=SCENE_FILES) as stage:      # a single scene written there before goes
+    single_scene = SCENE_FILES if _is_scene_folder(out) else ()    # a single scene written there before goes
+    with staged_directory(out, stale=single_scene) as stage:
         for name, pair in zip(names, frames):
             write_scene_folder(stage / name, pair)
     _remove_frames(out, keep=names)                              # and the frames of a longer sequence
