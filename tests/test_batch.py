@@ -242,13 +242,15 @@ def test_finished_unreported_reads_back_the_done_files_of_the_pending_pairs(tmp_
         ("finished", "done", 0.5, {"density": 0.7}, ("w",))]
 
 
-@pytest.mark.parametrize("out", ["res/run1", "grp/results"])
-def test_an_output_folder_deep_in_the_input_skips_only_the_folders_on_its_way(tmp_path, out):
+@pytest.mark.parametrize("out", ["res/run1", "grp/results", "res/run2/"])
+def test_an_output_folder_deep_in_the_input_counts_the_folders_on_its_way_for_their_pairs_only(tmp_path, out):
     (tmp_path / "in" / "grp").mkdir(parents=True)
     _write_pair(tmp_path / "in" / "grp", "a_left.png", "a_right.png")
     _write_pair(tmp_path / "in" / "grp", "b_left.png", "b_right.png")
-    (tmp_path / "in" / out).mkdir(parents=True)
-    # res/ holds nothing but the way to the output: skipped; grp/ holds pairs beside it: kept
+    if out.startswith("res"):
+        (tmp_path / "in" / "res" / "run1").mkdir(parents=True)          # an earlier run's results
+        (tmp_path / "in" / "res" / "Thumbs.db").write_text("x")
+    # res/ holds results: not a pair; grp/ holds pairs beside the output: kept
     assert sorted(p.name for p in find_pairs(tmp_path / "in", skip=tmp_path / "in" / out)) == ["grp_a", "grp_b"]
 
 

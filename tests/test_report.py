@@ -176,3 +176,20 @@ def test_a_rerun_removes_the_pictures_of_their_former_names_from_its_own_folder_
     _write(former)
     assert not any((former / name).exists() for name in report.FORMER_PICTURE_NAMES)
     assert (former / "disparity_picture.png").exists()
+
+
+def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tmp_path):
+    from stereo_obstacles.synthetic import default_scene, render_pair, write_scene_folder
+
+    write_scene_folder(tmp_path / "scene", render_pair(default_scene(64, 48)))
+    with pytest.raises(OutputError, match="holds a rendered scene"):
+        report.check_report_folder(tmp_path / "scene")
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "obstacles.json").write_text('{"mine": 1}')
+    with pytest.raises(OutputError, match="not a report of this tool"):
+        report.check_report_folder(foreign)
+    (foreign / "depth.npy").write_bytes(b"user")
+    _write(foreign, calibrated=False)                       # the library writer itself: the user's files stay
+    assert (foreign / "depth.npy").read_bytes() == b"user"
+    report.check_report_folder(foreign)                     # now a report of this tool: a rerun is fine

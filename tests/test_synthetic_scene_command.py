@@ -146,3 +146,37 @@ def test_a_sequence_into_a_folder_of_the_users_own_files_keeps_them(tmp_path):
     (out / "obstacles.json").write_text("{}")
     assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 0
     assert (out / "left.png").read_bytes() == b"my picture" and (out / "obstacles.json").read_text() == "{}"
+
+
+def test_frame_folders_that_are_not_this_commands_are_refused_before_rendering(tmp_path, capsys):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    out = tmp_path / "walk"
+    out.mkdir()
+    (out / "frame_0001").symlink_to(elsewhere)                              # writing through it would land there
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 1
+    assert "is not a frame this command wrote" in capsys.readouterr().err and list(elsewhere.iterdir()) == []
+    (out / "frame_0001").unlink()
+    (out / "frame_0001").write_text("a file")
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 1
+    assert "is not a frame this command wrote" in capsys.readouterr().err
+
+
+def test_an_earlier_frame_that_cannot_be_removed_is_an_error_not_a_crash(tmp_path, capsys):
+    out = tmp_path / "walk"
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "3"]) == 0
+    (out / "frame_0002" / "left.png").unlink()
+    (out / "frame_0002" / "left.png").mkdir()                               # a folder where a file was
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 0
+    assert not (out / "frame_0002" / "scene.json").exists()                # no longer a frame
+    assert (out / "frame_0002" / "left.png").is_dir()                      # what is not a scene file stays
+
+
+def test_a_sequence_into_a_link_to_a_single_scene_replaces_the_scene(tmp_path):
+    from stereo_obstacles.datasets import list_frames
+
+    assert main(["scene", "--out", str(tmp_path / "real"), "--size", "48x36"]) == 0
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    assert main(["scene", "--out", str(tmp_path / "link"), "--size", "48x36", "--frames", "2"]) == 0
+    assert sorted(p.name for p in (tmp_path / "real").iterdir()) == ["frame_0000", "frame_0001"]
+    assert list_frames(tmp_path / "link") == ("frame_0000", "frame_0001")

@@ -129,8 +129,9 @@ def _image_files(folder: Path) -> list[Path]:
 
 def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str] | None = None) -> list[PairSpec]:
     """Every stereo pair under ``input_dir`` (see the module docstring), sorted by name; the
-    folder ``skip`` (a batch's output folder inside its input folder), and a sub-folder that holds
-    nothing but the way down to it, are left out.
+    folder ``skip`` (a batch's output folder inside its input folder) is left out, and a
+    sub-folder on the way down to it counts only for the pairs it holds (it is not reported as a
+    pair that cannot be read).
 
     Raises
     ------
@@ -145,7 +146,7 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
     pairs: list[PairSpec] = []
     skipped = None if skip is None else Path(skip).resolve()
     subfolders = sorted(p for p in root.iterdir()
-                        if p.is_dir() and not p.name.startswith(".") and not _only_leads_to(p, skipped))
+                        if p.is_dir() and not p.name.startswith(".") and p.resolve() != skipped)
     sides = {p.name.lower(): p for p in subfolders if p.name.lower() in ("left", "right")}
     if len(sides) == 2:
         right_names = {p.name for p in _image_files(sides["right"])}
@@ -158,13 +159,16 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
         if folder in sides.values():
             continue
         named = _pairs_by_name(folder, prefix=f"{folder.name}_")
-        if len(named) >= 2:            # several pairs side by side, not one dataset pair
+        on_the_way = skipped is not None and folder.resolve() in skipped.parents    # holds the output folder
+        if len(named) >= 2 or (on_the_way and named):  # several pairs side by side, not one dataset pair
             pairs.extend(named)
             continue
         try:
             frames = list_frames(folder)
         except InputFileError:
             frames = (None,)
+        if on_the_way and frames == (None,) and not _is_a_dataset(folder):
+            continue                   # a folder of results, not an unreadable pair
         for frame in frames:
             name = folder.name if frame is None else f"{folder.name}_{frame}"
             pairs.append(PairSpec(name, folder=str(folder), frame=frame))
@@ -179,18 +183,16 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
     return sorted(pairs, key=lambda p: p.name)
 
 
-def _only_leads_to(folder: Path, target: Path | None) -> bool:
-    """Whether ``folder`` is ``target`` (resolved) or holds nothing but the way down to it: a
-    batch's output folder inside its input folder, not a pair."""
-    if target is None:
+def _is_a_dataset(folder: Path) -> bool:
+    """Whether :func:`stereo_obstacles.datasets.load_pair` reads ``folder`` (it reads the images)."""
+    from stereo_obstacles.datasets import load_pair
+    from stereo_obstacles.errors import StereoObstaclesError
+
+    try:
+        load_pair(folder)
+    except StereoObstaclesError:
         return False
-    here = folder.resolve()
-    if here == target:
-        return True
-    if here not in target.parents:
-        return False
-    entries = [entry for entry in folder.iterdir() if not entry.name.startswith(".")]
-    return len(entries) == 1 and entries[0].is_dir() and _only_leads_to(entries[0], target)
+    return True
 
 
 def _pairs_by_name(folder: Path, *, prefix: str, warn: bool = False) -> list[PairSpec]:
@@ -355,8 +357,9 @@ def finished_unreported(pending: Iterable[BatchJob], outcomes: Iterable[PairOutc
         if not isinstance(record, dict):
             continue
         details = {k: v for k, v in record.items() if k not in ("name", "task", "seconds", "warnings")}
-        found.append(PairOutcome(job.pair.name, "done", float(record.get("seconds", 0.0)), None, details,
-                                 tuple(record.get("warnings", ()))))
+        seconds = record.get("seconds", 0.0)
+        found.append(PairOutcome(job.pair.name, "done", float(seconds) if isinstance(seconds, (int, float)) else 0.0,
+                                 None, details, tuple(record.get("warnings", ()))))
     return found
 
 

@@ -35,10 +35,11 @@ from stereo_obstacles import __version__
 from stereo_obstacles.atomic import staged_directory, write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import points_from_depth
-from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.errors import InvalidInputError, OutputError
 from stereo_obstacles.fileio import to_uint8, write_depth, write_image, write_labels, write_pfm
 from stereo_obstacles.labels import Label
-from stereo_obstacles.obstacle_json import UNITS_NOTE_UNCALIBRATED, obstacles_to_dict, write_obstacles_json
+from stereo_obstacles.obstacle_json import (OBSTACLES_FORMAT, UNITS_NOTE_UNCALIBRATED, obstacles_to_dict,
+                                            write_obstacles_json)
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
 from stereo_obstacles.pictures import (
     depth_picture, describe_detection, disparity_picture, draw_obstacles, labels_picture, obstacle_colour)
@@ -239,6 +240,29 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
 CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
+def holds_a_report(folder) -> bool:
+    """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format."""
+    document = Path(folder) / "obstacles.json"
+    try:
+        return (document.is_file()
+                and json.loads(document.read_text(encoding="utf-8")).get("format") == OBSTACLES_FORMAT)
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def check_report_folder(folder) -> None:
+    """Raise :class:`OutputError` when a report written into ``folder`` would replace files that
+    are not an earlier report's: a rendered scene's ground truth (``scene.json`` beside it), or
+    an ``obstacles.json`` of another kind."""
+    folder = Path(folder)
+    if (folder / "scene.json").is_file():
+        raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
+                          f"disparity.pfm are the ground truth; write the report elsewhere")
+    if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
+        raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
+                          f"elsewhere")
+
+
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
 """The pictures' former names, removed when a report is written again over a report of the
 former kind (an ``obstacles.json`` without a ``disparity_picture.png``): read the way the
@@ -295,7 +319,7 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     data_files += ["points.ply"] if calibrated else []
     pictures = (["obstacles.png", "disparity_picture.png"] + (["depth_picture.png"] if calibrated else [])
                 + ["labels_picture.png"])
-    earlier_report = (Path(out_dir) / "obstacles.json").is_file()        # else the files there are the user's
+    earlier_report = holds_a_report(out_dir)                             # else the files there are the user's
     former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
     stale = (tuple(name for name in CALIBRATED_ONLY if not calibrated and earlier_report)
              + (FORMER_PICTURE_NAMES if former_kind else ()))

@@ -63,13 +63,18 @@ def test_an_output_folder_that_is_a_file_is_refused(inputs, run_cli):
 
 def test_an_existing_output_folder_is_updated_and_other_files_kept(inputs, run_cli, tmp_path):
     out = tmp_path / "o"
-    out.mkdir()
+    assert run_cli("detect", inputs / "left.png", inputs / "right.png", "--out", out)[0] == 0   # an earlier report
     (out / "notes.txt").write_text("mine")
-    (out / "obstacles.json").write_text("old")
+    (out / "obstacles.json").write_text(json.dumps({**json.loads((out / "obstacles.json").read_text()),
+                                                    "obstacles": "old"}))
     code, _, _, _ = run_cli("detect", inputs / "left.png", inputs / "right.png", "--out", out)
     assert code == 0
     assert (out / "notes.txt").read_text() == "mine"
-    assert "obstacles" in json.loads((out / "obstacles.json").read_text())
+    assert isinstance(json.loads((out / "obstacles.json").read_text())["obstacles"], list)     # the new report
+    (out / "obstacles.json").write_text("another tool's")                 # not a report: refused, left alone
+    code, _, err, _ = run_cli("detect", inputs / "left.png", inputs / "right.png", "--out", out)
+    assert code == 1 and "not a report of this tool" in err
+    assert (out / "obstacles.json").read_text() == "another tool's"
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging folder left
 
 

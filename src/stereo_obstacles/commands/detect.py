@@ -118,9 +118,10 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.errors import ImageMismatchError
     from stereo_obstacles.fileio import read_image
-    from stereo_obstacles.report import OUTPUT_FILES, format_obstacle_table
+    from stereo_obstacles.report import OUTPUT_FILES, check_report_folder, format_obstacle_table
 
     check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))
+    check_report_folder(args.out)
     left = read_image(args.left, mode="color")
     right = read_image(args.right, mode="color")
     if left.shape != right.shape:

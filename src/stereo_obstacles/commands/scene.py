@@ -54,20 +54,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _is_scene_folder(folder) -> bool:
-    """Whether ``folder`` (not a link) holds a scene this command wrote: a ``scene.json`` of the
-    scene format."""
+    """Whether ``folder`` holds a scene this command wrote: a ``scene.json`` of the scene format."""
     import json
     from pathlib import Path
 
     from stereo_obstacles.synthetic.scene_files import SCENE_FORMAT
 
     document = Path(folder) / "scene.json"
-    if Path(folder).is_symlink() or not document.is_file():
-        return False
     try:
-        return json.loads(document.read_text(encoding="utf-8")).get("format") == SCENE_FORMAT
+        return document.is_file() and json.loads(document.read_text(encoding="utf-8")).get("format") == SCENE_FORMAT
     except (OSError, ValueError, AttributeError):
         return False
+
+
+def _check_frame_folders(folder, names) -> None:
+    """Raise :class:`~stereo_obstacles.errors.OutputError` when a frame folder about to be
+    written already exists as something this command did not write (a link, a file, another
+    tool's folder): the frame's files would go into it, or through it elsewhere."""
+    from pathlib import Path
+
+    from stereo_obstacles.errors import OutputError
+
+    for name in names:
+        frame = Path(folder) / name
+        if frame.is_symlink() or (frame.exists() and not (frame.is_dir() and (_is_scene_folder(frame)
+                                                                               or not any(frame.iterdir())))):
+            raise OutputError(f"{frame} exists and is not a frame this command wrote; choose another --out")
 
 
 def _remove_frames(folder, keep) -> None:
@@ -76,15 +88,21 @@ def _remove_frames(folder, keep) -> None:
     such folder when nothing else is left in it; anything else there is the user's and stays."""
     from pathlib import Path
 
+    from stereo_obstacles.errors import OutputError
     from stereo_obstacles.synthetic.scene_files import SCENE_FILES
 
     for frame in Path(folder).glob("frame_*"):
-        if frame.name in keep or not _is_scene_folder(frame):
+        if frame.name in keep or frame.is_symlink() or not _is_scene_folder(frame):
             continue
-        for name in SCENE_FILES:
-            (frame / name).unlink(missing_ok=True)
-        if not any(frame.iterdir()):
-            frame.rmdir()
+        try:
+            for name in ("scene.json",) + SCENE_FILES:     # scene.json first: a frame half removed is no frame
+                path = frame / name
+                if path.is_file() or path.is_symlink():
+                    path.unlink()
+            if not any(frame.iterdir()):
+                frame.rmdir()
+        except OSError as exc:
+            raise OutputError(f"cannot remove the earlier frame {frame}: {exc.strerror or exc}") from exc
 
 
 def run(args: argparse.Namespace) -> int:
@@ -129,8 +147,9 @@ def run(args: argparse.Namespace) -> int:
         _remove_frames(out, keep=())                    # a sequence written there before
         print(f"wrote scene (seed {scene.seed}, {width}x{height}) to {out}")
         return 0
-    frames = render_sequence(scene, args.frames, DEFAULT_SPEED_M if args.speed is None else args.speed, options)
     names = [f"frame_{k:04d}" for k in range(args.frames)]
+    _check_frame_folders(out, names)
+    frames = render_sequence(scene, args.frames, DEFAULT_SPEED_M if args.speed is None else args.speed, options)
     single_scene = SCENE_FILES if _is_scene_folder(out) else ()    # a single scene written there before goes
     with staged_directory(out, stale=single_scene) as stage:
         for name, pair in zip(names, frames):
