@@ -31,3 +31,18 @@ def test_check_refuses_other_formats_and_versions(data, message):
 def test_check_returns_a_good_document():
     document = {"format": "x/y", "version": 1, "value": 5}
     assert check_document(document, format_name="x/y", version=1, source="f.json") is document
+
+
+def test_is_document_of_recognises_only_its_own_format(tmp_path):
+    from stereo_obstacles.json_documents import is_document_of
+
+    cases = {"ours.json": '{"format": "stereo-obstacles/x", "version": 1}', "other.json": '{"format": "y"}',
+             "list.json": "[1]", "torn.json": '{"format": "stereo-obs', "bytes.json": None}
+    for name, text in cases.items():
+        if text is None:
+            (tmp_path / name).write_bytes(b"\\xff\\xfe")
+        else:
+            (tmp_path / name).write_text(text)
+    assert [name for name in cases if is_document_of(tmp_path / name, "stereo-obstacles/x")] == ["ours.json"]
+    assert not is_document_of(tmp_path / "missing.json", "stereo-obstacles/x")
+    assert not is_document_of(tmp_path, "stereo-obstacles/x")                    # a folder

@@ -13,7 +13,7 @@ import os
 from stereo_obstacles import __version__
 from stereo_obstacles.errors import InputFileError, StereoObstaclesError
 
-__all__ = ["check_document", "load_json_file"]
+__all__ = ["check_document", "is_document_of", "load_json_file"]
 
 
 def load_json_file(path: str | os.PathLike[str], *, what: str,
@@ -46,3 +46,15 @@ def check_document(data: object, *, format_name: str, version: int, source: str,
         raise error(f"{source}: unsupported {format_name} version {data.get('version')!r} "
                     f"(this is stereo-obstacles {__version__}, which reads version {version})")
     return data
+
+
+def is_document_of(path: str | os.PathLike[str], format_name: str) -> bool:
+    """Whether ``path`` is a JSON document of ``"format": format_name`` (False for a missing,
+    unreadable or other file): how the commands recognise what they wrote before, so that they
+    replace or remove nothing else."""
+    try:
+        with open(path, encoding="utf-8") as handle:
+            data = json.load(handle)
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return False
+    return isinstance(data, dict) and data.get("format") == format_name

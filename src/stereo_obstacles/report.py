@@ -36,6 +36,7 @@ from stereo_obstacles.atomic import staged_directory, write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import points_from_depth
 from stereo_obstacles.errors import InvalidInputError, OutputError
+from stereo_obstacles.json_documents import is_document_of
 from stereo_obstacles.fileio import to_uint8, write_depth, write_image, write_labels, write_pfm
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_json import (OBSTACLES_FORMAT, UNITS_NOTE_UNCALIBRATED, obstacles_to_dict,
@@ -242,12 +243,7 @@ CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 
 def holds_a_report(folder) -> bool:
     """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format."""
-    document = Path(folder) / "obstacles.json"
-    try:
-        return (document.is_file()
-                and json.loads(document.read_text(encoding="utf-8")).get("format") == OBSTACLES_FORMAT)
-    except (OSError, ValueError, AttributeError):
-        return False
+    return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
 
 
 def check_report_folder(folder) -> None:

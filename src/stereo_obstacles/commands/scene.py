@@ -55,16 +55,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _is_scene_folder(folder) -> bool:
     """Whether ``folder`` holds a scene this command wrote: a ``scene.json`` of the scene format."""
-    import json
     from pathlib import Path
 
+    from stereo_obstacles.json_documents import is_document_of
     from stereo_obstacles.synthetic.scene_files import SCENE_FORMAT
 
-    document = Path(folder) / "scene.json"
-    try:
-        return document.is_file() and json.loads(document.read_text(encoding="utf-8")).get("format") == SCENE_FORMAT
-    except (OSError, ValueError, AttributeError):
-        return False
+    return is_document_of(Path(folder) / "scene.json", SCENE_FORMAT)
 
 
 def _check_frame_folders(folder, names) -> None:
