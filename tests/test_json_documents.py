@@ -40,7 +40,7 @@ def test_is_document_of_recognises_only_its_own_format(tmp_path):
              "list.json": "[1]", "torn.json": '{"format": "stereo-obs', "bytes.json": None}
     for name, text in cases.items():
         if text is None:
-            (tmp_path / name).write_bytes(b"\\xff\\xfe")
+            (tmp_path / name).write_bytes(b"\xff\xfe")
         else:
             (tmp_path / name).write_text(text)
     assert [name for name in cases if is_document_of(tmp_path / name, "stereo-obstacles/x")] == ["ours.json"]
