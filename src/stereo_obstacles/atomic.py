@@ -71,6 +71,11 @@ def check_output_file(path: str | os.PathLike[str], inputs: Iterable[str | os.Pa
         if Path(folder).is_dir() and Path(folder).resolve() in target.resolve().parents:
             raise OutputError(f"{target} lies in the input folder {folder}; write it elsewhere")
     _check_creatable(target.parent)
+    _refuse_inputs(target, inputs)
+
+
+def _refuse_inputs(target: Path, inputs: Iterable[str | os.PathLike[str] | None]) -> None:
+    """Raise :class:`OutputError` when ``target`` names one of the ``inputs`` (``None`` skipped)."""
     for source in inputs:
         if source is None:
             continue
@@ -88,9 +93,11 @@ def check_output_folder(path: str | os.PathLike[str], names: Iterable[str] = (),
     folder = Path(path)
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"output folder {folder} exists and is not a folder")
-    _check_creatable(folder)
+    _check_creatable(folder)                     # once: the names share the folder
     for name in names:
-        check_output_file(folder / name, inputs)
+        if (folder / name).is_dir():
+            raise OutputError(f"{folder / name} is a folder; expected a file name")
+        _refuse_inputs(folder / name, inputs)
 
 
 def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:
