@@ -136,3 +136,20 @@ def test_opencv_xml_written_by_opencv_is_read(tmp_path):
 def test_unknown_length_unit_is_refused(tmp_path):
     with pytest.raises(CalibrationError, match="length_unit"):
         read_calibration(tmp_path / "x", length_unit="inch")
+
+
+def test_a_length_unit_for_a_file_that_states_its_own_is_not_used_and_said_so(tmp_path, caplog):
+    write_calibration_json(tmp_path / "c.json", RIG)
+    (tmp_path / "calib.txt").write_text("cam0=[700 0 320.5; 0 700 240.25; 0 0 1]\ndoffs=0\nbaseline=120\n")
+    projection = "700 0 320.5 0 0 700 240.25 0 0 0 1 0"
+    shifted = "700 0 320.5 -84 0 700 240.25 0 0 0 1 0"
+    (tmp_path / "kitti.txt").write_text(f"P_rect_02: {projection}\nP_rect_03: {shifted}\n")
+    for name, says in (("c.json", "JSON calibration, in metres"), ("calib.txt", "Middlebury calib.txt, in millimetres"),
+                       ("kitti.txt", "KITTI calibration, in metres")):
+        caplog.clear()
+        assert read_calibration(tmp_path / name, length_unit="mm").baseline_m == pytest.approx(0.12)
+        assert f"the length unit 'mm' (--calib-unit) is not used: {tmp_path / name} is" in caplog.text
+        assert says in caplog.text
+        caplog.clear()
+        read_calibration(tmp_path / name)
+        assert caplog.text == ""

@@ -172,3 +172,11 @@ def test_middlebury_turned_right_camera(shared_dataset):
                                    mask=truth.nonocc)
     assert rectified.bad1_matched_pct < perfect.bad1_matched_pct + 1.5
     assert rectified.density_pct > perfect.density_pct - 10
+
+
+def test_a_length_unit_for_a_camera_calibration_json_is_not_used_and_said_so(tmp_path, caplog):
+    write_camera_pair_json(tmp_path / "rig.json", IDEAL)
+    loaded = read_camera_calibration(tmp_path / "rig.json", length_unit="cm")
+    np.testing.assert_allclose(loaded.translation_m, IDEAL.translation_m)
+    assert "the length unit 'cm' (--calib-unit) is not used" in caplog.text
+    assert "a camera calibration of this tool, in metres" in caplog.text

@@ -15,6 +15,7 @@ Supported, detected from the content:
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 from pathlib import Path
@@ -30,6 +31,8 @@ LENGTH_UNITS_M = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 IMPLAUSIBLE_BASELINE_M = 5.0
 """A baseline above this (metres) in a unit-less file is taken as a unit mistake, not a rig."""
 
+logger = logging.getLogger(__name__)
+
 _NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
 
 
@@ -42,8 +45,9 @@ def read_calibration(path: str | os.PathLike[str], *, length_unit: str | None = 
         A calibration file in one of the formats listed in the module docstring.
     length_unit
         ``"m"``, ``"cm"`` or ``"mm"``: the unit of the translation in an OpenCV file (which does
-        not record it). Default: metres, and a baseline over
-        :data:`IMPLAUSIBLE_BASELINE_M` is refused with a hint to pass the unit.
+        not record it) or of a ``Q`` matrix. Default: metres, and a baseline over
+        :data:`IMPLAUSIBLE_BASELINE_M` is refused with a hint to pass the unit. Not used, with
+        a warning, for the formats that state their unit (JSON, Middlebury, KITTI).
 
     Raises
     ------
@@ -64,14 +68,17 @@ def read_calibration(path: str | os.PathLike[str], *, length_unit: str | None = 
         raise CalibrationError(f"calibration file {p} is not a text file: {exc}") from exc
     stripped = text.lstrip()
     if stripped.startswith("{"):
+        warn_unit_not_used(length_unit, p, "this tool's JSON calibration, in metres")
         return read_calibration_json(p)
     if stripped.startswith("%YAML") or stripped.startswith("<?xml") or "opencv-matrix" in text \
             or "<opencv_storage>" in text:
         return _read_opencv_storage(p, length_unit)
     if re.search(r"^\s*cam0\s*=", text, flags=re.MULTILINE):
+        warn_unit_not_used(length_unit, p, "a Middlebury calib.txt, in millimetres")
         return _parse_middlebury(text, str(p))
     fields = _keyed_numbers(text)
     if ("P_rect_02" in fields and "P_rect_03" in fields) or ("P2" in fields and "P3" in fields):
+        warn_unit_not_used(length_unit, p, "a KITTI calibration, in metres")
         return _parse_kitti(fields, str(p))
     for left_key, right_key in (("P_rect_02", "P_rect_03"), ("P2", "P3")):
         if (left_key in fields) != (right_key in fields):
@@ -84,6 +91,13 @@ def read_calibration(path: str | os.PathLike[str], *, length_unit: str | None = 
     raise CalibrationError(
         f"{p} is not a calibration format this tool reads (project JSON, Middlebury calib.txt, "
         f"KITTI P_rect, OpenCV YAML/XML with P1/P2, or a 4x4 Q matrix)")
+
+
+def warn_unit_not_used(length_unit: str | None, path: Path, format_and_unit: str) -> None:
+    """Log a warning when a ``length_unit`` was given for a file whose format states its own
+    (``format_and_unit``, e.g. ``"a Middlebury calib.txt, in millimetres"``): it is not used."""
+    if length_unit is not None:
+        logger.warning("the length unit %r (--calib-unit) is not used: %s is %s", length_unit, path, format_and_unit)
 
 
 def _unit_scale(length_unit: str | None, baseline_in_file: float, source: str) -> float:

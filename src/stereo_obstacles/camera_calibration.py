@@ -259,7 +259,8 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
         The calibration file.
     length_unit
         ``"m"``, ``"cm"`` or ``"mm"``: unit of an OpenCV file's ``T`` (default metres; a
-        baseline above ``IMPLAUSIBLE_BASELINE_M`` is then refused with a hint).
+        baseline above ``IMPLAUSIBLE_BASELINE_M`` is then refused with a hint). Not used, with a
+        warning, for a file that states its unit (this tool's JSON files).
 
     Raises
     ------
@@ -269,7 +270,7 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
     import cv2
 
     from stereo_obstacles.calibration_files import (IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M, open_opencv_storage,
-                                                    read_calibration)
+                                                    read_calibration, warn_unit_not_used)
 
     p = Path(path)
     if not p.is_file():
@@ -281,6 +282,7 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
         except (UnicodeDecodeError, json.JSONDecodeError):
             data = None
         if is_camera_pair_json(data):
+            warn_unit_not_used(length_unit, p, "a camera calibration of this tool, in metres")
             return CameraPairCalibration.from_dict(data, source=str(p))
     elif "opencv-matrix" in head or "<opencv_storage>" in head or head.lstrip().startswith("%YAML"):
         if length_unit is not None and length_unit not in LENGTH_UNITS_M:
