@@ -129,52 +129,9 @@ def test_bad_arguments():
         with pytest.raises(InvalidInputError, match=field):
             ObstacleParameters(**{field: bad})
     assert ObstacleParameters(max_distance_m=np.float32(12.5), corridor_width_m=2).max_distance_m == 12.5
-
-
-def test_near_face_depth_equals_the_percentile_of_patch_medians():
-    from stereo_obstacles.obstacles import DISTANCE_PATCH_PX, _near_face_depth
-
-    rng = np.random.default_rng(1)
-    xs, ys, z = rng.integers(0, 100, 5000), rng.integers(0, 80, 5000), rng.uniform(1.0, 10.0, 5000)
-    patch = (ys // DISTANCE_PATCH_PX) * (xs.max() // DISTANCE_PATCH_PX + 1) + xs // DISTANCE_PATCH_PX
-    medians = [np.median(z[patch == p]) for p in np.unique(patch)]
-    for percentile in (0.0, 10.0, 50.0):
-        assert _near_face_depth(xs, ys, z, percentile) == pytest.approx(np.percentile(medians, percentile))
-
-
-def test_near_face_depth_leaves_out_patches_of_a_few_fringe_pixels():
-    from stereo_obstacles.obstacles import _near_face_depth
-
-    # a face at 5 m filling one 8x8 patch, and a one-pixel column of 3 fringe pixels at 3 m beside it
-    ys, xs = np.mgrid[0:8, 0:8]
-    xs = np.concatenate([xs.ravel(), [8, 8, 8]])
-    ys = np.concatenate([ys.ravel(), [0, 1, 2]])
-    z = np.concatenate([np.full(64, 5.0), [3.0, 3.0, 3.0]])
-    assert _near_face_depth(xs, ys, z, 0.0) == 3.0
-    assert _near_face_depth(xs, ys, z, 0.0, min_patch_pixels=16) == 5.0
-    # no patch holds 16 pixels: every patch counts
-    assert _near_face_depth(xs[-3:], ys[-3:], z[-3:], 0.0, min_patch_pixels=16) == 3.0
     for bad in (0, 65, 16.5, True):
         with pytest.raises(InvalidInputError, match="distance_min_patch_pixels"):
             ObstacleParameters(distance_min_patch_pixels=bad)
-
-
-def test_patch_medians_kernel_counts_and_the_patch_rule_on_sparse_pixels():
-    from stereo_obstacles._obstacles_kernel import patch_medians_kernel
-    from stereo_obstacles.obstacles import DISTANCE_PATCH_PX, _near_face_depth
-
-    rng = np.random.default_rng(2)
-    xs, ys = rng.integers(0, 200, 900), rng.integers(0, 160, 900)  # about 2 pixels per patch, some 6+
-    keep = np.unique(ys * 1000 + xs, return_index=True)[1]  # each pixel once
-    xs, ys, z = xs[keep], ys[keep], rng.uniform(1.0, 10.0, keep.size)
-    patch = (ys // DISTANCE_PATCH_PX) * (xs.max() // DISTANCE_PATCH_PX + 1) + xs // DISTANCE_PATCH_PX
-    ids, counts = np.unique(patch, return_counts=True)
-    medians, got_counts = patch_medians_kernel(xs.astype(np.int64), ys.astype(np.int64), z, DISTANCE_PATCH_PX)
-    np.testing.assert_array_equal(got_counts, counts)
-    np.testing.assert_allclose(medians, [np.median(z[patch == p]) for p in ids])
-    full = counts >= 4
-    assert 0 < full.sum() < full.size
-    assert _near_face_depth(xs, ys, z, 10.0, 4) == pytest.approx(np.percentile(medians[full], 10.0))
 
 
 def test_far_ground_raised_by_disparity_noise_does_not_stand():

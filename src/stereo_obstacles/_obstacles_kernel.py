@@ -1,6 +1,6 @@
 """Compiled patch medians of an obstacle's depths (private).
 
-The public wrapper is :func:`stereo_obstacles.obstacles.measure_obstacles`.
+The public wrapper is :func:`stereo_obstacles.near_face.near_face_depth`.
 """
 
 from __future__ import annotations
@@ -15,18 +15,23 @@ from stereo_obstacles._similarity_kernel import CACHE
 def patch_medians_kernel(xs, ys, z, patch_px):
     """Median of ``z`` over the pixels ``(xs, ys)`` of each ``patch_px`` square patch holding any.
 
-    ``xs, ys`` int64 ``(N,)`` (non-negative), ``z`` float64 ``(N,)``. Returns the medians
-    (``0.5 * (lower + upper middle)``) in patch order, float64 ``(number of patches,)``, and the
-    number of pixels each median was taken over, int64 ``(number of patches,)``.
+    ``xs, ys`` int64 ``(N,)`` (non-negative), ``z`` float64 ``(N,)``. Returns, in patch order,
+    float64 ``(number of patches,)`` each: the medians (``0.5 * (lower + upper middle)``), the
+    mean column and the mean row of the pixels each was taken over; and int64
+    ``(number of patches,)``: the number of those pixels.
     """
     n = xs.shape[0]
     columns = xs.max() // patch_px + 1
     n_patches = (ys.max() // patch_px + 1) * columns
     start = np.zeros(n_patches + 1, np.int64)
+    sum_x = np.zeros(n_patches, np.float64)
+    sum_y = np.zeros(n_patches, np.float64)
     patch = np.empty(n, np.int64)
     for i in range(n):
         patch[i] = (ys[i] // patch_px) * columns + xs[i] // patch_px
         start[patch[i] + 1] += 1
+        sum_x[patch[i]] += xs[i]
+        sum_y[patch[i]] += ys[i]
     for p in range(n_patches):
         start[p + 1] += start[p]
     fill = start[:-1].copy()
@@ -35,6 +40,8 @@ def patch_medians_kernel(xs, ys, z, patch_px):
         values[fill[patch[i]]] = z[i]
         fill[patch[i]] += 1
     medians = np.empty(n_patches, np.float64)
+    centre_x = np.empty(n_patches, np.float64)
+    centre_y = np.empty(n_patches, np.float64)
     counts = np.empty(n_patches, np.int64)
     m = 0
     for p in range(n_patches):
@@ -43,6 +50,8 @@ def patch_medians_kernel(xs, ys, z, patch_px):
             continue
         block = np.sort(values[start[p]:start[p + 1]])
         medians[m] = 0.5 * (block[(count - 1) // 2] + block[count // 2])
+        centre_x[m] = sum_x[p] / count
+        centre_y[m] = sum_y[p] / count
         counts[m] = count
         m += 1
-    return medians[:m], counts[:m]
+    return medians[:m], centre_x[:m], centre_y[:m], counts[:m]

@@ -5,14 +5,8 @@ with a disparity are grouped (:mod:`stereo_obstacles.obstacle_grouping`) and eac
 measured here. With a calibration every length is in metres in the rectified left camera
 frame (x right, y down, z forward); without one, only pixels and disparities are reported.
 
-Distance of an obstacle is a low percentile (``distance_percentile``) of the median depths of
-its 8x8-pixel patches:
-the near face of the object; taking patch medians first keeps the percentile from following
-the noise of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near).
-Patches holding fewer than ``distance_min_patch_pixels`` of the obstacle's pixels are left out
-(all are used when none holds that many): they are mostly a fringe of a pixel or two along the
-object's outline, matched at a disparity borrowed from the window around them (a one-pixel
-column of sky beside a far pole read 7.5 px, the pole's own matches 6.9 and its truth 6.6).
+Distance of an obstacle is that of its near face (:mod:`stereo_obstacles.near_face`): a low
+percentile of its patches' median depths, or a plane through them for a face slanted in depth.
 Height above the ground uses the ground plane fitted in (x, y, disparity) space, converted to a
 3-D plane; objects whose pixels all lie within ``flat_tolerance_m`` of that plane are rejected
 as flat (markings, puddles), and the rejection is reported with its reason.
@@ -26,17 +20,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from stereo_obstacles import quantiles
-from stereo_obstacles._obstacles_kernel import patch_medians_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
+from stereo_obstacles.near_face import DISTANCE_PATCH_PX, SlantedFaceParameters, near_face_depth
 
 QUARTILES = (25.0, 50.0, 75.0)
 """Percentiles of a group's disparities: its reported disparity (median) and spread."""
-
-DISTANCE_PATCH_PX = 8
-"""Side of the square patches whose median depths the distance is taken over, pixels."""
 
 EXTENT_PERCENTILES = (1.0, 99.0)
 """Percentiles of the pixels' 3-D coordinates taken as an obstacle's extent (robust min/max)."""
@@ -65,6 +56,9 @@ class ObstacleParameters:
     distance_min_patch_pixels : int
         Patches with fewer of the obstacle's pixels do not count for its distance (unless no
         patch has that many); of the ``DISTANCE_PATCH_PX ** 2`` = 64 pixels of a patch.
+    slanted_face : SlantedFaceParameters or None
+        When a face slanted in depth is measured by a plane through its patches instead of the
+        percentile (:mod:`stereo_obstacles.near_face`); ``None`` always takes the percentile.
     min_disparity_px : float
         Without a calibration, groups whose median disparity is below this are at infinity (or
         the two images are the same) and are not reported; with one, ``max_distance_m`` decides.
@@ -78,12 +72,16 @@ class ObstacleParameters:
     distance_percentile: float = 10.0
     distance_min_patch_pixels: int = 16
     min_disparity_px: float = 0.5
+    slanted_face: SlantedFaceParameters | None = field(default_factory=SlantedFaceParameters)
 
     def __post_init__(self) -> None:
         check_numbers(self, (("distance_percentile", 0.0, 100.0), ("min_standing_fraction", 0.0, 1.0),
                              ("min_disparity_px", 0.0, math.inf)))
         check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),))
         check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"))
+        if not (self.slanted_face is None or isinstance(self.slanted_face, SlantedFaceParameters)):
+            raise InvalidInputError(f"slanted_face must be SlantedFaceParameters or None, "
+                                    f"got {type(self.slanted_face).__name__}")
 
 
 @dataclass(frozen=True)
@@ -284,9 +282,10 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
             return _flat(box, count, high, "m", params.flat_tolerance_m)
         height_above = round(high, 3)
         points, disparities = points[standing], disparities[standing]
-    distance = _near_face_depth(xs[standing] if ground is not None else xs,
-                                ys[standing] if ground is not None else ys, points[:, 2], params.distance_percentile,
-                                params.distance_min_patch_pixels)
+    distance = near_face_depth(xs[standing] if ground is not None else xs,
+                               ys[standing] if ground is not None else ys, points[:, 2],
+                               percentile=params.distance_percentile, min_patch_pixels=params.distance_min_patch_pixels,
+                               focal_baseline_px_m=calibration.focal_baseline_px_m, slanted_face=params.slanted_face)
     if distance > params.max_distance_m:
         return RejectedGroup(box, count, f"farther than {params.max_distance_m:g} m ({distance:.1f} m)")
     # each coordinate sorted once for its extent and median (np.percentile costs 0.1-0.2 ms a call)
@@ -300,16 +299,6 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
                     lateral_extent_m=(round(float(x_lo), 3), round(float(x_hi), 3)),
                     width_m=round(float(x_hi - x_lo), 3), height_m=round(float(y_hi - y_lo), 3),
                     height_above_ground_m=height_above)
-
-
-def _near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, percentile: float,
-                     min_patch_pixels: int = 1) -> float:
-    """``percentile`` of the patch-median depths (metres) over the patches holding at least
-    ``min_patch_pixels`` of the pixels (over all patches when none does)."""
-    medians, counts = patch_medians_kernel(np.asarray(xs, np.int64), np.asarray(ys, np.int64),
-                                           np.asarray(z, np.float64), DISTANCE_PATCH_PX)
-    full = counts >= min_patch_pixels
-    return quantiles.percentile(medians[full] if full.any() else medians, percentile)
 
 
 def _quartiles(disparities: np.ndarray) -> tuple[float, float, float]:

@@ -1,0 +1,162 @@
+"""The distance of an obstacle's near face: the percentile of patch medians, and the plane of a
+slanted face."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_obstacles._obstacles_kernel import patch_medians_kernel
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.near_face import DISTANCE_PATCH_PX, SlantedFaceParameters, near_face_depth, slanted_face_disparity
+from stereo_obstacles.obstacles import ObstacleParameters
+
+FOCAL_BASELINE = 554.0 * 0.12
+"""``f B`` of the synthetic rig, pixels x metres."""
+
+
+def _patch_ids(xs, ys):
+    return (ys // DISTANCE_PATCH_PX) * (xs.max() // DISTANCE_PATCH_PX + 1) + xs // DISTANCE_PATCH_PX
+
+
+def test_near_face_depth_equals_the_percentile_of_patch_medians():
+    rng = np.random.default_rng(1)
+    xs, ys, z = rng.integers(0, 100, 5000), rng.integers(0, 80, 5000), rng.uniform(1.0, 10.0, 5000)
+    patch = _patch_ids(xs, ys)
+    medians = [np.median(z[patch == p]) for p in np.unique(patch)]
+    for percentile in (0.0, 10.0, 50.0):
+        assert near_face_depth(xs, ys, z, percentile=percentile) == pytest.approx(np.percentile(medians, percentile))
+
+
+def test_near_face_depth_leaves_out_patches_of_a_few_fringe_pixels():
+    # a face at 5 m filling one 8x8 patch, and a one-pixel column of 3 fringe pixels at 3 m beside it
+    ys, xs = np.mgrid[0:8, 0:8]
+    xs = np.concatenate([xs.ravel(), [8, 8, 8]])
+    ys = np.concatenate([ys.ravel(), [0, 1, 2]])
+    z = np.concatenate([np.full(64, 5.0), [3.0, 3.0, 3.0]])
+    assert near_face_depth(xs, ys, z, percentile=0.0) == 3.0
+    assert near_face_depth(xs, ys, z, percentile=0.0, min_patch_pixels=16) == 5.0
+    # no patch holds 16 pixels: every patch counts
+    assert near_face_depth(xs[-3:], ys[-3:], z[-3:], percentile=0.0, min_patch_pixels=16) == 3.0
+
+
+def test_patch_medians_kernel_medians_centres_and_counts_on_sparse_pixels():
+    rng = np.random.default_rng(2)
+    xs, ys = rng.integers(0, 200, 900), rng.integers(0, 160, 900)  # about 2 pixels per patch, some 6+
+    keep = np.unique(ys * 1000 + xs, return_index=True)[1]  # each pixel once
+    xs, ys, z = xs[keep], ys[keep], rng.uniform(1.0, 10.0, keep.size)
+    patch = _patch_ids(xs, ys)
+    ids, counts = np.unique(patch, return_counts=True)
+    medians, centre_x, centre_y, got_counts = patch_medians_kernel(xs.astype(np.int64), ys.astype(np.int64), z,
+                                                                   DISTANCE_PATCH_PX)
+    np.testing.assert_array_equal(got_counts, counts)
+    np.testing.assert_allclose(medians, [np.median(z[patch == p]) for p in ids])
+    np.testing.assert_allclose(centre_x, [xs[patch == p].mean() for p in ids])
+    np.testing.assert_allclose(centre_y, [ys[patch == p].mean() for p in ids])
+    full = counts >= 4
+    assert 0 < full.sum() < full.size
+    assert near_face_depth(xs, ys, z, percentile=10.0, min_patch_pixels=4) == pytest.approx(
+        np.percentile(medians[full], 10.0))
+
+
+def _face(disparity_of, width=150, height=60, noise_px=0.1, seed=0):
+    """Pixels of a face ``width x height`` with disparity ``disparity_of(x, y)`` plus noise;
+    returns columns, rows and depths (metres)."""
+    ys, xs = np.mgrid[0:height, 0:width]
+    xs, ys = xs.ravel(), ys.ravel()
+    d = disparity_of(xs, ys) + np.random.default_rng(seed).normal(0.0, noise_px, xs.size)
+    return xs, ys, FOCAL_BASELINE / d
+
+
+def _distance(xs, ys, z, slanted_face=SlantedFaceParameters()):
+    return near_face_depth(xs, ys, z, percentile=10.0, min_patch_pixels=16, focal_baseline_px_m=FOCAL_BASELINE,
+                           slanted_face=slanted_face)
+
+
+def test_a_wall_receding_in_depth_is_measured_at_its_nearest_part():
+    # disparity 31 px at the left end to 16 px at the right (2.14 to 4.16 m), as scene 114's wall
+    xs, ys, z = _face(lambda x, y: 31.0 - 0.1 * x)
+    nearest_m = FOCAL_BASELINE / 31.0
+    percentile_only = _distance(xs, ys, z, slanted_face=None)
+    assert percentile_only > 1.04 * nearest_m      # about a tenth of the span behind
+    # read at the nearest patch's centre, 3.5 px inside the face: 0.35 px of disparity, 1.1 %
+    assert _distance(xs, ys, z) == pytest.approx(FOCAL_BASELINE / 30.65, rel=0.003)
+
+
+def test_the_top_of_a_low_box_seen_from_above_is_measured_at_its_front_edge():
+    # disparity rising downwards, 24 to 39.8 px over 80 rows; the last patch row's centre is row 75.5
+    xs, ys, z = _face(lambda x, y: 24.0 + 0.2 * y, width=100, height=80)
+    assert _distance(xs, ys, z) == pytest.approx(FOCAL_BASELINE / (24.0 + 0.2 * 75.5), rel=0.003)
+    assert _distance(xs, ys, z, slanted_face=None) > 1.04 * FOCAL_BASELINE / 39.8
+
+
+def test_a_face_square_to_the_camera_or_only_a_little_slanted_keeps_the_percentile():
+    for slope in (0.0, 0.02):     # spans 0 and 3 px of 12: below 30 %
+        xs, ys, z = _face(lambda x, y: 12.0 - slope * x, noise_px=0.2)
+        assert _distance(xs, ys, z) == _distance(xs, ys, z, slanted_face=None)
+
+
+def test_a_face_off_one_plane_keeps_the_percentile():
+    # two faces of a box meeting at its nearest edge (a tent in disparity), 24 px at the edge
+    xs, ys, z = _face(lambda x, y: 24.0 - 0.12 * np.abs(x - 75))
+    assert _distance(xs, ys, z) == _distance(xs, ys, z, slanted_face=None)
+
+
+def test_a_face_with_a_sixth_of_its_patches_off_the_plane_keeps_the_percentile():
+    # the far end of a receding wall raised by 4 px (fattened by something nearer beside it)
+    xs, ys, z = _face(lambda x, y: 31.0 - 0.1 * x + np.where(x >= 128, 4.0, 0.0))
+    assert _distance(xs, ys, z) == _distance(xs, ys, z, slanted_face=None)
+    assert _distance(xs, ys, z, slanted_face=SlantedFaceParameters(min_inlier_fraction=0.8)) == pytest.approx(
+        FOCAL_BASELINE / 30.65, rel=0.003)
+
+
+def test_the_plane_never_moves_the_distance_farther():
+    # a receding wall with one patch 3 px nearer than the plane at its near end; the nearest
+    # patch (percentile 0) is that one, and it stays the distance
+    xs, ys, z = _face(lambda x, y: 31.0 - 0.1 * x + np.where((x < 8) & (y < 8), 3.0, 0.0))
+    nearest_patch = near_face_depth(xs, ys, z, percentile=0.0, min_patch_pixels=16)
+    assert nearest_patch < FOCAL_BASELINE / 33.0
+    assert near_face_depth(xs, ys, z, percentile=0.0, min_patch_pixels=16, focal_baseline_px_m=FOCAL_BASELINE,
+                           slanted_face=SlantedFaceParameters()) == nearest_patch
+
+
+def test_slanted_face_disparity_needs_enough_points_on_one_plane():
+    params = SlantedFaceParameters()
+    xs, ys = np.arange(10.0) * 8, np.zeros(10)
+    ys[::2] = 8.0
+    ds = 30.0 - 0.2 * xs
+    assert slanted_face_disparity(xs, ys, ds, params) == pytest.approx(30.0)
+    assert slanted_face_disparity(xs[:5], ys[:5], ds[:5], params) is None                  # fewer than 6
+    assert slanted_face_disparity(xs, np.zeros(10), ds, params) is None                    # one row: no plane
+    scattered = ds + np.where(np.arange(10) % 3 == 0, 3.0, 0.0)                             # 4 of 10 off it
+    assert slanted_face_disparity(xs, ys, scattered, params) is None
+
+
+def test_slanted_face_parameters_are_checked():
+    for field, bad in (("min_span_fraction", 1.5), ("tolerance_px", -0.1), ("tolerance_fraction", float("nan")),
+                       ("min_inlier_fraction", "0.9"), ("min_patches", 2), ("min_patches", 6.0)):
+        with pytest.raises(InvalidInputError, match=field):
+            SlantedFaceParameters(**{field: bad})
+    with pytest.raises(InvalidInputError, match="slanted_face must be SlantedFaceParameters or None, got dict"):
+        ObstacleParameters(slanted_face={"min_span_fraction": 0.3})
+    assert ObstacleParameters(slanted_face=None).slanted_face is None
+
+
+@pytest.mark.parametrize("seed, truth_id, percentile_error_pct", [(114, 3, 8.8), (117, 2, 13.4)])
+def test_slanted_faces_of_the_synthetic_scenes_are_measured_at_their_nearest_part(seed, truth_id,
+                                                                                    percentile_error_pct):
+    # seed 114: a wall receding from 31 to 16 px; seed 117: a low box whose top face is seen from above
+    from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE, compare_with_truth
+    from stereo_obstacles.pipeline import DetectionConfig, detect
+    from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
+
+    pair = render_pair(random_scene(seed), RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
+
+    def error_pct(obstacles: ObstacleParameters) -> float:
+        result = detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(obstacles=obstacles))
+        comparisons, _ = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles,
+                                            seen_by_both=pair.nonocc)
+        return 100 * next(c for c in comparisons if c.truth_id == truth_id).relative_error
+
+    assert abs(error_pct(ObstacleParameters())) < 2.0
+    assert error_pct(ObstacleParameters(slanted_face=None)) == pytest.approx(percentile_error_pct, abs=0.1)
