@@ -64,6 +64,17 @@ def test_pairs_without_the_board_are_rejected_by_name(chessboard, tmp_path, caps
     assert "only 2 pairs" in capsys.readouterr().err
 
 
+def test_a_board_size_that_does_not_fit_the_board_is_named_in_the_error(chessboard, tmp_path, capsys):
+    # 7x5 inner corners are found on the 9x6 board, but at different places in the two images
+    assert main(["calibrate", str(chessboard / "left*.jpg"), str(chessboard / "right*.jpg"), "--board", "7x5",
+                 "--square", "0.025", "--out", str(tmp_path / "c.json")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("stereo-obstacles: error: the boards do not fit one rig: stereo reprojection error 20.6 px "
+                          "over 4 pairs")
+    assert "check that --board 7x5 counts the inner corners of the board" in err
+    assert not (tmp_path / "c.json").exists() and not (tmp_path / "c.yml").exists()
+
+
 def test_calibrate_argument_errors(chessboard, tmp_path, capsys):
     assert main(["calibrate", "--square", "0.025", "--out", str(tmp_path / "c.json")]) == 1
     assert "LEFT_GLOB and RIGHT_GLOB, or --folder" in capsys.readouterr().err

@@ -25,6 +25,11 @@ logger = logging.getLogger(__name__)
 MIN_PAIRS = 3
 """Fewest usable pairs (board found in both images) accepted for a calibration."""
 
+MAX_STEREO_RMS_PX = 3.0
+"""A stereo reprojection error above this (pixels) means the corners do not describe one rig
+seen twice: a good calibration is below 1 px; a board size that matches a different part of the
+board in each image gave 20.6 px on the shared chessboard set."""
+
 
 @dataclass(frozen=True)
 class Board:
@@ -138,7 +143,8 @@ def calibrate_pairs(pairs: list[tuple[str, np.ndarray, np.ndarray]], board: Boar
     Raises
     ------
     CalibrationError
-        Fewer than :data:`MIN_PAIRS` pairs show the board in both images.
+        Fewer than :data:`MIN_PAIRS` pairs show the board in both images, or the stereo
+        reprojection error is above :data:`MAX_STEREO_RMS_PX`.
     ImageMismatchError
         The images are not all one size.
     """
@@ -172,6 +178,11 @@ def calibrate_pairs(pairs: list[tuple[str, np.ndarray, np.ndarray]], board: Boar
     rms, k_left, d_left, k_right, d_right, rotation, translation, _, _ = cv2.stereoCalibrate(
         objects, found_left, found_right, k_left, d_left, k_right, d_right, image_size,
         criteria=criteria, flags=cv2.CALIB_USE_INTRINSIC_GUESS)
+    if not rms <= MAX_STEREO_RMS_PX:
+        raise CalibrationError(f"the boards do not fit one rig: stereo reprojection error {rms:.1f} px over "
+                               f"{len(used)} pairs (a good calibration is below 1 px); check that --board "
+                               f"{board.columns}x{board.rows} counts the inner corners of the board, and that each "
+                               f"pair was taken at one moment")
     calibration = CameraPairCalibration(
         camera_matrix_left=k_left, distortion_left=d_left, camera_matrix_right=k_right, distortion_right=d_right,
         rotation=rotation, translation_m=translation.ravel(), width_px=image_size[0], height_px=image_size[1],
