@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import re
 import shutil
 
 import numpy as np
@@ -69,8 +70,10 @@ def test_a_board_size_that_does_not_fit_the_board_is_named_in_the_error(chessboa
     assert main(["calibrate", str(chessboard / "left*.jpg"), str(chessboard / "right*.jpg"), "--board", "7x5",
                  "--square", "0.025", "--out", str(tmp_path / "c.json")]) == 1
     err = capsys.readouterr().err.strip().splitlines()[-1]
-    assert err.startswith("stereo-obstacles: error: the boards do not fit one rig: stereo reprojection error 20.6 px "
-                          "over 4 pairs")
+    # OpenCV's optimisation runs on threads: 20.5-20.7 px from run to run
+    found = re.match(r"stereo-obstacles: error: the boards do not fit one rig: stereo reprojection error "
+                     r"(\d+\.\d) px over 4 pairs", err)
+    assert found and 15.0 < float(found.group(1)) < 25.0
     assert "check that --board 7x5 counts the inner corners of the board" in err
     assert not (tmp_path / "c.json").exists() and not (tmp_path / "c.yml").exists()
 
@@ -115,6 +118,34 @@ def synthetic_files(tmp_path_factory):
     write_image(folder / "right.png", pair.right)
     write_camera_pair_json(folder / "rig.json", calibration)
     return folder
+
+
+def test_a_calib_unit_the_file_does_not_use_is_warned_about_once(synthetic_files, tmp_path, caplog):
+    # the camera-pair JSON states metres: the unit is not used, said once per command (the file
+    # was read twice by detect and once per pair by batch)
+    pairs = tmp_path / "pairs"
+    pairs.mkdir()
+    for name in ("a", "b"):
+        for side in ("left", "right"):
+            shutil.copy(synthetic_files / f"{side}.png", pairs / f"{name}_{side}.png")
+    calib = ["--calib", str(synthetic_files / "rig.json"), "--calib-unit", "mm"]
+    # and a rectified calibration (this tool's JSON) for a rectified pair
+    from stereo_obstacles.calibration import write_calibration_json
+    from stereo_obstacles.synthetic import default_scene, render_pair
+
+    rendered = render_pair(default_scene(320, 240))
+    write_image(tmp_path / "left.png", rendered.left)
+    write_image(tmp_path / "right.png", rendered.right)
+    write_calibration_json(tmp_path / "rectified.json", rendered.calibration)
+    rectified = ["--calib", str(tmp_path / "rectified.json"), "--calib-unit", "mm"]
+    for command in (["detect", str(synthetic_files / "left.png"), str(synthetic_files / "right.png"), "--out",
+                     str(tmp_path / "d")] + calib,
+                    ["detect", str(tmp_path / "left.png"), str(tmp_path / "right.png"), "--out",
+                     str(tmp_path / "e")] + rectified,
+                    ["batch", str(pairs), "--out", str(tmp_path / "b"), "--task", "disparity", "--workers", "1"] + calib):
+        caplog.clear()
+        assert main(command) == 0
+        assert caplog.text.count("the length unit 'mm' (--calib-unit) is not used") == 1, command
 
 
 def test_rectify_uncalibrated(synthetic_files, tmp_path, capsys):

@@ -180,3 +180,17 @@ def test_a_length_unit_for_a_camera_calibration_json_is_not_used_and_said_so(tmp
     np.testing.assert_allclose(loaded.translation_m, IDEAL.translation_m)
     assert "the length unit 'cm' (--calib-unit) is not used" in caplog.text
     assert "a camera calibration of this tool, in metres" in caplog.text
+
+
+def test_an_opencv_camera_calibration_in_millimetres_is_read_with_its_unit(tmp_path):
+    # T = -120 (mm): read with the unit it is a 0.12 m rig; without it, refused with a hint
+    in_mm = CameraPairCalibration(K, None, K, None, np.eye(3), [-0.12, 0.0, 0.0], 320, 240)
+    write_opencv_yaml(tmp_path / "pair.yml", in_mm)
+    text = (tmp_path / "pair.yml").read_text()
+    (tmp_path / "pair.yml").write_text(text.replace("data: [ -0.12, 0., 0. ]", "data: [ -120., 0., 0. ]"))
+    assert "-120." in (tmp_path / "pair.yml").read_text()
+    loaded = read_camera_calibration(tmp_path / "pair.yml", length_unit="mm")
+    np.testing.assert_allclose(loaded.translation_m, [-0.12, 0.0, 0.0])
+    assert loaded.baseline_m == pytest.approx(0.12)
+    with pytest.raises(CalibrationError, match="not in \\(0, 100\\] metres"):
+        read_camera_calibration(tmp_path / "pair.yml")

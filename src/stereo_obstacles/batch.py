@@ -77,10 +77,11 @@ class BatchJob:
     config : DetectionConfig
         Options of the pipeline (``disparity`` uses its matching options).
     calib_file : str or None
-        Calibration file for every pair; without it a dataset folder's own calibration is
-        used, and file pairs stay uncalibrated.
-    calib_unit : str or None
-        Length unit of an OpenCV calibration file.
+        Calibration file for every pair (named in each pair's report); without it a dataset
+        folder's own calibration is used, and file pairs stay uncalibrated.
+    calibration : StereoCalibration or CameraPairCalibration or None
+        What :func:`~stereo_obstacles.camera_calibration.read_camera_calibration` read from
+        ``calib_file`` (read once by the caller, not once per pair); given with it or not at all.
     """
 
     pair: PairSpec
@@ -88,11 +89,14 @@ class BatchJob:
     task: str
     config: object
     calib_file: str | None = None
-    calib_unit: str | None = None
+    calibration: object = None
 
     def __post_init__(self) -> None:
         if self.task not in TASKS:
             raise InvalidInputError(f"task must be one of {list(TASKS)}, got {self.task!r}")
+        if (self.calib_file is None) != (self.calibration is None):
+            raise InvalidInputError("calib_file and calibration: give both (the calibration read from the file) "
+                                    "or neither")
 
 
 @dataclass(frozen=True)
@@ -220,7 +224,7 @@ def _load(job: BatchJob):
     """``(left, right, calibration, inputs)`` of a job's pair: the images (rectified first when
     ``--calib`` describes the raw cameras, as ``calibrate`` writes them), grey ones kept for the
     disparity task."""
-    from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
+    from stereo_obstacles.camera_calibration import CameraPairCalibration
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.errors import ImageMismatchError
     from stereo_obstacles.fileio import read_image
@@ -240,7 +244,7 @@ def _load(job: BatchJob):
         calibration = None
         inputs = {"left": pair.left, "right": pair.right}
     if job.calib_file is not None:
-        calibration = read_camera_calibration(job.calib_file, length_unit=job.calib_unit)
+        calibration = job.calibration
         inputs["calibration"] = job.calib_file
         if isinstance(calibration, CameraPairCalibration):
             calibration.check_image_size(left.shape[1], left.shape[0])

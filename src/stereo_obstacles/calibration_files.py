@@ -68,18 +68,21 @@ def read_calibration(path: str | os.PathLike[str], *, length_unit: str | None = 
         raise CalibrationError(f"calibration file {p} is not a text file: {exc}") from exc
     stripped = text.lstrip()
     if stripped.startswith("{"):
+        calibration = read_calibration_json(p)
         warn_unit_not_used(length_unit, p, "this tool's JSON calibration, in metres")
-        return read_calibration_json(p)
+        return calibration
     if stripped.startswith("%YAML") or stripped.startswith("<?xml") or "opencv-matrix" in text \
             or "<opencv_storage>" in text:
         return _read_opencv_storage(p, length_unit)
     if re.search(r"^\s*cam0\s*=", text, flags=re.MULTILINE):
+        calibration = _parse_middlebury(text, str(p))
         warn_unit_not_used(length_unit, p, "a Middlebury calib.txt, in millimetres")
-        return _parse_middlebury(text, str(p))
+        return calibration
     fields = _keyed_numbers(text)
     if ("P_rect_02" in fields and "P_rect_03" in fields) or ("P2" in fields and "P3" in fields):
+        calibration = _parse_kitti(fields, str(p))
         warn_unit_not_used(length_unit, p, "a KITTI calibration, in metres")
-        return _parse_kitti(fields, str(p))
+        return calibration
     for left_key, right_key in (("P_rect_02", "P_rect_03"), ("P2", "P3")):
         if (left_key in fields) != (right_key in fields):
             present, missing = (left_key, right_key) if left_key in fields else (right_key, left_key)

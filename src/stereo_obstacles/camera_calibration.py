@@ -272,6 +272,8 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
     from stereo_obstacles.calibration_files import (IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M, open_opencv_storage,
                                                     read_calibration, warn_unit_not_used)
 
+    if length_unit is not None and length_unit not in LENGTH_UNITS_M:
+        raise CalibrationError(f"length_unit must be one of {sorted(LENGTH_UNITS_M)}, got {length_unit!r}")
     p = Path(path)
     if not p.is_file():
         return read_calibration(p, length_unit=length_unit)  # raises the usual file errors
@@ -285,11 +287,11 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
             warn_unit_not_used(length_unit, p, "a camera calibration of this tool, in metres")
             return CameraPairCalibration.from_dict(data, source=str(p))
     elif "opencv-matrix" in head or "<opencv_storage>" in head or head.lstrip().startswith("%YAML"):
-        if length_unit is not None and length_unit not in LENGTH_UNITS_M:
-            raise CalibrationError(f"length_unit must be one of {sorted(LENGTH_UNITS_M)}, got {length_unit!r}")
         storage = open_opencv_storage(p)
         try:
-            pair = camera_pair_from_opencv_storage(storage, str(p), 1.0) if storage.isOpened() else None
+            # in metres from the start: validated at 120 m, a 120 mm rig given with its unit was refused
+            pair = (camera_pair_from_opencv_storage(storage, str(p), LENGTH_UNITS_M[length_unit or "m"])
+                    if storage.isOpened() else None)
         except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
             raise CalibrationError(f"{p}: malformed OpenCV calibration: {' '.join(exc.msg.split())}") from exc
         finally:
@@ -299,8 +301,5 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
                 raise CalibrationError(
                     f"{p}: the baseline |T| is {pair.baseline_m:.4g} in the file's length unit, implausible in "
                     f"metres; the file does not say its unit, so give it (--calib-unit mm or cm)")
-            scale = LENGTH_UNITS_M[length_unit or "m"]
-            return CameraPairCalibration(pair.camera_matrix_left, pair.distortion_left, pair.camera_matrix_right,
-                                         pair.distortion_right, pair.rotation, pair.translation_m * scale,
-                                         pair.width_px, pair.height_px)
+            return pair
     return read_calibration(p, length_unit=length_unit)

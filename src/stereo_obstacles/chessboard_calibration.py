@@ -28,7 +28,7 @@ MIN_PAIRS = 3
 MAX_STEREO_RMS_PX = 3.0
 """A stereo reprojection error above this (pixels) means the corners do not describe one rig
 seen twice: a good calibration is below 1 px; a board size that matches a different part of the
-board in each image gave 20.6 px on the shared chessboard set."""
+board in each image gave 20.5-20.7 px on the shared chessboard set."""
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import argparse
 
+CALIB_UNIT_HELP = ("length unit of an OpenCV calibration's translation or of a Q matrix, which the file does not "
+                   "say (default m); formats that state theirs do not use it")
+"""Help of ``--calib-unit``, for every command that has it."""
+
 
 def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     """Add ``--calib FILE [--calib-unit U]`` or ``--focal PX --baseline M [--cx --cy --doffs]``."""
@@ -12,8 +16,7 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--calib", metavar="FILE",
                        help="calibration file: Middlebury calib.txt, KITTI calib (P_rect), OpenCV YAML/XML "
                             "(P1/P2), a 4x4 Q matrix, or this tool's JSON")
-    group.add_argument("--calib-unit", choices=["m", "cm", "mm"],
-                       help="length unit of an OpenCV calibration's translation (the file does not say)")
+    group.add_argument("--calib-unit", choices=["m", "cm", "mm"], help=CALIB_UNIT_HELP)
     group.add_argument("--focal", type=float, metavar="PX", help="focal length in pixels")
     group.add_argument("--baseline", type=float, metavar="M", help="baseline in metres")
     group.add_argument("--cx", type=float, metavar="PX", help="principal point x (default: image centre)")
@@ -62,8 +65,7 @@ def add_rectification_options(parser: argparse.ArgumentParser, *, with_calib_fil
         group.add_argument("--calib", metavar="FILE",
                            help="calibration file; an unrectified one (OpenCV YAML/XML with cameraMatrix1/2, "
                                 "distCoeffs1/2, R, T, or this tool's camera-pair JSON) rectifies the pair first")
-        group.add_argument("--calib-unit", choices=["m", "cm", "mm"],
-                           help="length unit of an OpenCV calibration's translation (the file does not say)")
+        group.add_argument("--calib-unit", choices=["m", "cm", "mm"], help=CALIB_UNIT_HELP)
     group.add_argument("--uncalibrated", action="store_true",
                        help="rectify the pair from its own feature matches (unknown cameras; no metric depth)")
 
@@ -94,19 +96,18 @@ def prepare_pair(args: argparse.Namespace, left, right):
         calibration = calibration_from_args(args, width, height) if hasattr(args, "focal") else None
         return left, right, calibration, rectification.to_dict()
     if calib_file:
-        loaded = read_camera_calibration(calib_file, length_unit=args.calib_unit)
-        if isinstance(loaded, CameraPairCalibration):
-            if hasattr(args, "focal") and (args.focal is not None or args.baseline is not None):
-                raise CalibrationError("give either --calib FILE or --focal and --baseline, not both")
-            from stereo_obstacles.rectification import rectify_calibration
+        if hasattr(args, "focal") and (args.focal is not None or args.baseline is not None):
+            raise CalibrationError("give either --calib FILE or --focal and --baseline, not both")
+        loaded = read_camera_calibration(calib_file, length_unit=args.calib_unit)     # read once
+        loaded.check_image_size(width, height)
+        if not isinstance(loaded, CameraPairCalibration):
+            return left, right, loaded, None
+        from stereo_obstacles.rectification import rectify_calibration
 
-            loaded.check_image_size(width, height)
-            rectification = rectify_calibration(loaded)
-            left, right = rectification.apply(left, right)
-            return left, right, rectification.rectified, {"method": "calibrated", "calibration": str(calib_file),
-                                                          "rectified": rectification.rectified.to_dict()}
+        rectification = rectify_calibration(loaded)
+        left, right = rectification.apply(left, right)
+        return left, right, rectification.rectified, {"method": "calibrated", "calibration": str(calib_file),
+                                                      "rectified": rectification.rectified.to_dict()}
     if not hasattr(args, "focal"):
-        if calib_file:
-            loaded.check_image_size(width, height)
-        return left, right, loaded if calib_file else None, None
+        return left, right, None, None
     return left, right, calibration_from_args(args, width, height), None

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from stereo_obstacles.commands._arguments import output_path
+from stereo_obstacles.commands._calibration_options import CALIB_UNIT_HELP
 from stereo_obstacles.commands.detect import add_detection_options
 
 DESCRIPTION = """\
@@ -35,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--calib", metavar="FILE",
                         help="calibration file for every pair (default: each dataset folder's own, if any)")
     parser.add_argument("--calib-unit", choices=["m", "cm", "mm"],
-                        help="length unit of an OpenCV calibration's translation")
+                        help=CALIB_UNIT_HELP)
     add_detection_options(parser)
     parser.set_defaults(handler=run)
 
@@ -64,10 +65,10 @@ def run(args: argparse.Namespace) -> int:
     check_output_folder(out)
     if out.resolve() == Path(args.input_dir).resolve():
         raise OutputError(f"--out {out} is the input folder: the pairs' outputs would replace their inputs")
-    if args.calib is not None:
-        read_camera_calibration(args.calib, length_unit=args.calib_unit)    # a bad file: one error, before any pair
+    # read once, before any pair: a bad file is one error, a warning about it is shown once
+    calibration = read_camera_calibration(args.calib, length_unit=args.calib_unit) if args.calib is not None else None
     pairs = find_pairs(args.input_dir, skip=out)
-    jobs = [BatchJob(pair, str(out / pair.name), args.task, config, args.calib, args.calib_unit) for pair in pairs]
+    jobs = [BatchJob(pair, str(out / pair.name), args.task, config, args.calib, calibration) for pair in pairs]
     announce_compilation()         # the workers compile on their first pair
     progress = Progress(len(jobs), label="pair")
 

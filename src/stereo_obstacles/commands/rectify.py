@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from stereo_obstacles.commands._arguments import output_path
+from stereo_obstacles.commands._calibration_options import CALIB_UNIT_HELP
 
 OUTPUT_FILES = ("left.png", "right.png", "calibration.json", "rectification.json")
 """What ``rectify`` writes into its folder: the rectified pair, the rectified calibration
@@ -29,7 +30,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     how.add_argument("--uncalibrated", action="store_true",
                      help="rectify from feature matches and a robust fundamental matrix")
     parser.add_argument("--calib-unit", choices=["m", "cm", "mm"],
-                        help="length unit of an OpenCV calibration's translation (the file does not say)")
+                        help=CALIB_UNIT_HELP)
     parser.add_argument("--out", required=True, type=output_path, metavar="DIR",
                         help="output folder (created if needed)")
     parser.set_defaults(handler=run)
