@@ -97,9 +97,25 @@ def test_a_face_square_to_the_camera_or_only_a_little_slanted_keeps_the_percenti
 
 
 def test_a_face_off_one_plane_keeps_the_percentile():
-    # two faces of a box meeting at its nearest edge (a tent in disparity), 24 px at the edge
-    xs, ys, z = _face(lambda x, y: 24.0 - 0.12 * np.abs(x - 75))
+    # a face bent where it stops receding: 31 -> 20.5 px over 105 of its 150 columns, flat after;
+    # the plane through the receding part alone reads 30.65 px, nearer than the percentile
+    xs, ys, z = _face(lambda x, y: np.maximum(31.0 - 0.1 * x, 20.5))
     assert _distance(xs, ys, z) == _distance(xs, ys, z, slanted_face=None)
+    anything_on_a_plane = SlantedFaceParameters(min_inlier_fraction=0.0)
+    assert _distance(xs, ys, z, slanted_face=anything_on_a_plane) < 0.985 * _distance(xs, ys, z, slanted_face=None)
+
+
+def test_a_far_face_is_on_its_plane_within_the_pixel_floor_of_the_tolerance():
+    # disparity 9 -> 6 px; each patch 0.2 px off the plane, alternately up and down (more than
+    # 3 % of 6-9 px, less than the 0.3 px floor)
+    def jittered(x, y):
+        return 9.0 - 0.02 * x + np.where((x // DISTANCE_PATCH_PX + y // DISTANCE_PATCH_PX) % 2 == 0, 0.2, -0.2)
+
+    xs, ys, z = _face(jittered, noise_px=0.0)
+    assert _distance(xs, ys, z) == pytest.approx(FOCAL_BASELINE / (9.0 - 0.02 * 3.5), rel=0.03)
+    assert _distance(xs, ys, z) < 0.985 * _distance(xs, ys, z, slanted_face=None)
+    without_floor = SlantedFaceParameters(tolerance_px=0.0)
+    assert _distance(xs, ys, z, slanted_face=without_floor) == _distance(xs, ys, z, slanted_face=None)
 
 
 def test_a_face_with_a_sixth_of_its_patches_off_the_plane_keeps_the_percentile():
@@ -126,8 +142,10 @@ def test_slanted_face_disparity_needs_enough_points_on_one_plane():
     ys[::2] = 8.0
     ds = 30.0 - 0.2 * xs
     assert slanted_face_disparity(xs, ys, ds, params) == pytest.approx(30.0)
-    assert slanted_face_disparity(xs[:5], ys[:5], ds[:5], params) is None                  # fewer than 6
-    assert slanted_face_disparity(xs, np.zeros(10), ds, params) is None                    # one row: no plane
+    any_span = SlantedFaceParameters(min_span_fraction=0.0)
+    assert slanted_face_disparity(xs[:6], ys[:6], ds[:6], any_span) == pytest.approx(30.0)
+    assert slanted_face_disparity(xs[:5], ys[:5], ds[:5], any_span) is None                # fewer than 6
+    assert slanted_face_disparity(xs, np.zeros(10), ds, any_span) is None                  # one row: no plane
     scattered = ds + np.where(np.arange(10) % 3 == 0, 3.0, 0.0)                             # 4 of 10 off it
     assert slanted_face_disparity(xs, ys, scattered, params) is None
 
@@ -160,3 +178,44 @@ def test_slanted_faces_of_the_synthetic_scenes_are_measured_at_their_nearest_par
 
     assert abs(error_pct(ObstacleParameters())) < 2.0
     assert error_pct(ObstacleParameters(slanted_face=None)) == pytest.approx(percentile_error_pct, abs=0.1)
+
+
+def test_near_face_depth_checks_its_arguments():
+    xs, ys, z = np.arange(20), np.zeros(20, dtype=int), np.full(20, 4.0)
+    for args, kwargs, message in (
+            ((xs, ys, z[:5]), {}, "1-D arrays of one length"),
+            ((xs[:0], ys[:0], z[:0]), {}, "at least 1"),
+            ((xs - 5, ys, z), {}, "xs must be non-negative integer"),
+            ((xs, ys + 0.5, z), {}, "ys must be non-negative integer"),
+            ((xs, ys, np.where(xs == 3, np.nan, z)), {}, "z must hold finite depths > 0"),
+            ((xs, ys, -z), {}, "z must hold finite depths > 0"),
+            ((xs, ys, z), {"percentile": 150.0}, "percentile must be in \\[0, 100\\]"),
+            ((xs, ys, z), {"percentile": -10.0}, "percentile must be in"),
+            ((xs, ys, z), {"slanted_face": {}}, "slanted_face must be SlantedFaceParameters"),
+            ((xs, ys, z), {"slanted_face": SlantedFaceParameters()}, "focal_baseline_px_m must be a finite number > 0"),
+            ((xs, ys, z), {"slanted_face": SlantedFaceParameters(), "focal_baseline_px_m": 0.0}, "focal_baseline")):
+        with pytest.raises(InvalidInputError, match=message):
+            near_face_depth(*args, **{"percentile": 10.0, **kwargs})
+    assert near_face_depth(xs, ys, z, percentile=10.0, focal_baseline_px_m=FOCAL_BASELINE,
+                           slanted_face=SlantedFaceParameters()) == 4.0
+
+
+def test_measure_obstacles_reads_a_far_slanted_face_with_its_calibration():
+    # the far jittered face above as an obstacle group: the 0.3 px floor applies in pixels of
+    # disparity, so the plane needs f B (not f) to be used
+    from stereo_obstacles.calibration import StereoCalibration
+    from stereo_obstacles.obstacles import measure_obstacles
+
+    calibration = StereoCalibration(focal_px=554.0, baseline_m=0.12, cx_px=319.5, cy_px=239.5)
+    ys, xs = np.mgrid[0:480, 0:640]
+    face = (xs >= 96) & (xs < 246) & (ys >= 200) & (ys < 260)    # on the patch grid, as the jitter
+    disparity = np.full((480, 640), np.nan, np.float32)
+    local_x, local_y = xs[face] - 96, ys[face] - 200
+    disparity[face] = 9.0 - 0.02 * local_x + np.where(
+        (local_x // DISTANCE_PATCH_PX + local_y // DISTANCE_PATCH_PX) % 2 == 0, 0.2, -0.2)
+    groups = face.astype(np.int32)
+    slanted = measure_obstacles(groups, disparity, calibration, None).obstacles[0].distance_m
+    percentile = measure_obstacles(groups, disparity, calibration, None,
+                                   ObstacleParameters(slanted_face=None)).obstacles[0].distance_m
+    assert slanted == pytest.approx(FOCAL_BASELINE / (9.0 - 0.02 * 3.5), rel=0.03)
+    assert slanted < 0.985 * percentile

@@ -10,8 +10,8 @@ beside a far pole read 7.5 px, the pole's own matches 6.9 and its truth 6.6).
 
 A face slanted in depth (a wall seen obliquely, the top of a low box seen from above) spreads
 its patches over a range of disparities, and the percentile lies behind its nearest part by
-about a tenth of that range: on a wall receding from 31 to 16 px of disparity over 150 columns,
-2.5 px, +8.8 % in distance. When one plane ``d = a x + b y + c`` fits the face's patch medians
+about a tenth of that range (1.5 px on a wall receding from 31 to 16 px of disparity, 5 % in
+distance; synthetic scene 114's wall of that kind read +8.8 %). When one plane ``d = a x + b y + c`` fits the face's patch medians
 and spans a large part of its disparity (:class:`SlantedFaceParameters`), the distance is read
 from the plane at the face's nearest patch instead (if that is nearer): a plane through dozens
 of patches does not follow the noise of one, which the nearest patch alone would
@@ -26,15 +26,16 @@ import numpy as np
 
 from stereo_obstacles import quantiles
 from stereo_obstacles._obstacles_kernel import patch_medians_kernel
-from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real
 from stereo_obstacles.plane_fit import least_squares_plane, plane_at
 
 DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
 
 PLANE_FIT_ROUNDS = 3
-"""The plane is refitted this many times, each time to the patches within the tolerance of the
-previous one."""
+"""The plane is fitted this many times in all: first to every patch, then to the patches within
+the tolerance of the previous plane."""
 
 
 @dataclass(frozen=True)
@@ -98,9 +99,28 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     float
         The ``percentile`` of the patch medians, or the plane's nearer depth at the nearest
         patch centre of a slanted face.
+
+    Raises
+    ------
+    InvalidInputError
+        Arrays of different lengths or none, negative or non-integer coordinates, depths that
+        are not finite and positive, a percentile outside [0, 100], or ``slanted_face``
+        without a positive ``focal_baseline_px_m``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ys, xs = np.mgrid[0:40, 0:120]
+    >>> d = 31.0 - 0.1 * xs                      # a wall receding from 31 to 19 px of disparity
+    >>> z = 66.48 / d                            # depths for f B = 66.48 px m
+    >>> round(near_face_depth(xs.ravel(), ys.ravel(), z.ravel(), percentile=10.0), 3)
+    2.227
+    >>> round(near_face_depth(xs.ravel(), ys.ravel(), z.ravel(), percentile=10.0, focal_baseline_px_m=66.48,
+    ...                       slanted_face=SlantedFaceParameters()), 3)
+    2.169
     """
-    medians, centre_x, centre_y, counts = patch_medians_kernel(
-        np.asarray(xs, np.int64), np.asarray(ys, np.int64), np.asarray(z, np.float64), DISTANCE_PATCH_PX)
+    xs, ys, z = _checked(xs, ys, z, percentile, focal_baseline_px_m, slanted_face)
+    medians, centre_x, centre_y, counts = patch_medians_kernel(xs, ys, z, DISTANCE_PATCH_PX)
     full = counts >= min_patch_pixels
     if full.any():
         medians, centre_x, centre_y = medians[full], centre_x[full], centre_y[full]
@@ -111,13 +131,37 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     return depth if nearest_px is None else min(depth, focal_baseline_px_m / nearest_px)
 
 
+def _checked(xs, ys, z, percentile, focal_baseline_px_m, slanted_face
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The arguments of :func:`near_face_depth` as the kernel takes them (int64, int64, float64
+    arrays), or :class:`~stereo_obstacles.errors.InvalidInputError` naming the first wrong one."""
+    xs, ys, z = np.asarray(xs), np.asarray(ys), np.asarray(z)
+    if xs.ndim != 1 or xs.size == 0 or ys.shape != xs.shape or z.shape != xs.shape:
+        raise InvalidInputError(f"xs, ys and z must be 1-D arrays of one length, at least 1, got shapes {xs.shape}, "
+                                f"{ys.shape} and {z.shape}")
+    for name, coordinates in (("xs", xs), ("ys", ys)):
+        if not np.issubdtype(coordinates.dtype, np.integer) or coordinates.min() < 0:
+            raise InvalidInputError(f"{name} must be non-negative integer pixel coordinates, got {coordinates.dtype} "
+                                    f"from {coordinates.min()}")
+    if not np.issubdtype(z.dtype, np.number) or not (np.isfinite(z) & (z > 0)).all():
+        raise InvalidInputError("z must hold finite depths > 0 (metres)")
+    if not (is_finite_real(percentile) and 0 <= percentile <= 100):
+        raise InvalidInputError(f"percentile must be in [0, 100], got {percentile!r}")
+    if slanted_face is not None:
+        if not isinstance(slanted_face, SlantedFaceParameters):
+            raise InvalidInputError(f"slanted_face must be SlantedFaceParameters or None, got "
+                                    f"{type(slanted_face).__name__}")
+        if not (is_finite_real(focal_baseline_px_m) and focal_baseline_px_m > 0):
+            raise InvalidInputError(f"focal_baseline_px_m must be a finite number > 0 with slanted_face, got "
+                                    f"{focal_baseline_px_m!r}")
+    return xs.astype(np.int64, copy=False), ys.astype(np.int64, copy=False), z.astype(np.float64, copy=False)
+
+
 def slanted_face_disparity(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray,
                            params: SlantedFaceParameters) -> float | None:
     """The largest value, at the points ``(xs, ys)``, of the plane through the disparities ``ds``
     (pixels, plus ``doffs``; 1-D, one length), or None when the points are not a slanted face
     by ``params``: too few, off one plane, or spanning too little disparity."""
-    if len(ds) < params.min_patches:
-        return None
     on_plane = np.ones(len(ds), dtype=bool)
     tolerance = np.maximum(params.tolerance_px, params.tolerance_fraction * ds)
     for _ in range(PLANE_FIT_ROUNDS):
