@@ -11,6 +11,7 @@ import pytest
 from _stream_frames import N_FRAMES, frames
 from stereo_obstacles.batch import (DONE_FILE, SUMMARY_FILE, BatchJob, PairSpec, find_pairs, process_pair,
                                     run_batch)
+from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.cli import main
 from stereo_obstacles.errors import InputFileError, InvalidInputError
 from stereo_obstacles.fileio import read_pfm
@@ -84,6 +85,14 @@ def test_find_pairs_errors(tmp_path):
         PairSpec("p", folder="f", left="l", right="r")
     with pytest.raises(InvalidInputError, match="task"):
         BatchJob(PairSpec("p", folder="f"), "out", "segment", CONFIG)
+    rig = StereoCalibration(focal_px=700.0, cx_px=319.5, cy_px=239.5, baseline_m=0.12)
+    for calib_file, calibration in (("rig.json", None), (None, rig)):
+        with pytest.raises(InvalidInputError, match="calib_file and calibration: give both"):
+            BatchJob(PairSpec("p", folder="f"), "out", "detect", CONFIG, calib_file, calibration)
+    with pytest.raises(InvalidInputError, match="calibration must be a StereoCalibration or CameraPairCalibration .*"
+                                                "got str"):
+        BatchJob(PairSpec("p", folder="f"), "out", "detect", CONFIG, "rig.yml", "mm")     # the former calib_unit
+    assert BatchJob(PairSpec("p", folder="f"), "out", "detect", CONFIG, "rig.json", rig).calibration is rig
 
 
 def test_corrupt_pair_is_reported_and_the_rest_done_then_resumed(pairs_dir, tmp_path, capsys):

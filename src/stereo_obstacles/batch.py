@@ -94,9 +94,16 @@ class BatchJob:
     def __post_init__(self) -> None:
         if self.task not in TASKS:
             raise InvalidInputError(f"task must be one of {list(TASKS)}, got {self.task!r}")
+        from stereo_obstacles.calibration import StereoCalibration
+        from stereo_obstacles.camera_calibration import CameraPairCalibration
+
         if (self.calib_file is None) != (self.calibration is None):
             raise InvalidInputError("calib_file and calibration: give both (the calibration read from the file) "
                                     "or neither")
+        if self.calibration is not None and not isinstance(self.calibration,
+                                                           (StereoCalibration, CameraPairCalibration)):
+            raise InvalidInputError(f"calibration must be a StereoCalibration or CameraPairCalibration (as "
+                                    f"read_camera_calibration returns), got {type(self.calibration).__name__}")
 
 
 @dataclass(frozen=True)

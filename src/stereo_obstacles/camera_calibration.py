@@ -217,11 +217,14 @@ def write_opencv_yaml(path: str | os.PathLike[str], calibration: CameraPairCalib
             storage.release()
 
 
-def camera_pair_from_opencv_storage(storage, source: str, length_scale_m: float) -> CameraPairCalibration | None:
+def camera_pair_from_opencv_storage(storage, source: str, length_unit: str | None) -> CameraPairCalibration | None:
     """The calibration in an open ``cv2.FileStorage``, or ``None`` when it lacks the matrices.
 
-    ``length_scale_m`` converts the file's translation unit to metres.
+    ``length_unit`` (``"m"``, ``"cm"``, ``"mm"``) is the unit of the file's translation; ``None``
+    takes metres and refuses a baseline above ``IMPLAUSIBLE_BASELINE_M`` with a hint to give it.
     """
+    from stereo_obstacles.calibration_files import IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M
+
     names = ("cameraMatrix1", "cameraMatrix2", "R", "T")
     nodes = {name: storage.getNode(name) for name in (*names, "distCoeffs1", "distCoeffs2", "imageSize")}
     if any(nodes[name].empty() for name in names):
@@ -236,10 +239,16 @@ def camera_pair_from_opencv_storage(storage, source: str, length_scale_m: float)
         raise CalibrationError(f"{source}: imageSize must hold 2 numbers, got {size}")
     if any(name not in mats for name in names):
         raise CalibrationError(f"{source}: {', '.join(names)} must be opencv-matrix entries")
+    translation = np.asarray(mats["T"], dtype=np.float64).ravel()
+    baseline = float(np.sqrt((translation ** 2).sum()))
+    if length_unit is None and baseline > IMPLAUSIBLE_BASELINE_M:     # before the calibration's own (0, 100] m
+        raise CalibrationError(f"{source}: the baseline |T| is {baseline:.4g} in the file's length unit, implausible "
+                               f"in metres; the file does not say its unit, so give it (--calib-unit mm or cm, or "
+                               f"length_unit=...)")
     return CameraPairCalibration(
         camera_matrix_left=mats["cameraMatrix1"], distortion_left=mats.get("distCoeffs1"),
         camera_matrix_right=mats["cameraMatrix2"], distortion_right=mats.get("distCoeffs2"),
-        rotation=mats["R"], translation_m=np.asarray(mats["T"], dtype=np.float64).ravel() * length_scale_m,
+        rotation=mats["R"], translation_m=translation * LENGTH_UNITS_M[length_unit or "m"],
         width_px=int(size[0]), height_px=int(size[1]))
 
 
@@ -269,8 +278,8 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
     """
     import cv2
 
-    from stereo_obstacles.calibration_files import (IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M, open_opencv_storage,
-                                                    read_calibration, warn_unit_not_used)
+    from stereo_obstacles.calibration_files import (LENGTH_UNITS_M, open_opencv_storage, read_calibration,
+                                                    warn_unit_not_used)
 
     if length_unit is not None and length_unit not in LENGTH_UNITS_M:
         raise CalibrationError(f"length_unit must be one of {sorted(LENGTH_UNITS_M)}, got {length_unit!r}")
@@ -284,22 +293,17 @@ def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | 
         except (UnicodeDecodeError, json.JSONDecodeError):
             data = None
         if is_camera_pair_json(data):
+            pair = CameraPairCalibration.from_dict(data, source=str(p))
             warn_unit_not_used(length_unit, p, "a camera calibration of this tool, in metres")
-            return CameraPairCalibration.from_dict(data, source=str(p))
+            return pair
     elif "opencv-matrix" in head or "<opencv_storage>" in head or head.lstrip().startswith("%YAML"):
         storage = open_opencv_storage(p)
         try:
-            # in metres from the start: validated at 120 m, a 120 mm rig given with its unit was refused
-            pair = (camera_pair_from_opencv_storage(storage, str(p), LENGTH_UNITS_M[length_unit or "m"])
-                    if storage.isOpened() else None)
+            pair = camera_pair_from_opencv_storage(storage, str(p), length_unit) if storage.isOpened() else None
         except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
             raise CalibrationError(f"{p}: malformed OpenCV calibration: {' '.join(exc.msg.split())}") from exc
         finally:
             storage.release()
         if pair is not None:
-            if length_unit is None and pair.baseline_m > IMPLAUSIBLE_BASELINE_M:
-                raise CalibrationError(
-                    f"{p}: the baseline |T| is {pair.baseline_m:.4g} in the file's length unit, implausible in "
-                    f"metres; the file does not say its unit, so give it (--calib-unit mm or cm)")
             return pair
     return read_calibration(p, length_unit=length_unit)

@@ -11,11 +11,11 @@ beside a far pole read 7.5 px, the pole's own matches 6.9 and its truth 6.6).
 A face slanted in depth (a wall seen obliquely, the top of a low box seen from above) spreads
 its patches over a range of disparities, and the percentile lies behind its nearest part by
 about a tenth of that range (1.5 px on a wall receding from 31 to 16 px of disparity, 5 % in
-distance; synthetic scene 114's wall of that kind read +8.8 %). When one plane ``d = a x + b y + c`` fits the face's patch medians
-and spans a large part of its disparity (:class:`SlantedFaceParameters`), the distance is read
-from the plane at the face's nearest patch instead (if that is nearer): a plane through dozens
-of patches does not follow the noise of one, which the nearest patch alone would
-(``docs/pipeline.md``, "Slanted faces").
+distance; synthetic scene 114's wall of that kind read +8.8 %). When one plane
+``d = a x + b y + c`` fits the face's patch medians and spans a large part of its disparity
+(:class:`SlantedFaceParameters`), the distance is read from the plane at the face's nearest
+patch instead (if that is nearer): a plane through dozens of patches does not follow the noise
+of one, which the nearest patch alone would (``docs/pipeline.md``, "Slanted faces").
 """
 
 from __future__ import annotations
@@ -104,8 +104,8 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     ------
     InvalidInputError
         Arrays of different lengths or none, negative or non-integer coordinates, depths that
-        are not finite and positive, a percentile outside [0, 100], or ``slanted_face``
-        without a positive ``focal_baseline_px_m``.
+        are not finite and positive, a percentile outside [0, 100], ``min_patch_pixels`` below
+        1, or ``slanted_face`` without a positive ``focal_baseline_px_m``.
 
     Examples
     --------
@@ -119,7 +119,7 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     ...                       slanted_face=SlantedFaceParameters()), 3)
     2.169
     """
-    xs, ys, z = _checked(xs, ys, z, percentile, focal_baseline_px_m, slanted_face)
+    xs, ys, z = _checked(xs, ys, z, percentile, min_patch_pixels, focal_baseline_px_m, slanted_face)
     medians, centre_x, centre_y, counts = patch_medians_kernel(xs, ys, z, DISTANCE_PATCH_PX)
     full = counts >= min_patch_pixels
     if full.any():
@@ -131,7 +131,7 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     return depth if nearest_px is None else min(depth, focal_baseline_px_m / nearest_px)
 
 
-def _checked(xs, ys, z, percentile, focal_baseline_px_m, slanted_face
+def _checked(xs, ys, z, percentile, min_patch_pixels, focal_baseline_px_m, slanted_face
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The arguments of :func:`near_face_depth` as the kernel takes them (int64, int64, float64
     arrays), or :class:`~stereo_obstacles.errors.InvalidInputError` naming the first wrong one."""
@@ -143,10 +143,17 @@ def _checked(xs, ys, z, percentile, focal_baseline_px_m, slanted_face
         if not np.issubdtype(coordinates.dtype, np.integer) or coordinates.min() < 0:
             raise InvalidInputError(f"{name} must be non-negative integer pixel coordinates, got {coordinates.dtype} "
                                     f"from {coordinates.min()}")
-    if not np.issubdtype(z.dtype, np.number) or not (np.isfinite(z) & (z > 0)).all():
-        raise InvalidInputError("z must hold finite depths > 0 (metres)")
+    if not (np.issubdtype(z.dtype, np.floating) or np.issubdtype(z.dtype, np.integer)):
+        raise InvalidInputError(f"z must hold real depths (metres), got {z.dtype}")
+    bad = ~(np.isfinite(z) & (z > 0))
+    if bad.any():
+        raise InvalidInputError(f"z must hold finite depths > 0 (metres), got {float(z[bad][0])} at index "
+                                f"{int(np.flatnonzero(bad)[0])}")
     if not (is_finite_real(percentile) and 0 <= percentile <= 100):
         raise InvalidInputError(f"percentile must be in [0, 100], got {percentile!r}")
+    if isinstance(min_patch_pixels, bool) or not isinstance(min_patch_pixels, (int, np.integer)) \
+            or min_patch_pixels < 1:
+        raise InvalidInputError(f"min_patch_pixels must be an integer >= 1, got {min_patch_pixels!r}")
     if slanted_face is not None:
         if not isinstance(slanted_face, SlantedFaceParameters):
             raise InvalidInputError(f"slanted_face must be SlantedFaceParameters or None, got "
