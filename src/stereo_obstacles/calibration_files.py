@@ -103,7 +103,10 @@ def warn_unit_not_used(length_unit: str | None, path: Path, format_and_unit: str
         logger.warning("the length unit %r (--calib-unit) is not used: %s is %s", length_unit, path, format_and_unit)
 
 
-def _unit_scale(length_unit: str | None, baseline_in_file: float, source: str) -> float:
+def unit_scale(length_unit: str | None, baseline_in_file: float, source: str) -> float:
+    """Metres per unit of a file that does not state its length unit (``length_unit``, default
+    metres); a baseline above :data:`IMPLAUSIBLE_BASELINE_M` in the file's unit, with no unit given,
+    is refused with a hint to give it (``source`` names the file in the message)."""
     scale = LENGTH_UNITS_M[length_unit or "m"]
     if length_unit is None and abs(baseline_in_file) > IMPLAUSIBLE_BASELINE_M:
         raise CalibrationError(
@@ -256,7 +259,7 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
     if abs(right[1, 3]) > abs(right[0, 3]):
         raise CalibrationError(f"{source} describes a vertical stereo rig; only horizontal rigs are supported")
     baseline_in_file = -float(right[0, 3]) / focal
-    scale = _unit_scale(length_unit, baseline_in_file, source)
+    scale = unit_scale(length_unit, baseline_in_file, source)
     width, height = (size[0], size[1]) if len(size) == 2 else (None, None)
     return StereoCalibration(focal_px=focal, cx_px=float(left[0, 2]), cy_px=float(left[1, 2]),
                              baseline_m=abs(baseline_in_file) * scale, width_px=width, height_px=height,
@@ -269,7 +272,7 @@ def _parse_q_matrix(q: np.ndarray, source: str, length_unit: str | None) -> Ster
     if focal <= 0 or inverse_baseline == 0:
         raise CalibrationError(f"{source}: not a valid Q matrix (f = {focal}, 1/B = {inverse_baseline})")
     baseline_in_file = 1.0 / abs(inverse_baseline)
-    scale = _unit_scale(length_unit, baseline_in_file, source)
+    scale = unit_scale(length_unit, baseline_in_file, source)
     # Q[3,3] = (cx - cx') / Tx and Q[3,2] = -1 / Tx, so cx' - cx = Q[3,3] / Q[3,2].
     doffs = float(q[3, 3] / q[3, 2])
     return StereoCalibration(focal_px=focal, cx_px=-float(q[0, 3]), cy_px=-float(q[1, 3]),

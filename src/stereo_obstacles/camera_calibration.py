@@ -223,7 +223,7 @@ def camera_pair_from_opencv_storage(storage, source: str, length_unit: str | Non
     ``length_unit`` (``"m"``, ``"cm"``, ``"mm"``) is the unit of the file's translation; ``None``
     takes metres and refuses a baseline above ``IMPLAUSIBLE_BASELINE_M`` with a hint to give it.
     """
-    from stereo_obstacles.calibration_files import IMPLAUSIBLE_BASELINE_M, LENGTH_UNITS_M
+    from stereo_obstacles.calibration_files import unit_scale
 
     names = ("cameraMatrix1", "cameraMatrix2", "R", "T")
     nodes = {name: storage.getNode(name) for name in (*names, "distCoeffs1", "distCoeffs2", "imageSize")}
@@ -240,16 +240,12 @@ def camera_pair_from_opencv_storage(storage, source: str, length_unit: str | Non
     if any(name not in mats for name in names):
         raise CalibrationError(f"{source}: {', '.join(names)} must be opencv-matrix entries")
     translation = np.asarray(mats["T"], dtype=np.float64).ravel()
-    baseline = float(np.sqrt((translation ** 2).sum()))
-    if length_unit is None and baseline > IMPLAUSIBLE_BASELINE_M:     # before the calibration's own (0, 100] m
-        raise CalibrationError(f"{source}: the baseline |T| is {baseline:.4g} in the file's length unit, implausible "
-                               f"in metres; the file does not say its unit, so give it (--calib-unit mm or cm, or "
-                               f"length_unit=...)")
+    # checked in the file's unit, before the calibration's own (0, 100] m: a rig in mm gets the hint
+    scale = unit_scale(length_unit, float(np.sqrt((translation ** 2).sum())), source)
     return CameraPairCalibration(
         camera_matrix_left=mats["cameraMatrix1"], distortion_left=mats.get("distCoeffs1"),
         camera_matrix_right=mats["cameraMatrix2"], distortion_right=mats.get("distCoeffs2"),
-        rotation=mats["R"], translation_m=translation * LENGTH_UNITS_M[length_unit or "m"],
-        width_px=int(size[0]), height_px=int(size[1]))
+        rotation=mats["R"], translation_m=translation * scale, width_px=int(size[0]), height_px=int(size[1]))
 
 
 def read_camera_calibration(path: str | os.PathLike[str], *, length_unit: str | None = None):
