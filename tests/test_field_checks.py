@@ -50,3 +50,11 @@ def test_a_nested_field_of_the_wrong_type_fails():
     with pytest.raises(InvalidInputError, match="share must be int, got float"):
         check_types(_Fields(), (("share", int),))
     check_types(_Fields(), (("size", int),))
+
+
+def test_a_nested_field_may_be_none_when_allowed():
+    check_types(_Fields(share=None), (("share", float),), allow_none=True)
+    with pytest.raises(InvalidInputError, match="share must be float, got NoneType"):
+        check_types(_Fields(share=None), (("share", float),))
+    with pytest.raises(InvalidInputError, match="size must be float or None, got int"):
+        check_types(_Fields(), (("size", float),), allow_none=True)

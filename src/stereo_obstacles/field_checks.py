@@ -70,19 +70,20 @@ def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd
             raise InvalidInputError(f"{name} must be {kind} in [{low}, {high}], got {value!r}")
 
 
-def check_types(owner: object, kinds: Iterable[tuple[str, type]]) -> None:
+def check_types(owner: object, kinds: Iterable[tuple[str, type]], *, allow_none: bool = False) -> None:
     """Each ``(name, kind)``: ``owner.name`` must be an instance of ``kind`` (a nested parameter
-    dataclass).
+    dataclass), or None when ``allow_none`` (a stage switched off).
 
     Raises
     ------
     InvalidInputError
-        ``"<name> must be <Kind>, got <type>"`` for the first field that is not.
+        ``"<name> must be <Kind> (or None), got <type>"`` for the first field that is not.
     """
     for name, kind in kinds:
         value = getattr(owner, name)
-        if not isinstance(value, kind):
-            raise InvalidInputError(f"{name} must be {kind.__name__}, got {type(value).__name__}")
+        if not (isinstance(value, kind) or (allow_none and value is None)):
+            expected = f"{kind.__name__} or None" if allow_none else kind.__name__
+            raise InvalidInputError(f"{name} must be {expected}, got {type(value).__name__}")
 
 
 __all__ = ["check_numbers", "check_positive", "check_integers", "check_types"]

@@ -39,7 +39,7 @@ from stereo_obstacles._obstacle_grouping_kernel import assign_pixels_kernel, cel
 from stereo_obstacles.colour_split import ColourCue, ColourSplitParameters, split_groups_by_colour
 from stereo_obstacles.coplanar_merging import merge_coplanar_groups
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 
 
 @dataclass(frozen=True)
@@ -103,8 +103,7 @@ class GroupingParameters:
                              ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf),
                              ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf),
                              ("coplanar_max_chroma_distance", 0.0, 400.0)))
-        if self.colour_split is not None and not isinstance(self.colour_split, ColourSplitParameters):
-            raise InvalidInputError(f"colour_split must be ColourSplitParameters or None, got {self.colour_split!r}")
+        check_types(self, (("colour_split", ColourSplitParameters),), allow_none=True)
 
 
 def _tolerance(d: np.ndarray, params: GroupingParameters) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 from stereo_obstacles import quantiles
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
 from stereo_obstacles.near_face import DISTANCE_PATCH_PX, SlantedFaceParameters, near_face_depth
 
@@ -79,9 +79,7 @@ class ObstacleParameters:
                              ("min_disparity_px", 0.0, math.inf)))
         check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),))
         check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"))
-        if not (self.slanted_face is None or isinstance(self.slanted_face, SlantedFaceParameters)):
-            raise InvalidInputError(f"slanted_face must be SlantedFaceParameters or None, "
-                                    f"got {type(self.slanted_face).__name__}")
+        check_types(self, (("slanted_face", SlantedFaceParameters),), allow_none=True)
 
 
 @dataclass(frozen=True)
