@@ -37,6 +37,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from functools import partial
 from dataclasses import asdict, dataclass, field, replace
 
 import cv2
@@ -516,16 +517,19 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
                                       min_excess, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
-    groups, measured = group_obstacle_pixels(disparity, standing, config.grouping, colour=colour), disparity
+    calls = [(partial(group_obstacle_pixels, colour=colour), disparity, standing, config.grouping)]
+    if ground is not None:
+        calls.append((group_obstacle_pixels, disparity, candidates & ~standing,
+                      replace(config.grouping, split_tolerance_px=0.0)))
+    grouped = run_each_in_threads(calls)
+    groups, measured = grouped[0], disparity
     if config.blind_strip is not None:
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
                                                       config.blind_strip)
     obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles)
     if ground is not None:
         # flat groups are only reported as rejected: no need to split them into depth layers
-        flat_groups = _without_feet(group_obstacle_pixels(disparity, candidates & ~standing,
-                                                          replace(config.grouping, split_tolerance_px=0.0)),
-                                    obstacles.id_map)
+        flat_groups = _without_feet(grouped[1], obstacles.id_map)
         flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles)
         # groups high enough but not clearly above the plane in disparity (far, or noisy matches)
         unclear = tuple(RejectedGroup(o.box_px, o.pixel_count, _not_clearly_raised(config)) for o in flat.obstacles)
