@@ -37,8 +37,8 @@ from __future__ import annotations
 import logging
 import math
 import time
-from functools import partial
 from dataclasses import asdict, dataclass, field, replace
+from functools import partial
 
 import cv2
 import numpy as np
@@ -519,6 +519,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
     calls = [(partial(group_obstacle_pixels, colour=colour), disparity, standing, config.grouping)]
     if ground is not None:
+        # the flat groups, beside: only reported as rejected, so no need to split them into depth layers
         calls.append((group_obstacle_pixels, disparity, candidates & ~standing,
                       replace(config.grouping, split_tolerance_px=0.0)))
     grouped = run_each_in_threads(calls)
@@ -528,7 +529,6 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
                                                       config.blind_strip)
     obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles)
     if ground is not None:
-        # flat groups are only reported as rejected: no need to split them into depth layers
         flat_groups = _without_feet(grouped[1], obstacles.id_map)
         flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles)
         # groups high enough but not clearly above the plane in disparity (far, or noisy matches)
