@@ -511,9 +511,14 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     warn_if_range_cut_off(disparity, d_max, None if calibration is None
                           else calibration.focal_baseline_px_m / (d_max + calibration.doffs_px))
     t = time.perf_counter()
-    ground, colour_trusted = _ground_plane(disparity, segmentation.ground_mask, calibration)
+    # the disparity uncertainty beside the ground plane: it does not need the plane, only whether
+    # there is one (without one it is not used)
+    (ground, colour_trusted), min_excess = run_each_in_threads([
+        (_ground_plane, disparity, segmentation.ground_mask, calibration),
+        (_min_excess_px, left, right, disparity, config, calibration is not None)])
+    if ground is None:
+        min_excess = config.geometric_min_excess_px
     depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
-    min_excess = _min_excess_px(left, right, disparity, config, needed=calibration is not None and ground is not None)
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
                                       min_excess, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
