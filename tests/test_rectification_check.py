@@ -83,3 +83,22 @@ def test_swapped_pair_is_recognised_and_refused(pairs):
     assert as_given.swapped is False and as_given.negative_fraction < 0.2
     refuse_swapped(as_given)
     refuse_swapped(None)                                         # no check made: nothing to refuse
+
+
+def test_the_swapped_warning_is_left_to_the_caller_that_refuses_the_pair(caplog):
+    from stereo_obstacles.rectification_check import SWAPPED_WARNING, logger, refusing_swapped_pairs
+
+    def warn_swapped():
+        caplog.clear()
+        logger.warning(SWAPPED_WARNING, 100.0, 168)
+        logger.warning("the pair does not look rectified: %s", "other warnings stay")
+        return caplog.text
+
+    assert "look swapped" in warn_swapped()
+    with refusing_swapped_pairs():
+        with refusing_swapped_pairs():                     # nested (or a batch's concurrent pairs)
+            text = warn_swapped()
+            assert "look swapped" not in text and "other warnings stay" in text
+        assert "look swapped" not in warn_swapped()
+    assert "look swapped" in warn_swapped()
+    assert logger.filters == []

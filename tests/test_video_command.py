@@ -129,11 +129,12 @@ def test_the_once_per_warning_filter_passes_other_levels_and_new_warnings():
     assert once.repeats == 1
 
 
-def test_a_swapped_stream_is_refused_on_its_first_frame_before_any_output(tmp_path, capsys):
+def test_a_swapped_stream_is_refused_on_its_first_frame_before_any_output(tmp_path, capsys, caplog):
     left_dir, right_dir = write_sequences(tmp_path / "in")
     jsonl, out_video = tmp_path / "frames.jsonl", tmp_path / "annotated.mp4"
     assert main(["video", str(right_dir), str(left_dir), "--jsonl", str(jsonl), "--video-out", str(out_video)]) == 1
     assert "look swapped" in capsys.readouterr().err
+    assert "look swapped" not in caplog.text                              # the error alone says it, once
     assert list(tmp_path.iterdir()) == [tmp_path / "in"]                  # no header-only JSON lines, no video
 
 

@@ -10,6 +10,8 @@ reported as not rectified and a warning is logged.
 from __future__ import annotations
 
 import logging
+import threading
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -134,11 +136,44 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
     negative = float(np.mean(left_px[:, 0] - right_px[:, 0] < -0.5)) if len(left_px) else 0.0
     swapped = None if offsets.n_points < MIN_MATCHES else negative > SWAPPED_FRACTION
     if swapped and warn:
-        logger.warning("the left and right images look swapped: %.0f %% of %d matched features lie further right "
-                       "in the right image (negative disparity); give the left camera's image first",
-                       100 * negative, offsets.n_points)
+        logger.warning(SWAPPED_WARNING, 100 * negative, offsets.n_points)
     return RectificationCheck(offsets=offsets, rectified=rectified, threshold_px=float(threshold_px),
                               swapped=swapped, negative_fraction=negative)
+
+
+SWAPPED_WARNING = ("the left and right images look swapped: %.0f %% of %d matched features lie further right in "
+                   "the right image (negative disparity); give the left camera's image first")
+"""The warning :func:`check_rectification` logs for a swapped pair (a logging format string)."""
+
+
+class _WithoutSwappedWarning(logging.Filter):
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.msg is not SWAPPED_WARNING
+
+
+_WITHOUT_SWAPPED_WARNING = _WithoutSwappedWarning()
+_refusing = 0
+_refusing_lock = threading.Lock()
+
+
+@contextmanager
+def refusing_swapped_pairs():
+    """Within it, :func:`check_rectification` does not warn about a swapped pair: the caller
+    refuses such a pair with :func:`refuse_swapped`, whose error says the same (the command line
+    showed the sentence twice). Concurrent and nested uses (a batch's pairs) are counted; the
+    warning comes back when the last one ends."""
+    global _refusing
+    with _refusing_lock:
+        if _refusing == 0:
+            logger.addFilter(_WITHOUT_SWAPPED_WARNING)
+        _refusing += 1
+    try:
+        yield
+    finally:
+        with _refusing_lock:
+            _refusing -= 1
+            if _refusing == 0:
+                logger.removeFilter(_WITHOUT_SWAPPED_WARNING)
 
 
 def refuse_swapped(check: RectificationCheck | None) -> None:

@@ -84,10 +84,11 @@ def run_detection(left, right, calibration, config, out_dir, inputs: dict):
     """Detect, write every output into ``out_dir``, and return the detection result; a pair
     that looks swapped is refused before anything is written."""
     from stereo_obstacles.pipeline import detect
-    from stereo_obstacles.rectification_check import refuse_swapped
+    from stereo_obstacles.rectification_check import refuse_swapped, refusing_swapped_pairs
     from stereo_obstacles.report import write_detection_outputs
 
-    result = detect(left, right, calibration, config=config)
+    with refusing_swapped_pairs():
+        result = detect(left, right, calibration, config=config)
     refuse_swapped(result.rectification_check)
     write_detection_outputs(out_dir, left=left, labels=result.segmentation.labels, disparity=result.disparity,
                             depth_m=result.depth_m, obstacle_list=result.obstacles, calibration=calibration,

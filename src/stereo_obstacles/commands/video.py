@@ -155,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.jsonl import JsonLinesWriter
     from stereo_obstacles.progress import Progress
     from stereo_obstacles.pipeline import pair_rectification_check
-    from stereo_obstacles.rectification_check import refuse_swapped
+    from stereo_obstacles.rectification_check import refuse_swapped, refusing_swapped_pairs
     from stereo_obstacles.report import write_detection_outputs
     from stereo_obstacles.stream_detection import (IN_FLIGHT, annotate_frame, detect_stream, frame_record,
                                                    header_record)
@@ -200,7 +200,9 @@ def run(args: argparse.Namespace) -> int:
         if args.forward_speed and calibration is None:
             raise InvalidInputError("--forward-speed needs a calibration (--calib, or --focal and --baseline): "
                                     "without one the motion cannot be turned into disparities")
-        refuse_swapped(pair_rectification_check(first.left, first.right))     # before any output is written
+        with refusing_swapped_pairs():
+            first_check = pair_rectification_check(first.left, first.right)
+        refuse_swapped(first_check)     # before any output is written
         checked = replace(config, check_rectification=False)                # done: the rig does not change
         temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
                                            forward_m_per_frame=args.forward_speed,
