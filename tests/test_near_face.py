@@ -145,7 +145,7 @@ def test_slanted_face_disparity_needs_enough_points_on_one_plane():
     any_span = SlantedFaceParameters(min_span_fraction=0.0)
     assert slanted_face_disparity(xs[:6], ys[:6], ds[:6], any_span) == pytest.approx(30.0)
     assert slanted_face_disparity(xs[:5], ys[:5], ds[:5], any_span) is None                # fewer than 6
-    assert slanted_face_disparity(xs, np.zeros(10), ds, any_span) is None                  # one row: no plane
+    assert slanted_face_disparity(np.zeros(10), np.zeros(10), ds, any_span) is None        # one point: no plane
     scattered = ds + np.where(np.arange(10) % 3 == 0, 3.0, 0.0)                             # 4 of 10 off it
     assert slanted_face_disparity(xs, ys, scattered, params) is None
 
@@ -222,3 +222,15 @@ def test_measure_obstacles_reads_a_far_slanted_face_with_its_calibration():
                                    ObstacleParameters(slanted_face=None)).obstacles[0].distance_m
     assert slanted == pytest.approx(FOCAL_BASELINE / (9.0 - 0.02 * 3.5), rel=0.03)
     assert slanted < 0.985 * percentile
+
+
+@pytest.mark.parametrize("first_row", [0, 4])
+def test_a_face_one_patch_row_tall_is_measured_along_its_row(first_row):
+    # a receding wall 8 px tall: on the patch grid its patch centres share one row, off it two rows
+    xs, ys, z = _face(lambda x, y: 31.0 - 0.1 * x, height=8)
+    ys = ys + first_row
+    assert _distance(xs, ys, z) == pytest.approx(FOCAL_BASELINE / 30.65, rel=0.005)
+    assert _distance(xs, ys, z) < 0.97 * _distance(xs, ys, z, slanted_face=None)
+    # the same along one column: a face seen from above, one patch wide
+    assert slanted_face_disparity(np.full(10, 3.5), np.arange(10.0) * 8 + 3.5, 20.0 + 0.2 * np.arange(10.0) * 8,
+                                  SlantedFaceParameters()) == pytest.approx(20.0 + 0.2 * 72)

@@ -172,7 +172,7 @@ def slanted_face_disparity(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray,
     on_plane = np.ones(len(ds), dtype=bool)
     tolerance = np.maximum(params.tolerance_px, params.tolerance_fraction * ds)
     for _ in range(PLANE_FIT_ROUNDS):
-        plane = least_squares_plane(xs[on_plane], ys[on_plane], ds[on_plane])
+        plane = _face_plane(xs[on_plane], ys[on_plane], ds[on_plane])
         if plane is None:
             return None
         fitted = plane_at(plane, xs, ys)
@@ -184,6 +184,22 @@ def slanted_face_disparity(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray,
             or nearest - fitted.min() < params.min_span_fraction * nearest):
         return None
     return nearest
+
+
+def _face_plane(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> tuple[float, float, float] | None:
+    """:func:`~stereo_obstacles.plane_fit.least_squares_plane` of the points, or, when they lie in
+    one row (one column) of patches, the least-squares line along it, level across: a face one
+    patch tall is measured as one two patches tall is (``(a, b, c)`` of ``d = a x + b y + c``)."""
+    plane = least_squares_plane(xs, ys, ds)
+    if plane is not None or len(ds) < 2:
+        return plane
+    for along, other in ((xs, ys), (ys, xs)):
+        if np.ptp(other) == 0 and np.ptp(along) > 0:
+            centred = along - along.mean()
+            slope = float((centred * (ds - ds.mean())).sum() / (centred * centred).sum())
+            offset = float(ds.mean() - slope * along.mean())
+            return (slope, 0.0, offset) if along is xs else (0.0, slope, offset)
+    return None
 
 
 __all__ = ["DISTANCE_PATCH_PX", "SlantedFaceParameters", "near_face_depth", "slanted_face_disparity"]
