@@ -22,8 +22,13 @@ MIDDLEBURY = "cam0=[{f} 0 80; 0 {f} 60; 0 0 1]\ncam1=[{f} 0 80; 0 {f} 60; 0 0 1]
     (["--focal", "138", "--baseline", "0.12", "--doffs", "1e9"], "doffs_px = 1e+09 px is implausible"),
     (["--focal", "138", "--baseline", "0.12", "--doffs", "-1000"], "doffs_px = -1000 px is implausible"),
     (["--focal", "138"], "--focal and --baseline must be given together"),
+    (["--cx", "80"], "--focal and --baseline must be given together (--cx given)"),          # was ignored
+    (["--doffs", "3", "--cy", "60"], "--focal and --baseline must be given together (--cy, --doffs given)"),
+    (["--calib", "scene/calibration.json", "--cx", "80"], "give either --calib FILE or --focal and --baseline, "
+                                                          "not both (--cx given with --calib)"),     # was ignored
 ])
 def test_bad_manual_calibration_is_one_line(inputs, run_cli, tmp_path, options, message):
+    options = [str(inputs / o) if o.endswith(".json") else o for o in options]
     code, _, err, _ = run_cli("detect", inputs / "left.png", inputs / "right.png", "--out", tmp_path / "o", *options)
     assert code == 1 and message in error_line(err)
     assert not (tmp_path / "o").exists()

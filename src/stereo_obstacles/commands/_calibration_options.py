@@ -21,8 +21,28 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--baseline", type=float, metavar="M", help="baseline in metres")
     group.add_argument("--cx", type=float, metavar="PX", help="principal point x (default: image centre)")
     group.add_argument("--cy", type=float, metavar="PX", help="principal point y (default: image centre)")
-    group.add_argument("--doffs", type=float, default=0.0, metavar="PX",
-                       help="x-difference of the principal points, right minus left (Middlebury doffs)")
+    group.add_argument("--doffs", type=float, metavar="PX",
+                       help="x-difference of the principal points, right minus left (Middlebury doffs; default 0)")
+
+
+def check_manual_calibration(args: argparse.Namespace) -> None:
+    """Refuse ``--focal``/``--baseline``/``--cx``/``--cy``/``--doffs`` beside ``--calib``, and
+    ``--cx``/``--cy``/``--doffs`` without ``--focal`` and ``--baseline``: they were ignored.
+
+    Raises
+    ------
+    CalibrationError
+        Naming the options that cannot be used.
+    """
+    from stereo_obstacles.errors import CalibrationError
+
+    manual = [f"--{name}" for name in ("focal", "baseline", "cx", "cy", "doffs")
+              if getattr(args, name, None) is not None]
+    if getattr(args, "calib", None) and manual:
+        raise CalibrationError(f"give either --calib FILE or --focal and --baseline, not both ({', '.join(manual)} "
+                               f"given with --calib)")
+    if manual and (args.focal is None or args.baseline is None):
+        raise CalibrationError(f"--focal and --baseline must be given together ({', '.join(manual)} given)")
 
 
 def calibration_from_args(args: argparse.Namespace, width_px: int, height_px: int):
@@ -36,18 +56,13 @@ def calibration_from_args(args: argparse.Namespace, width_px: int, height_px: in
     """
     from stereo_obstacles.calibration import StereoCalibration
     from stereo_obstacles.calibration_files import read_calibration
-    from stereo_obstacles.errors import CalibrationError
 
-    manual = args.focal is not None or args.baseline is not None
-    if args.calib and manual:
-        raise CalibrationError("give either --calib FILE or --focal and --baseline, not both")
+    check_manual_calibration(args)
     if args.calib:
         calibration = read_calibration(args.calib, length_unit=args.calib_unit)
-    elif manual:
-        if args.focal is None or args.baseline is None:
-            raise CalibrationError("--focal and --baseline must be given together")
+    elif args.focal is not None:
         calibration = StereoCalibration(
-            focal_px=args.focal, baseline_m=args.baseline, doffs_px=args.doffs,
+            focal_px=args.focal, baseline_m=args.baseline, doffs_px=args.doffs if args.doffs is not None else 0.0,
             cx_px=args.cx if args.cx is not None else (width_px - 1) / 2.0,
             cy_px=args.cy if args.cy is not None else (height_px - 1) / 2.0,
             width_px=width_px, height_px=height_px)
@@ -96,8 +111,8 @@ def prepare_pair(args: argparse.Namespace, left, right):
         calibration = calibration_from_args(args, width, height) if hasattr(args, "focal") else None
         return left, right, calibration, rectification.to_dict()
     if calib_file:
-        if hasattr(args, "focal") and (args.focal is not None or args.baseline is not None):
-            raise CalibrationError("give either --calib FILE or --focal and --baseline, not both")
+        if hasattr(args, "focal"):
+            check_manual_calibration(args)
         loaded = read_camera_calibration(calib_file, length_unit=args.calib_unit)     # read once
         loaded.check_image_size(width, height)
         if not isinstance(loaded, CameraPairCalibration):
