@@ -146,6 +146,8 @@ def test_a_calib_unit_the_file_does_not_use_is_warned_about_once(synthetic_files
         caplog.clear()
         assert main(command) == 0
         assert caplog.text.count("the length unit 'mm' (--calib-unit) is not used") == 1, command
+    settings = json.loads((tmp_path / "b" / "batch_summary.json").read_text())["settings"]
+    assert (settings["calib"], settings["calib_unit"]) == (str(synthetic_files / "rig.json"), "mm")
     # the worker processes rectified with the calibration handed to them, as the disparity command does
     done = json.loads((tmp_path / "b" / "a" / "done.json").read_text())
     assert done["inputs"]["calibration"] == str(synthetic_files / "rig.json")

@@ -99,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
     outcomes += finished_unreported(pending, outcomes)      # pairs an interrupt did not wait for
     seconds = time.monotonic() - start
     settings = {"input_dir": str(args.input_dir), "task": args.task, "workers": None if args.scheduler else workers,
-                "scheduler": args.scheduler, "calib": args.calib, "config": config.to_dict()}
+                "scheduler": args.scheduler, "calib": args.calib, "calib_unit": args.calib_unit,
+                "config": config.to_dict()}
     summary = write_summary(out, outcomes, seconds=seconds, interrupted=interrupted, settings=settings)
     counts = {s: sum(o.status == s for o in outcomes) for s in ("done", "skipped", "failed")}
     print(f"{len(jobs)} pairs: {counts['done']} done, {counts['skipped']} skipped (done before), "
