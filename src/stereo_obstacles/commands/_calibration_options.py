@@ -41,7 +41,7 @@ def check_manual_calibration(args: argparse.Namespace) -> None:
     if getattr(args, "calib", None) and manual:
         raise CalibrationError(f"give either --calib FILE or --focal and --baseline, not both ({', '.join(manual)} "
                                f"given with --calib)")
-    if manual and (args.focal is None or args.baseline is None):
+    if manual and (getattr(args, "focal", None) is None or getattr(args, "baseline", None) is None):
         raise CalibrationError(f"--focal and --baseline must be given together ({', '.join(manual)} given)")
 
 
@@ -111,8 +111,7 @@ def prepare_pair(args: argparse.Namespace, left, right):
         calibration = calibration_from_args(args, width, height) if hasattr(args, "focal") else None
         return left, right, calibration, rectification.to_dict()
     if calib_file:
-        if hasattr(args, "focal"):
-            check_manual_calibration(args)
+        check_manual_calibration(args)
         loaded = read_camera_calibration(calib_file, length_unit=args.calib_unit)     # read once
         loaded.check_image_size(width, height)
         if not isinstance(loaded, CameraPairCalibration):
