@@ -44,6 +44,7 @@ import numpy as np
 from stereo_obstacles._colour_split_kernel import group_runs_kernel, two_colours_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.group_splits import GroupSplits
 from stereo_obstacles.part_boundaries import (FIT_MARGIN_PX, PixelCanvas, boundary, distance_to_other,
                                               on_plane_fraction, planes_away_from_boundary, step_at)
 from stereo_obstacles.plane_fit import plane_at
@@ -193,7 +194,7 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
         groups.ravel(), cue.coloured.ravel(), int(groups.max(initial=-1)) + 1)
     # the first tests of _split on the counts alone: most groups need no pass over their pixels
     large = (counts >= 2 * min_object_pixels) & (coloured_counts >= 2 * min_object_pixels)
-    out, next_label = groups, len(counts)
+    splits = GroupSplits(groups, len(counts))
     for group in np.flatnonzero(large):
         run = pixels[starts[group]:starts[group + 1]]
         ys, xs = np.divmod(run, width)
@@ -204,15 +205,8 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
             continue
         parts = _split(canvas, d, cue.chroma.reshape(-1, 2)[decided], cue.coloured.ravel()[decided],
                        min_object_pixels, params, params.max_levels)[square_of]
-        n_parts = int(parts.max()) + 1
-        if n_parts == 1:
-            continue
-        if out is groups:
-            out = groups.copy()
-        new_labels = np.concatenate([[group], np.arange(next_label, next_label + n_parts - 1)])
-        out[ys, xs] = new_labels[parts]
-        next_label += n_parts - 1
-    return out
+        splits.split(group, ys, xs, parts)
+    return splits.groups
 
 
 def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.ndarray, min_object_pixels: int,

@@ -40,6 +40,7 @@ from stereo_obstacles.colour_split import ColourCue, ColourSplitParameters, spli
 from stereo_obstacles.coplanar_merging import merge_coplanar_groups
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
+from stereo_obstacles.group_splits import GroupSplits
 
 
 @dataclass(frozen=True)
@@ -164,8 +165,7 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
     # pixels of each (group, tight group) pair: most frames have no group with two layers
     pair_counts = np.bincount(groups[both] * n_tight + tight[both], minlength=n_groups * n_tight)
     layered = (pair_counts.reshape(n_groups, n_tight) >= params.min_object_pixels).sum(axis=1) >= 2
-    out = groups
-    next_label = n_groups
+    splits = GroupSplits(groups, n_groups)
     for group in np.flatnonzero(layered):
         ys, xs = np.nonzero(groups == group)
         inner, values = tight[ys, xs], d[ys, xs]
@@ -176,12 +176,8 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
         layer_of = np.searchsorted(layers, inner)  # exact for pixels in one of the layers
         in_layer = (inner >= 0) & (layers[np.minimum(layer_of, len(layers) - 1)] == inner)
         nearest = np.argmin(np.abs(values[:, None] - medians[None, :]), axis=1)
-        new_labels = np.concatenate([[group], np.arange(next_label, next_label + len(layers) - 1)])
-        if out is groups:
-            out = groups.copy()
-        out[ys, xs] = new_labels[np.where(in_layer, layer_of, nearest)]
-        next_label += len(layers) - 1
-    return out
+        splits.split(group, ys, xs, np.where(in_layer, layer_of, nearest))
+    return splits.groups
 
 
 def _mean_chroma(groups: np.ndarray, chroma: np.ndarray) -> np.ndarray:
