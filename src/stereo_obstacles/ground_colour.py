@@ -77,7 +77,8 @@ class GroundColourParameters:
         Keep only the shadow (and sunlit) shifts whose chroma (red and blue relative to green)
         is within the first and whose green is within the second number of cells of the shift
         the image supports best (penumbra and partly hidden sky vary a shadow's darkness more
-        than its colour); ``None`` (the default) keeps the whole family. ``2`` and ``2``
+        than its colour); a chroma radius of ``None`` (the default) keeps the whole family, and
+        the brightness radius (default 2) then plays no part. ``2`` and ``2``
         measured better on synthetic scenes (held-out BER 17.6 -> 16.0 %) but called twice as
         much shadowed KITTI road an obstacle (7.0 -> 14.4 %; docs/segmentation.md), so the
         single shift is an option, not the default.

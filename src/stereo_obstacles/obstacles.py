@@ -8,8 +8,9 @@ frame (x right, y down, z forward); without one, only pixels and disparities are
 Distance of an obstacle is that of its near face (:mod:`stereo_obstacles.near_face`): a low
 percentile of its patches' median depths, or a plane through them for a face slanted in depth.
 Height above the ground uses the ground plane fitted in (x, y, disparity) space, converted to a
-3-D plane; objects whose pixels all lie within ``flat_tolerance_m`` of that plane are rejected
-as flat (markings, puddles), and the rejection is reported with its reason.
+3-D plane; objects of which fewer than ``min_standing_fraction`` of the pixels stand more than
+``flat_tolerance_m`` above that plane are rejected as flat (markings, puddles), and the
+rejection is reported with its reason.
 """
 
 from __future__ import annotations

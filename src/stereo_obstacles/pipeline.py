@@ -190,7 +190,9 @@ class DetectionResult:
     depth_m
         ``float32 (H, W)`` depth in metres, NaN where unknown; ``None`` without calibration.
     ground
-        The ground plane in disparity space, ``None`` when too few ground pixels matched.
+        The ground plane in disparity space; ``None`` when too few ground pixels matched, or
+        when no plane fitted to them can be the ground (with a calibration: tilted more than
+        ``MAX_GROUND_TILT_DEG`` from the camera's vertical, a wall).
     obstacles
         Obstacles nearest first, rejected groups, corridor summary.
     calibration
