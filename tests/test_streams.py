@@ -51,6 +51,45 @@ def test_image_sequences_of_different_counts_are_refused(tmp_path):
         ImageSequenceSource(left_dir, right_dir)
 
 
+def test_a_frame_missing_on_one_side_of_named_sequences_is_refused(tmp_path):
+    # by position, every frame after the gap would meet the wrong right image (found by a review)
+    left_dir, right_dir = write_sequences(tmp_path)
+    (right_dir / "0001.png").rename(right_dir / "0009.png")
+    with pytest.raises(ImageMismatchError, match=r"share 3 image names but not all .*0001\.png and .*0009\.png"):
+        ImageSequenceSource(left_dir, right_dir)
+
+
+def test_a_pattern_over_one_folder_per_frame_keeps_the_frames_in_order(tmp_path):
+    # the layout `scene --frames` writes: frame_*/left.png; sorted by file name alone, the frames
+    # came in folder-listing order, all named "left"
+    left_dir, right_dir = write_sequences(tmp_path)
+    for i in range(N_FRAMES):
+        folder = tmp_path / "seq" / f"frame_{i:04d}"
+        folder.mkdir(parents=True)
+        (left_dir / f"{i:04d}.png").rename(folder / "left.png")
+        (right_dir / f"{i:04d}.png").rename(folder / "right.png")
+    got = list(open_source([str(tmp_path / "seq" / "frame_*" / "left.png"),
+                            str(tmp_path / "seq" / "frame_*" / "right.png")]))
+    assert [f.name for f in got] == [f"frame_{i:04d}_left" for i in range(N_FRAMES)]
+    for frame, pair in zip(got, frames()):
+        np.testing.assert_array_equal(frame.left, pair.left)
+        np.testing.assert_array_equal(frame.right, pair.right)
+
+
+def test_pairing_by_order_warns_when_the_frame_numbers_disagree(tmp_path, caplog):
+    left_dir, right_dir = write_sequences(tmp_path, left_name="cam0_{:d}.png", right_name="cam1_{:d}.png")
+    (right_dir / "cam1_1.png").rename(right_dir / "cam1_7.png")
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        ImageSequenceSource(left_dir, right_dir)
+    assert "cam0_1.png goes with" in caplog.text and "cam1_2.png" in caplog.text
+    caplog.clear()
+    left_dir, right_dir = write_sequences(tmp_path / "agreeing", left_name="cam0_{:d}.png",
+                                          right_name="cam1_{:d}.png")
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        ImageSequenceSource(left_dir, right_dir)
+    assert caplog.text == ""
+
+
 def test_image_sequence_errors(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputFileError, match="no image files"):

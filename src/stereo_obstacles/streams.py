@@ -7,9 +7,11 @@ Every source yields :class:`StereoFrame` objects (index, timestamp, left and rig
 * :class:`VideoPairSource` — two video files, frame *k* of one with frame *k* of the other;
   the timestamp is the left video's position. Files whose frame counts (as the containers
   state them) differ are refused; otherwise the shorter one ends the stream.
-* :class:`ImageSequenceSource` — two folders or glob patterns of images. When both sides
-  hold the same file names they are paired by name; otherwise by sorted order, and then the
-  counts must agree. Timestamps are ``index / fps``.
+* :class:`ImageSequenceSource` — two folders or glob patterns of images (a pattern may cover
+  one folder per frame), in natural order of their paths. When both sides hold the same names
+  they are paired by name; when they share some names but not all they are refused (a frame
+  missing on one side); otherwise by order, and then the counts must agree (a warning when
+  the paired names' last numbers differ). Timestamps are ``index / fps``.
 * :class:`SideBySideSource` — one video whose frames hold the left view in the left half and
   the right view in the right half (common cheap stereo cameras); the width must be even.
 * :class:`CameraPairSource` — two live cameras by device index; both are *grabbed* before
@@ -62,7 +64,8 @@ class StereoFrame:
     left, right : ndarray of uint8, shape (H, W, 3)
         RGB images of the same size.
     name : str
-        A short name for per-frame outputs (the left file's stem for image sequences, else
+        A short name for per-frame outputs (for image sequences the left file's path below the
+        folder common to all, without its ending: its stem, or ``frame_0003_left``; else
         ``frame_000123``).
     """
 
@@ -238,12 +241,13 @@ class SideBySideSource(StereoSource):
             capture.release()
 
 
-def _natural_key(path: Path) -> list:
-    return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", path.name)]
+def _natural_key(text: str) -> list:
+    return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", text)]
 
 
 def _list_images(spec: str | os.PathLike[str], side: str) -> list[Path]:
-    """The image files a folder or glob pattern names, in natural order."""
+    """The image files a folder or glob pattern names, in natural order of their whole paths (a
+    pattern may cover one folder per frame: ``frame_*/left.png``)."""
     text = str(spec)
     if Path(text).is_dir():
         files = [p for p in Path(text).iterdir() if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS]
@@ -253,7 +257,50 @@ def _list_images(spec: str | os.PathLike[str], side: str) -> list[Path]:
         raise InputFileError(f"{side} image sequence {text}: not a folder and not a glob pattern")
     if not files:
         raise InputFileError(f"{side} image sequence {text}: no image files")
-    return sorted(files, key=_natural_key)
+    return sorted(files, key=lambda path: _natural_key(path.as_posix()))
+
+
+def _frame_names(files: list[Path]) -> list[str]:
+    """Each file's path below the folder common to all, without its ending (``/`` as ``_``): the
+    file's stem when all lie in one folder, ``frame_0003_left`` for ``frame_0003/left.png``."""
+    common = Path(os.path.commonpath([p.parent for p in files])) if len(files) > 1 else files[0].parent
+    return [p.relative_to(common).with_suffix("").as_posix().replace("/", "_") for p in files]
+
+
+def _last_number(name: str) -> int | None:
+    numbers = re.findall(r"\d+", name)
+    return int(numbers[-1]) if numbers else None
+
+
+def _paired(left_files: list[Path], right_files: list[Path], left: object, right: object) -> list[tuple[int, int]]:
+    """Indices ``(i, j)`` of the left and right files that form the frames, in order.
+
+    Both sides with the same names: by name. Some names in common but not all: refused (a frame
+    missing on one side would pair every later frame with the wrong partner). No name in
+    common: by order, the counts equal; a warning when the last numbers in the paired names
+    differ (``cam0_12`` with ``cam1_13``: a frame may be missing)."""
+    left_names, right_names = _frame_names(left_files), _frame_names(right_files)
+    right_index = {name: j for j, name in enumerate(right_names)}
+    common = right_index.keys() & set(left_names)
+    if common and len(common) == len(left_names) == len(right_names):
+        logger.info("pairing %d images by name", len(left_names))
+        return [(i, right_index[name]) for i, name in enumerate(left_names)]
+    if common:
+        unpaired = [f"{left_files[i]}" for i, name in enumerate(left_names) if name not in common][:1] + \
+                   [f"{right_files[j]}" for j, name in enumerate(right_names) if name not in common][:1]
+        raise ImageMismatchError(f"{left} and {right} share {len(common)} image names but not all "
+                                 f"({' and '.join(unpaired)} {'have' if len(unpaired) > 1 else 'has'} no partner of "
+                                 f"the same name): a frame missing on one side would pair the later ones wrongly")
+    if len(left_files) != len(right_files):
+        raise ImageMismatchError(f"{left} holds {len(left_files)} images but {right} holds "
+                                 f"{len(right_files)}, and their names differ, so they cannot be paired")
+    for i, (left_name, right_name) in enumerate(zip(left_names, right_names)):
+        if _last_number(left_name) != _last_number(right_name):
+            logger.warning("pairing the images by order, but %s goes with %s: their frame numbers differ "
+                           "(is a frame missing on one side?)", left_files[i], right_files[i])
+            break
+    logger.info("pairing %d images by sorted order", len(left_files))
+    return [(i, i) for i in range(len(left_files))]
 
 
 class ImageSequenceSource(StereoSource):
@@ -271,7 +318,7 @@ class ImageSequenceSource(StereoSource):
     InputFileError
         A folder or pattern names no images.
     ImageMismatchError
-        The names differ and so do the counts, so the images cannot be paired.
+        The two sides share some names but not all, or no names and their counts differ.
     """
 
     def __init__(self, left: str | os.PathLike[str], right: str | os.PathLike[str], *, fps: float = 30.0) -> None:
@@ -279,22 +326,13 @@ class ImageSequenceSource(StereoSource):
             raise InvalidInputError(f"fps must be > 0, got {fps}")
         self.description = f"image sequences {left} and {right}"
         left_files, right_files = _list_images(left, "left"), _list_images(right, "right")
-        left_names, right_names = [p.name for p in left_files], [p.name for p in right_files]
-        if sorted(left_names) == sorted(right_names):
-            by_name = {p.name: p for p in right_files}
-            self._pairs = [(p, by_name[p.name]) for p in left_files]
-            logger.info("pairing %d images by name", len(self._pairs))
-        elif len(left_files) == len(right_files):
-            self._pairs = list(zip(left_files, right_files))
-            logger.info("pairing %d images by sorted order", len(self._pairs))
-        else:
-            raise ImageMismatchError(f"{left} holds {len(left_files)} images but {right} holds "
-                                     f"{len(right_files)}, and their names differ, so they cannot be paired")
+        names = _frame_names(left_files)
+        self._pairs = [(left_files[i], right_files[j], names[i]) for i, j in _paired(left_files, right_files, left, right)]
         self.fps = float(fps)
         self.total_frames = len(self._pairs)
 
     def _frames(self) -> Iterator[StereoFrame]:
-        for index, (left_path, right_path) in enumerate(self._pairs):
+        for index, (left_path, right_path, name) in enumerate(self._pairs):
             left = read_image(left_path, mode="color")
             right = read_image(right_path, mode="color")
             for path, image in ((left_path, left), (right_path, right)):
@@ -303,7 +341,7 @@ class ImageSequenceSource(StereoSource):
             if left.shape != right.shape:
                 raise ImageMismatchError(f"{left_path} is {left.shape[1]}x{left.shape[0]} but {right_path} is "
                                          f"{right.shape[1]}x{right.shape[0]}")
-            yield StereoFrame(index, index / self.fps, left, right, left_path.stem)
+            yield StereoFrame(index, index / self.fps, left, right, name)
 
 
 class CameraPairSource(StereoSource):
