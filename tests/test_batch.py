@@ -123,6 +123,24 @@ def test_corrupt_pair_is_reported_and_the_rest_done_then_resumed(pairs_dir, tmp_
     assert _summary(out)["counts"] == {"done": 1, "skipped": 2, "failed": 0}
 
 
+def test_going_on_with_other_settings_in_the_same_out_is_refused(pairs_dir, tmp_path, capsys):
+    # the pairs done before used to be skipped as done, their outputs made with the old settings
+    # and the summary rewritten with the new ones (found by a review)
+    out = tmp_path / "out"
+    args = ["batch", str(pairs_dir), "--out", str(out), "--workers", "1", "--task", "disparity", "--max-disparity", "40"]
+    assert main(args) == 1                                               # pair b is corrupt
+    summary = (out / SUMMARY_FILE).read_text()
+    capsys.readouterr()
+    assert main(args[:-1] + ["32"]) == 1
+    err = capsys.readouterr().err
+    assert "holds pairs done with other settings of config matching:" in err and len(err.splitlines()) == 1
+    assert main(args[:6] + ["--task", "detect", "--max-disparity", "40"]) == 1
+    assert "other settings of task:" in capsys.readouterr().err
+    assert (out / SUMMARY_FILE).read_text() == summary                   # nothing rewritten
+    assert main(args + ["--workers", "2"]) == 1                          # how it runs is not a setting of the outputs
+    assert _summary(out)["counts"] == {"done": 0, "skipped": 2, "failed": 1}
+
+
 def test_detect_task_writes_the_detect_outputs_with_the_folder_calibration(tmp_path):
     write_scene_folder(tmp_path / "in" / "scene", frames()[0])
     out = tmp_path / "out"

@@ -30,10 +30,10 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from stereo_obstacles.errors import InputFileError, InvalidInputError
+from stereo_obstacles.errors import InputFileError, InvalidInputError, OutputError
 
-__all__ = ["DONE_FILE", "SUMMARY_FILE", "TASKS", "BatchJob", "PairOutcome", "PairSpec", "find_pairs",
-           "finished_unreported", "process_pair", "run_batch", "write_summary"]
+__all__ = ["DONE_FILE", "SETTINGS_OF_THE_OUTPUTS", "SUMMARY_FILE", "TASKS", "BatchJob", "PairOutcome", "PairSpec",
+           "check_earlier_settings", "find_pairs", "finished_unreported", "process_pair", "run_batch", "write_summary"]
 
 logger = logging.getLogger(__name__)
 
@@ -489,6 +489,40 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
         for outcome in finished_unreported(todo, outcomes):     # those Dask had running when it cancelled them
             record(outcome)
     return outcomes
+
+
+SETTINGS_OF_THE_OUTPUTS = ("task", "calib", "calib_unit", "config")
+"""The settings of :data:`SUMMARY_FILE` that shape every pair's outputs."""
+
+
+def check_earlier_settings(out_dir: str | os.PathLike[str], settings: dict) -> None:
+    """Refuse to go on in ``out_dir`` when its summary records other :data:`SETTINGS_OF_THE_OUTPUTS`
+    than ``settings`` (as :func:`write_summary` takes them): the pairs done then would be skipped
+    as done and kept, as if made with these. A folder without a readable summary is not checked.
+
+    Raises
+    ------
+    OutputError
+        Naming the settings that differ (for ``config``, its options).
+    """
+    try:
+        earlier = json.loads((Path(out_dir) / SUMMARY_FILE).read_text(encoding="utf-8")).get("settings")
+    except (OSError, ValueError, AttributeError):
+        return
+    if not isinstance(earlier, dict):
+        return
+    now = json.loads(json.dumps(settings))
+    differing = [key for key in SETTINGS_OF_THE_OUTPUTS if key != "config" and earlier.get(key) != now.get(key)]
+    earlier_config, config = earlier.get("config"), now.get("config")
+    if earlier_config != config:
+        if isinstance(earlier_config, dict) and isinstance(config, dict):
+            differing += [f"config {key}" for key in sorted(earlier_config.keys() | config.keys())
+                          if earlier_config.get(key) != config.get(key)]
+        else:
+            differing.append("config")
+    if differing:
+        raise OutputError(f"{out_dir} holds pairs done with other settings of {', '.join(differing)}: they would be "
+                          f"skipped as done; use another --out, or delete {out_dir} to redo them")
 
 
 def write_summary(out_dir: str | os.PathLike[str], outcomes: list[PairOutcome], *, seconds: float,

@@ -49,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.atomic import check_output_folder
-    from stereo_obstacles.batch import DONE_FILE, BatchJob, find_pairs, finished_unreported, run_batch, write_summary
+    from stereo_obstacles.batch import (DONE_FILE, BatchJob, check_earlier_settings, find_pairs, finished_unreported,
+                                        run_batch, write_summary)
     from stereo_obstacles.camera_calibration import read_camera_calibration
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
@@ -69,6 +70,12 @@ def run(args: argparse.Namespace) -> int:
     calibration = read_camera_calibration(args.calib, length_unit=args.calib_unit) if args.calib is not None else None
     pairs = find_pairs(args.input_dir, skip=out)
     jobs = [BatchJob(pair, str(out / pair.name), args.task, config, args.calib, calibration) for pair in pairs]
+    settings = {"input_dir": str(args.input_dir), "task": args.task, "workers": None if args.scheduler else workers,
+                "scheduler": args.scheduler, "calib": args.calib, "calib_unit": args.calib_unit,
+                "config": config.to_dict()}
+    pending = [job for job in jobs if not (Path(job.out_dir) / DONE_FILE).is_file()]
+    if len(pending) < len(jobs):
+        check_earlier_settings(out, settings)
     announce_compilation()         # the workers compile on their first pair
     progress = Progress(len(jobs), label="pair")
 
@@ -80,7 +87,6 @@ def run(args: argparse.Namespace) -> int:
         progress.update(note=outcome.name)
 
     start = time.monotonic()
-    pending = [job for job in jobs if not (Path(job.out_dir) / DONE_FILE).is_file()]
     outcomes: list = []
     interrupted = False
     exit_code = EXIT_INTERRUPTED           # when stopped by a Ctrl-C between pairs
@@ -98,9 +104,6 @@ def run(args: argparse.Namespace) -> int:
         progress.close()
     outcomes += finished_unreported(pending, outcomes)      # pairs an interrupt did not wait for
     seconds = time.monotonic() - start
-    settings = {"input_dir": str(args.input_dir), "task": args.task, "workers": None if args.scheduler else workers,
-                "scheduler": args.scheduler, "calib": args.calib, "calib_unit": args.calib_unit,
-                "config": config.to_dict()}
     summary = write_summary(out, outcomes, seconds=seconds, interrupted=interrupted, settings=settings)
     counts = {s: sum(o.status == s for o in outcomes) for s in ("done", "skipped", "failed")}
     print(f"{len(jobs)} pairs: {counts['done']} done, {counts['skipped']} skipped (done before), "
