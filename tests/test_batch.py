@@ -152,6 +152,16 @@ def test_detect_task_writes_the_detect_outputs_with_the_folder_calibration(tmp_p
     assert done["nearest_distance_m"] == pytest.approx(frames()[0].obstacles[0].distance_m, rel=0.15)
 
 
+def test_a_dataset_folder_given_itself_is_one_pair_with_its_own_calibration(tmp_path, shared_dataset):
+    # it used to be read as a pair of _left/_right files without its Calib.txt: no distances
+    write_scene_folder(tmp_path / "scene", frames()[0])
+    assert [(p.name, p.folder) for p in find_pairs(tmp_path / "scene")] == [("scene", str(tmp_path / "scene"))]
+    assert main(["batch", str(tmp_path / "scene"), "--out", str(tmp_path / "out"), "--workers", "1"]) == 0
+    assert json.loads((tmp_path / "out" / "scene" / "obstacles.json").read_text())["units"] == "metres"
+    kitti = shared_dataset("kitti2015_000005")
+    assert [(p.name, p.folder) for p in find_pairs(kitti)] == [("kitti2015_000005", str(kitti))]
+
+
 def test_two_local_worker_processes(pairs_dir, tmp_path):
     _write_pair(pairs_dir, "b_left.png", "b_right.png", 1)
     jobs = [BatchJob(p, str(tmp_path / "out" / p.name), "disparity", CONFIG) for p in find_pairs(pairs_dir)]

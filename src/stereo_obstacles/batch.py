@@ -2,6 +2,8 @@
 
 :func:`find_pairs` lists the pairs under a folder:
 
+* the folder itself, when it is one dataset: a KITTI 2015 folder (a pair per frame), or one
+  pair with its calibration that :func:`stereo_obstacles.datasets.load_pair` reads;
 * every sub-folder that :func:`stereo_obstacles.datasets.load_pair` reads (a KITTI 2015
   folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair; a
   sub-folder holding several pairs of images paired by name (below) gives each of them,
@@ -159,6 +161,10 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
     subfolders = sorted(p for p in root.iterdir()
                         if p.is_dir() and not p.name.startswith(".") and p.resolve() != skipped)
     sides = {p.name.lower(): p for p in subfolders if p.name.lower() in ("left", "right")}
+    own = _own_frames(root) if len(sides) < 2 else ()
+    if own:                              # the folder is one dataset: its own calibration comes with it
+        return [PairSpec(root.name if frame is None else f"{root.name}_{frame}", folder=str(root), frame=frame)
+                for frame in own]
     if len(sides) == 2:
         right_names = {p.name for p in _image_files(sides["right"])}
         for left in _image_files(sides["left"]):
@@ -192,6 +198,24 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
         raise InputFileError(f"{root}: no stereo pairs found (sub-folders of a known layout, <name>_left/"
                              f"<name>_right images, or left/ and right/ folders)")
     return sorted(pairs, key=lambda p: p.name)
+
+
+def _own_frames(root: Path) -> tuple[str | None, ...]:
+    """The frames of ``root`` when it is itself a dataset folder: a KITTI 2015 folder, or one
+    pair with its calibration that :func:`stereo_obstacles.datasets.load_pair` reads (not
+    several name-paired files; one pair without a calibration stays a file pair); else ``()``.
+    A folder of ``frame_*`` scene folders is not one: each of those is a pair."""
+    from stereo_obstacles.datasets import list_frames, load_pair
+    from stereo_obstacles.errors import StereoObstaclesError
+
+    if (root / "image_2").is_dir() and (root / "image_3").is_dir():
+        return list_frames(root)
+    if len(_pairs_by_name(root, prefix="")) > 1 or list_frames(root) != (None,):
+        return ()
+    try:
+        return (None,) if load_pair(root).calibration is not None else ()
+    except StereoObstaclesError:
+        return ()
 
 
 def _is_a_dataset(folder: Path) -> bool:
