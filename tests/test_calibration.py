@@ -44,6 +44,31 @@ def test_image_size_check():
     StereoCalibration(focal_px=10.0, cx_px=0.0, cy_px=0.0, baseline_m=1.0).check_image_size(5, 5)
 
 
+def test_a_principal_point_far_from_the_centre_is_doubted_only_without_an_image_size():
+    kitti = StereoCalibration(focal_px=721.5, baseline_m=0.54, cx_px=609.6, cy_px=172.9)
+    assert kitti.off_centre_doubt(1242, 375) is None
+    doubt = kitti.off_centre_doubt(621, 188)                     # its images halved: distances doubled
+    assert "(609.6, 172.9) px lies far from the centre of the 621x188 images" in doubt
+    assert kitti.off_centre_doubt(1242, 188) is not None         # off in y alone
+    sized = StereoCalibration(focal_px=721.5, baseline_m=0.54, cx_px=609.6, cy_px=172.9, width_px=621, height_px=188)
+    assert sized.off_centre_doubt(621, 188) is None              # its size was checked exactly instead
+
+
+def test_detect_warns_of_a_calibration_that_fits_other_images(shared_dataset, tmp_path, caplog):
+    import cv2
+
+    from stereo_obstacles.cli import main
+
+    kitti = shared_dataset("kitti2015_000005")
+    for side in ("left", "right"):
+        image = cv2.imread(str(kitti / f"000005_10_{side}.png"))
+        cv2.imwrite(str(tmp_path / f"{side}.png"), cv2.resize(image, (621, 188), interpolation=cv2.INTER_AREA))
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        assert main(["detect", str(tmp_path / "left.png"), str(tmp_path / "right.png"), "--calib",
+                     str(kitti / "Calib.txt"), "--out", str(tmp_path / "out")]) == 0
+    assert "lies far from the centre of the 621x188 images" in caplog.text
+
+
 def test_json_with_wrong_content_is_refused(tmp_path):
     path = tmp_path / "c.json"
     path.write_text('{"format": "stereo-obstacles/calibration", "version": 1, "focal_px": 1}')

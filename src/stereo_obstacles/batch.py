@@ -255,6 +255,7 @@ def _load(job: BatchJob):
     """``(left, right, calibration, inputs)`` of a job's pair: the images (rectified first when
     ``--calib`` describes the raw cameras, as ``calibrate`` writes them), grey ones kept for the
     disparity task."""
+    from stereo_obstacles.calibration import check_for_images
     from stereo_obstacles.camera_calibration import CameraPairCalibration
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.errors import ImageMismatchError
@@ -283,7 +284,7 @@ def _load(job: BatchJob):
             left, right = rectification.apply(left, right)
             calibration = rectification.rectified
     if calibration is not None:
-        calibration.check_image_size(left.shape[1], left.shape[0])
+        check_for_images(calibration, left.shape[1], left.shape[0])
     return left, right, calibration, inputs
 
 

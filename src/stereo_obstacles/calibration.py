@@ -10,6 +10,7 @@ the image size. Depth from disparity is in :mod:`stereo_obstacles.depth`.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 from dataclasses import asdict, dataclass
@@ -17,6 +18,8 @@ from dataclasses import asdict, dataclass
 from stereo_obstacles.atomic import write_text_atomic
 from stereo_obstacles.errors import CalibrationError
 from stereo_obstacles.json_documents import check_document, load_json_file
+
+logger = logging.getLogger(__name__)
 
 CALIBRATION_FORMAT = "stereo-obstacles/calibration"
 CALIBRATION_VERSION = 1
@@ -31,6 +34,10 @@ than 77 degrees to either side; a few pixels is a focal length in millimetres.""
 
 PRINCIPAL_POINT_REACH = 10
 """How many image widths (heights) outside the image the principal point may lie."""
+
+OFF_CENTRE_FRACTION = 0.3
+"""A principal point farther than this fraction of the image width (height) from the image's
+centre is doubtful when the calibration states no image size (:meth:`StereoCalibration.off_centre_doubt`)."""
 
 MIN_BASELINE_M = 0.001
 """Smallest baseline accepted, metres: no stereo rig has its cameras closer than a millimetre; a
@@ -119,6 +126,22 @@ class StereoCalibration:
                 f"calibration principal point ({self.cx_px:g}, {self.cy_px:g}) px lies far outside the "
                 f"{width_px}x{height_px} images (a calibration of other images?)")
 
+    def off_centre_doubt(self, width_px: int, height_px: int) -> str | None:
+        """A warning sentence when the calibration states no image size and its principal point
+        lies more than :data:`OFF_CENTRE_FRACTION` of the width (height) from the centre of
+        ``width_px x height_px`` images: most likely a calibration of other images (KITTI's
+        ``Calib.txt`` on its images halved puts the principal point in their corner and doubles
+        every distance); else None. A warning, not an error: a crop of the calibrated images
+        is measured correctly with the whole frame's calibration."""
+        if self.width_px is not None and self.height_px is not None:
+            return None
+        if abs(self.cx_px - (width_px - 1) / 2) <= OFF_CENTRE_FRACTION * width_px \
+                and abs(self.cy_px - (height_px - 1) / 2) <= OFF_CENTRE_FRACTION * height_px:
+            return None
+        return (f"the calibration states no image size, and its principal point ({self.cx_px:g}, {self.cy_px:g}) px "
+                f"lies far from the centre of the {width_px}x{height_px} images: if it was made for other images "
+                f"(another resolution), every distance is wrong")
+
     def to_dict(self) -> dict:
         """JSON-ready mapping with the format name and version."""
         return {"format": CALIBRATION_FORMAT, "version": CALIBRATION_VERSION, **asdict(self)}
@@ -147,3 +170,13 @@ def read_calibration_json(path: str | os.PathLike[str]) -> StereoCalibration:
     """Read the project's JSON calibration format."""
     data = load_json_file(path, what="calibration", error=CalibrationError)
     return StereoCalibration.from_dict(data, source=str(path))
+
+
+def check_for_images(calibration: StereoCalibration, width_px: int, height_px: int) -> None:
+    """:meth:`StereoCalibration.check_image_size`, and its :meth:`~StereoCalibration.off_centre_doubt`
+    logged as a warning: for the commands, which check a calibration once per pair of files or
+    once per stream (``pipeline.detect`` checks only the size, once per call)."""
+    calibration.check_image_size(width_px, height_px)
+    doubt = calibration.off_centre_doubt(width_px, height_px)
+    if doubt is not None:
+        logger.warning(doubt)

@@ -54,7 +54,7 @@ def calibration_from_args(args: argparse.Namespace, width_px: int, height_px: in
         Contradictory or incomplete options, an unreadable file, impossible values, or a
         calibration made for another image size.
     """
-    from stereo_obstacles.calibration import StereoCalibration
+    from stereo_obstacles.calibration import StereoCalibration, check_for_images
     from stereo_obstacles.calibration_files import read_calibration
 
     check_manual_calibration(args)
@@ -68,7 +68,7 @@ def calibration_from_args(args: argparse.Namespace, width_px: int, height_px: in
             width_px=width_px, height_px=height_px)
     else:
         return None
-    calibration.check_image_size(width_px, height_px)
+    check_for_images(calibration, width_px, height_px)
     return calibration
 
 
@@ -96,6 +96,7 @@ def prepare_pair(args: argparse.Namespace, left, right):
     CalibrationError, RectificationError
         Contradictory options, a bad calibration, or a pair that cannot be rectified.
     """
+    from stereo_obstacles.calibration import check_for_images
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError
 
@@ -113,9 +114,10 @@ def prepare_pair(args: argparse.Namespace, left, right):
     if calib_file:
         check_manual_calibration(args)
         loaded = read_camera_calibration(calib_file, length_unit=args.calib_unit)     # read once
-        loaded.check_image_size(width, height)
         if not isinstance(loaded, CameraPairCalibration):
+            check_for_images(loaded, width, height)
             return left, right, loaded, None
+        loaded.check_image_size(width, height)
         from stereo_obstacles.rectification import rectify_calibration
 
         rectification = rectify_calibration(loaded)
