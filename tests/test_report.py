@@ -193,3 +193,13 @@ def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tm
     _write(foreign, calibrated=False)                       # the library writer itself: the user's files stay
     assert (foreign / "depth.npy").read_bytes() == b"user"
     report.check_report_folder(foreign)                     # now a report of this tool: a rerun is fine
+    users = tmp_path / "users"                              # no obstacles.json, but the names a report writes
+    users.mkdir()
+    (users / "index.html").write_text("my page")
+    (users / "points.ply").write_text("my cloud")
+    (users / "notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match=r"holds index\.html, points\.ply but no report of this tool"):
+        report.check_report_folder(users)
+    (users / "index.html").unlink()
+    (users / "points.ply").unlink()
+    report.check_report_folder(users)                       # other names are no reason to refuse

@@ -248,8 +248,9 @@ def holds_a_report(folder) -> bool:
 
 def check_report_folder(folder) -> None:
     """Raise :class:`OutputError` when a report written into ``folder`` would replace files that
-    are not an earlier report's: a rendered scene's ground truth (``scene.json`` beside it), or
-    an ``obstacles.json`` of another kind."""
+    are not an earlier report's: a rendered scene's ground truth (``scene.json`` beside it), an
+    ``obstacles.json`` of another kind, or, without a report of this tool there, any file of
+    the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``)."""
     folder = Path(folder)
     if (folder / "scene.json").is_file():
         raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
@@ -257,6 +258,10 @@ def check_report_folder(folder) -> None:
     if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
+    theirs = [name for name in OUTPUT_FILES if (folder / name).exists()] if not holds_a_report(folder) else []
+    if theirs:
+        raise OutputError(f"{folder} holds {', '.join(theirs)} but no report of this tool (no obstacles.json of "
+                          f"it): a report would replace them; write it elsewhere")
 
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
