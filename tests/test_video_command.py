@@ -279,3 +279,27 @@ def test_help_defaults_are_the_library_defaults():
     register(subparsers)
     text = " ".join(subparsers.choices["video"].format_help().split())
     assert f"(default {IN_FLIGHT}:" in text and f"(default {TemporalSeedParameters().refine_frames};" in text
+
+
+def test_a_calibration_of_the_raw_cameras_rectifies_every_frame(tmp_path, capsys):
+    # calibrate writes the raw cameras' calibration; video refused it as a "malformed" file
+    from _rectification_cases import synthetic_case
+    from stereo_obstacles.camera_calibration import write_camera_pair_json
+
+    pair, rig = synthetic_case()
+    for side in ("left", "right"):
+        (tmp_path / side).mkdir()
+        for i in range(2):
+            cv2.imwrite(str(tmp_path / side / f"{i}.png"), cv2.cvtColor(getattr(pair, side), cv2.COLOR_RGB2BGR))
+    write_camera_pair_json(tmp_path / "rig.json", rig)
+    assert main(["video", str(tmp_path / "left"), str(tmp_path / "right"), "--calib", str(tmp_path / "rig.json"),
+                 "--jsonl", str(tmp_path / "f.jsonl")]) == 0
+    header, *records, end = read_json_lines(tmp_path / "f.jsonl")
+    assert header["calibration"]["baseline_m"] == pytest.approx(rig.baseline_m, rel=1e-6)
+    assert [r["type"] for r in records] == ["frame", "frame"] and end["type"] == "end"
+    assert main(["detect", str(tmp_path / "left" / "0.png"), str(tmp_path / "right" / "0.png"), "--calib",
+                 str(tmp_path / "rig.json"), "--out", str(tmp_path / "d")]) == 0
+    detected = json.loads((tmp_path / "d" / "obstacles.json").read_text())["obstacles"]
+    nearest = min(o["distance_m"] for o in detected)
+    assert min(o["measured_distance_m"] for o in records[0]["obstacles"]) == pytest.approx(nearest, rel=0.02)
+    assert nearest == pytest.approx(min(t.nearest_depth_m for t in pair.obstacles if t.nearest_depth_m), rel=0.05)

@@ -15,7 +15,9 @@ def add_calibration_options(parser: argparse.ArgumentParser) -> None:
         "calibration", "how the rectified cameras are calibrated; without any, results stay in pixels")
     group.add_argument("--calib", metavar="FILE",
                        help="calibration file: Middlebury calib.txt, KITTI calib (P_rect), OpenCV YAML/XML "
-                            "(P1/P2), a 4x4 Q matrix, or this tool's JSON")
+                            "(P1/P2), a 4x4 Q matrix, or this tool's JSON; or the raw cameras' (OpenCV "
+                            "cameraMatrix1/2, distCoeffs1/2, R, T, or calibrate's JSON), which rectifies the images "
+                            "first")
     group.add_argument("--calib-unit", choices=["m", "cm", "mm"], help=CALIB_UNIT_HELP)
     group.add_argument("--focal", type=float, metavar="PX", help="focal length in pixels")
     group.add_argument("--baseline", type=float, metavar="M", help="baseline in metres")
@@ -85,6 +87,33 @@ def add_rectification_options(parser: argparse.ArgumentParser, *, with_calib_fil
                        help="rectify the pair from its own feature matches (unknown cameras; no metric depth)")
 
 
+def calibration_and_rectification(args: argparse.Namespace, width_px: int, height_px: int):
+    """``(calibration, rectification)`` of the images the options describe: the rectified
+    images' calibration (``None`` when unknown) and the
+    :class:`~stereo_obstacles.rectification.Rectification` to apply to every pair first when
+    ``--calib`` describes the raw cameras (as ``calibrate`` writes them), else ``None``.
+
+    Raises
+    ------
+    CalibrationError
+        As :func:`calibration_from_args`.
+    """
+    from stereo_obstacles.calibration import check_for_images
+    from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
+    from stereo_obstacles.rectification import rectify_calibration
+
+    if not args.calib:
+        return calibration_from_args(args, width_px, height_px), None
+    check_manual_calibration(args)
+    loaded = read_camera_calibration(args.calib, length_unit=args.calib_unit)     # read once
+    if not isinstance(loaded, CameraPairCalibration):
+        check_for_images(loaded, width_px, height_px)
+        return loaded, None
+    loaded.check_image_size(width_px, height_px)
+    rectification = rectify_calibration(loaded)
+    return rectification.rectified, rectification
+
+
 def prepare_pair(args: argparse.Namespace, left, right):
     """Rectify the pair as the options say and return ``(left, right, calibration, report)``.
 
@@ -96,8 +125,6 @@ def prepare_pair(args: argparse.Namespace, left, right):
     CalibrationError, RectificationError
         Contradictory options, a bad calibration, or a pair that cannot be rectified.
     """
-    from stereo_obstacles.calibration import check_for_images
-    from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError
 
     height, width = left.shape[:2]
@@ -112,18 +139,12 @@ def prepare_pair(args: argparse.Namespace, left, right):
         calibration = calibration_from_args(args, width, height) if hasattr(args, "focal") else None
         return left, right, calibration, rectification.to_dict()
     if calib_file:
-        check_manual_calibration(args)
-        loaded = read_camera_calibration(calib_file, length_unit=args.calib_unit)     # read once
-        if not isinstance(loaded, CameraPairCalibration):
-            check_for_images(loaded, width, height)
-            return left, right, loaded, None
-        loaded.check_image_size(width, height)
-        from stereo_obstacles.rectification import rectify_calibration
-
-        rectification = rectify_calibration(loaded)
+        calibration, rectification = calibration_and_rectification(args, width, height)
+        if rectification is None:
+            return left, right, calibration, None
         left, right = rectification.apply(left, right)
-        return left, right, rectification.rectified, {"method": "calibrated", "calibration": str(calib_file),
-                                                      "rectified": rectification.rectified.to_dict()}
+        return left, right, calibration, {"method": "calibrated", "calibration": str(calib_file),
+                                          "rectified": calibration.to_dict()}
     if not hasattr(args, "focal"):
         return left, right, None, None
     return left, right, calibration_from_args(args, width, height), None

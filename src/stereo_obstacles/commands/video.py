@@ -56,6 +56,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
+def _rectified(rectification, frame):
+    """``frame`` (a :class:`~stereo_obstacles.streams.StereoFrame`) with its images rectified."""
+    from dataclasses import replace
+
+    left, right = rectification.apply(frame.left, frame.right)
+    return replace(frame, left=left, right=right)
+
+
 def _frame_line(record: dict, calibrated: bool) -> str:
     """One short line per frame for the terminal when no --jsonl is written."""
     parts = []
@@ -147,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles.allocator import keep_freed_memory
     from stereo_obstacles.atomic import check_output_file, check_output_folder
-    from stereo_obstacles.commands._calibration_options import calibration_from_args
+    from stereo_obstacles.commands._calibration_options import calibration_and_rectification
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
@@ -196,7 +204,9 @@ def run(args: argparse.Namespace) -> int:
         if first is None:
             raise InputFileError(f"{source.description}: no frames")
         height, width = first.left.shape[:2]
-        calibration = calibration_from_args(args, width, height)
+        calibration, rectification = calibration_and_rectification(args, width, height)
+        if rectification is not None:         # the raw cameras' calibration: every frame is rectified first
+            first, frames = _rectified(rectification, first), (_rectified(rectification, f) for f in frames)
         if args.forward_speed and calibration is None:
             raise InvalidInputError("--forward-speed needs a calibration (--calib, or --focal and --baseline): "
                                     "without one the motion cannot be turned into disparities")
