@@ -131,8 +131,8 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
                        "(median; 95th percentile %.1f px, %d matches); the disparity will be poor -- rectify "
                        "it first (stereo-obstacles rectify, or --uncalibrated)", offsets.median_px,
                        offsets.p95_px, offsets.n_points)
-    elif rectified is None:
-        logger.info("rectification check: only %d consistent feature matches, cannot tell", offsets.n_points)
+    elif rectified is None and warn:
+        logger.warning(UNCHECKED_WARNING, offsets.n_points, MIN_MATCHES)
     negative = float(np.mean(left_px[:, 0] - right_px[:, 0] < -0.5)) if len(left_px) else 0.0
     swapped = None if offsets.n_points < MIN_MATCHES else negative > SWAPPED_FRACTION
     if swapped and warn:
@@ -140,6 +140,10 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
     return RectificationCheck(offsets=offsets, rectified=rectified, threshold_px=float(threshold_px),
                               swapped=swapped, negative_fraction=negative)
 
+
+UNCHECKED_WARNING = ("the pair could not be checked: only %d feature matches agree with one stereo geometry (%d "
+                     "needed); if the two images do not show one scene from two side-by-side cameras, the results "
+                     "mean nothing")
 
 SWAPPED_WARNING = ("the left and right images look swapped: %.0f %% of %d matched features lie further right in "
                    "the right image (negative disparity); give the left camera's image first")
