@@ -24,7 +24,7 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
                        help="report obstacles up to this distance, metres (default 30)")
     group.add_argument("--matching-scale", type=float, default=None, metavar="S",
                        help="grow the matches on a copy of the pair shrunk by S in (0, 1], then refine "
-                            "them at full size (default 0.5; 1 grows at full size, about 1.4x slower)")
+                            "them at full size (default 0.5; 1 grows at full size, about 1.3x slower)")
 
 
 def config_from_args(args: argparse.Namespace):
