@@ -59,6 +59,19 @@ def test_find_pairs_understands_the_usual_layouts(tmp_path):
     assert got["scene"].folder.endswith("scene") and got["scene"].left is None
 
 
+def test_a_sub_folder_without_images_is_left_out_and_one_with_unreadable_images_fails(tmp_path, caplog):
+    # the shared data's calibration_examples/ (text files) made `batch` exit 1 as a failed pair
+    write_scene_folder(tmp_path / "scene", frames()[0])
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "calib.txt").write_text("cam0=[1 0 0]")
+    (tmp_path / "broken").mkdir()
+    (tmp_path / "broken" / "im0.png").write_bytes(b"not an image")
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        names = [p.name for p in find_pairs(tmp_path)]
+    assert names == ["broken", "scene"]
+    assert "notes holds no images and no known layout: not a pair, left out" in caplog.text
+
+
 def test_find_pairs_looks_into_sub_folders_of_name_paired_images(tmp_path):
     for sub in ("urban", "teddy"):
         (tmp_path / sub).mkdir()

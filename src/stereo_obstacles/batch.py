@@ -5,7 +5,8 @@
 * the folder itself, when it is one dataset: a KITTI 2015 folder (a pair per frame), or one
   pair with its calibration that :func:`stereo_obstacles.datasets.load_pair` reads;
 * every sub-folder that :func:`stereo_obstacles.datasets.load_pair` reads (a KITTI 2015
-  folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair; a
+  folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair, unless
+  it holds no images at all (left out with a warning: notes, calibration files); a
   sub-folder holding several pairs of images paired by name (below) gives each of them,
   named ``<folder>_<key>``;
 * image files in the folder itself paired by name: ``<key>left<rest>`` with
@@ -184,6 +185,11 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
             frames = list_frames(folder)
         except InputFileError:
             frames = (None,)
+        else:
+            if frames == (None,) and not _image_files(folder) and not _is_a_dataset(folder):
+                if not on_the_way:
+                    logger.warning("%s holds no images and no known layout: not a pair, left out", folder)
+                continue
         if on_the_way and frames == (None,) and not _is_a_dataset(folder):
             continue                   # a folder of results, not an unreadable pair
         for frame in frames:
