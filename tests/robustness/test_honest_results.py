@@ -61,3 +61,19 @@ def test_the_right_order_is_not_flagged_as_swapped(inputs, run_cli, tmp_path):
     code, _, _, log = run_cli("detect", inputs / "left.png", inputs / "right.png", "--out", tmp_path / "o",
                               "--calib", inputs / "scene" / "calibration.json")
     assert code == 0 and "swapped" not in log and "no match" not in log
+    check = json.loads((tmp_path / "o" / "obstacles.json").read_text())["run"]["inputs"]["rectification_check"]
+    assert check["rectified"] is True and check["swapped"] is False
+
+
+def test_an_unrectified_pair_is_said_in_the_report_too(run_cli, tmp_path):
+    # a reader of obstacles.json could not tell: the warning went to the terminal only
+    from stereo_obstacles.fileio import write_image
+    from stereo_obstacles.synthetic import RenderOptions, RightCameraError, default_scene, render_pair
+
+    pair = render_pair(default_scene(320, 240), RenderOptions(right_error=RightCameraError(rotation_deg=(0.5, 0.3, 0.4))))
+    write_image(tmp_path / "left.png", pair.left)
+    write_image(tmp_path / "right.png", pair.right)
+    code, _, _, log = run_cli("detect", tmp_path / "left.png", tmp_path / "right.png", "--out", tmp_path / "o")
+    assert code == 0 and "does not look rectified" in log
+    check = json.loads((tmp_path / "o" / "obstacles.json").read_text())["run"]["inputs"]["rectification_check"]
+    assert check["rectified"] is False and check["vertical_offset"]["median_px"] > 1.0

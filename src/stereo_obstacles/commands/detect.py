@@ -82,7 +82,9 @@ def warn_if_out_of_reach(config, calibration) -> None:
 
 def run_detection(left, right, calibration, config, out_dir, inputs: dict):
     """Detect, write every output into ``out_dir``, and return the detection result; a pair
-    that looks swapped is refused before anything is written."""
+    that looks swapped is refused before anything is written. The rectification check's
+    verdict is stored with the ``inputs`` (``obstacles.json``'s ``run.inputs.rectification_check``:
+    a reader can tell a pair that is not rectified, or could not be checked)."""
     from stereo_obstacles.pipeline import detect
     from stereo_obstacles.rectification_check import refuse_swapped, refusing_swapped_pairs
     from stereo_obstacles.report import write_detection_outputs
@@ -90,6 +92,8 @@ def run_detection(left, right, calibration, config, out_dir, inputs: dict):
     with refusing_swapped_pairs():
         result = detect(left, right, calibration, config=config)
     refuse_swapped(result.rectification_check)
+    if result.rectification_check is not None:
+        inputs = {**inputs, "rectification_check": result.rectification_check.to_dict()}
     write_detection_outputs(out_dir, left=left, labels=result.segmentation.labels, disparity=result.disparity,
                             depth_m=result.depth_m, obstacle_list=result.obstacles, calibration=calibration,
                             config=config.to_dict(), timings=result.timings_s, inputs=inputs)
