@@ -146,12 +146,30 @@ def test_going_on_with_other_settings_in_the_same_out_is_refused(pairs_dir, tmp_
     capsys.readouterr()
     assert main(args[:-1] + ["32"]) == 1
     err = capsys.readouterr().err
-    assert "holds pairs done with other settings of config matching:" in err and len(err.splitlines()) == 1
+    assert "was done with another option matching: it would be skipped as done" in err and len(err.splitlines()) == 1
     assert main(args[:6] + ["--task", "detect", "--max-disparity", "40"]) == 1
-    assert "other settings of task:" in capsys.readouterr().err
+    assert "was done with another task, option " in capsys.readouterr().err
     assert (out / SUMMARY_FILE).read_text() == summary                   # nothing rewritten
-    assert main(args + ["--workers", "2"]) == 1                          # how it runs is not a setting of the outputs
+    assert main(args + ["--max-distance", "5", "--matching-scale", "1"]) == 1   # not used by the disparity task
     assert _summary(out)["counts"] == {"done": 0, "skipped": 2, "failed": 1}
+    (out / SUMMARY_FILE).unlink()                                        # as if killed: no summary to go by
+    assert main(args[:-1] + ["32"]) == 1
+    assert "was done with another option matching" in capsys.readouterr().err
+
+
+def test_the_calibration_is_compared_by_its_values_not_its_file_name(tmp_path, capsys, monkeypatch):
+    write_scene_folder(tmp_path / "in" / "scene", frames()[0])
+    calibration = json.loads((tmp_path / "in" / "scene" / "calibration.json").read_text())
+    for folder, baseline in (("a", calibration["baseline_m"]), ("b", 2 * calibration["baseline_m"])):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "cal.json").write_text(json.dumps({**calibration, "baseline_m": baseline}))
+    monkeypatch.chdir(tmp_path / "a")
+    args = ["batch", "../in", "--out", "../out", "--workers", "1", "--calib", "cal.json"]
+    assert main(args) == 0
+    assert main(args[:-1] + ["../a/cal.json"]) == 0                      # the same file named otherwise
+    monkeypatch.chdir(tmp_path / "b")                                    # another file of the same name
+    capsys.readouterr()
+    assert main(args) == 1 and "was done with another calibration" in capsys.readouterr().err
 
 
 def test_detect_task_writes_the_detect_outputs_with_the_folder_calibration(tmp_path):
@@ -173,6 +191,28 @@ def test_a_dataset_folder_given_itself_is_one_pair_with_its_own_calibration(tmp_
     assert json.loads((tmp_path / "out" / "scene" / "obstacles.json").read_text())["units"] == "metres"
     kitti = shared_dataset("kitti2015_000005")
     assert [(p.name, p.folder) for p in find_pairs(kitti)] == [("kitti2015_000005", str(kitti))]
+
+
+def test_a_dataset_folder_named_dot_or_beside_sub_folders_keeps_its_name_and_them(tmp_path, monkeypatch):
+    write_scene_folder(tmp_path / "scene", frames()[0])
+    write_scene_folder(tmp_path / "scene" / "more", frames()[1])
+    monkeypatch.chdir(tmp_path / "scene")
+    # named "", its outputs went into --out itself (found by a review); its sub-folders were dropped
+    assert sorted((p.name, p.folder) for p in find_pairs(".")) == [("more", "more"), ("scene", ".")]
+
+
+def test_a_dataset_calibration_for_other_images_is_warned_of_in_batch(tmp_path, shared_dataset, caplog):
+    kitti = shared_dataset("kitti2015_000005")
+    (tmp_path / "half").mkdir()
+    shutil.copy(kitti / "Calib.txt", tmp_path / "half" / "Calib.txt")
+    for side in ("left", "right"):
+        image = cv2.imread(str(kitti / f"000005_10_{side}.png"))
+        cv2.imwrite(str(tmp_path / "half" / f"000005_10_{side}.png"),
+                    cv2.resize(image, (621, 188), interpolation=cv2.INTER_AREA))
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        outcome = process_pair(BatchJob(find_pairs(tmp_path / "half")[0], str(tmp_path / "out"), "detect", CONFIG))
+    assert outcome.status == "done"
+    assert any("lies far from the centre of the 621x188 images" in w for w in outcome.warnings)
 
 
 def test_two_local_worker_processes(pairs_dir, tmp_path):

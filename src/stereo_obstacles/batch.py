@@ -35,8 +35,8 @@ from pathlib import Path
 
 from stereo_obstacles.errors import InputFileError, InvalidInputError, OutputError
 
-__all__ = ["DONE_FILE", "SETTINGS_OF_THE_OUTPUTS", "SUMMARY_FILE", "TASKS", "BatchJob", "PairOutcome", "PairSpec",
-           "check_earlier_settings", "find_pairs", "finished_unreported", "process_pair", "run_batch", "write_summary"]
+__all__ = ["DONE_FILE", "SUMMARY_FILE", "TASKS", "BatchJob", "PairOutcome", "PairSpec", "check_done_settings",
+           "find_pairs", "finished_unreported", "output_settings", "process_pair", "run_batch", "write_summary"]
 
 logger = logging.getLogger(__name__)
 
@@ -162,10 +162,11 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
     subfolders = sorted(p for p in root.iterdir()
                         if p.is_dir() and not p.name.startswith(".") and p.resolve() != skipped)
     sides = {p.name.lower(): p for p in subfolders if p.name.lower() in ("left", "right")}
-    own = _own_frames(root) if len(sides) < 2 else ()
-    if own:                              # the folder is one dataset: its own calibration comes with it
-        return [PairSpec(root.name if frame is None else f"{root.name}_{frame}", folder=str(root), frame=frame)
-                for frame in own]
+    own = _own_frames(root) if len(sides) < 2 else ()      # the folder is a dataset: its calibration comes with it
+    name = root.resolve().name
+    own_pairs = [PairSpec(name if frame is None else f"{name}_{frame}", folder=str(root), frame=frame) for frame in own]
+    if own and own != (None,):
+        return own_pairs                                    # a KITTI 2015 folder: its sub-folders are its data
     if len(sides) == 2:
         right_names = {p.name for p in _image_files(sides["right"])}
         for left in _image_files(sides["left"]):
@@ -195,7 +196,7 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
         for frame in frames:
             name = folder.name if frame is None else f"{folder.name}_{frame}"
             pairs.append(PairSpec(name, folder=str(folder), frame=frame))
-    pairs.extend(_pairs_by_name(root, prefix="", warn=True))
+    pairs.extend(own_pairs or _pairs_by_name(root, prefix="", warn=True))
     names = [p.name.casefold() for p in pairs]               # one output folder on a case-insensitive disk
     duplicates = sorted({p.name for p in pairs if names.count(p.name.casefold()) > 1})
     if duplicates:
@@ -261,12 +262,10 @@ def _load(job: BatchJob):
     """``(left, right, calibration, inputs)`` of a job's pair: the images (rectified first when
     ``--calib`` describes the raw cameras, as ``calibrate`` writes them), grey ones kept for the
     disparity task."""
-    from stereo_obstacles.calibration import check_for_images
-    from stereo_obstacles.camera_calibration import CameraPairCalibration
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.errors import ImageMismatchError
     from stereo_obstacles.fileio import read_image
-    from stereo_obstacles.rectification import rectify_calibration
+    from stereo_obstacles.rectification import rig_for_images
 
     pair = job.pair
     if pair.folder is not None:
@@ -282,15 +281,10 @@ def _load(job: BatchJob):
         calibration = None
         inputs = {"left": pair.left, "right": pair.right}
     if job.calib_file is not None:
-        calibration = job.calibration
         inputs["calibration"] = job.calib_file
-        if isinstance(calibration, CameraPairCalibration):
-            calibration.check_image_size(left.shape[1], left.shape[0])
-            rectification = rectify_calibration(calibration)
+        calibration, rectification = rig_for_images(job.calibration, left.shape[1], left.shape[0])
+        if rectification is not None:
             left, right = rectification.apply(left, right)
-            calibration = rectification.rectified
-    if calibration is not None:
-        check_for_images(calibration, left.shape[1], left.shape[0])
     return left, right, calibration, inputs
 
 
@@ -369,7 +363,7 @@ def process_pair(job: BatchJob) -> PairOutcome:
             seconds = time.perf_counter() - start
             write_text_atomic(Path(job.out_dir) / DONE_FILE, json.dumps(
                 {"name": job.pair.name, "task": job.task, "seconds": round(seconds, 4), **details,
-                 "warnings": warnings}, indent=1) + "\n")
+                 "warnings": warnings, "settings": output_settings(job)}, indent=1) + "\n")
         except Exception as exc:  # noqa: BLE001 - a batch reports every failure and goes on
             reason = f"{type(exc).__name__}: {' '.join(str(exc).split()) or type(exc).__name__}"
             outcome = PairOutcome(job.pair.name, "failed", time.perf_counter() - start, reason,
@@ -398,7 +392,7 @@ def finished_unreported(pending: Iterable[BatchJob], outcomes: Iterable[PairOutc
             continue                                # unreadable: not this tool's done file
         if not isinstance(record, dict):
             continue
-        details = {k: v for k, v in record.items() if k not in ("name", "task", "seconds", "warnings")}
+        details = {k: v for k, v in record.items() if k not in ("name", "task", "seconds", "warnings", "settings")}
         seconds = record.get("seconds", 0.0)
         found.append(PairOutcome(job.pair.name, "done", float(seconds) if isinstance(seconds, (int, float)) else 0.0,
                                  None, details, tuple(record.get("warnings", ()))))
@@ -522,38 +516,51 @@ def run_batch(jobs: list[BatchJob], *, workers: int = 1, scheduler: str | None =
     return outcomes
 
 
-SETTINGS_OF_THE_OUTPUTS = ("task", "calib", "calib_unit", "config")
-"""The settings of :data:`SUMMARY_FILE` that shape every pair's outputs."""
+def output_settings(job: BatchJob) -> dict:
+    """What a job's outputs depend on besides its pair, as JSON values: the task, the calibration
+    it was given (its values, not its file's name: the same file named from another folder is
+    the same) and the options the task uses (``disparity``: the matching options only; a rectified
+    rig's calibration plays no part in it). Stored in each pair's done file, and compared when a
+    batch goes on in the same output folder (:func:`check_done_settings`)."""
+    from stereo_obstacles.camera_calibration import CameraPairCalibration
+    from stereo_obstacles.obstacle_json import jsonable
+
+    if job.task == "detect":
+        calibration, options = job.calibration, job.config.to_dict()
+    else:
+        calibration = job.calibration if isinstance(job.calibration, CameraPairCalibration) else None
+        options = {"matching": job.config.matching.to_kwargs()}
+    settings = {"task": job.task, "calibration": None if calibration is None else calibration.to_dict(),
+                "options": options}
+    return json.loads(json.dumps(jsonable(settings)))
 
 
-def check_earlier_settings(out_dir: str | os.PathLike[str], settings: dict) -> None:
-    """Refuse to go on in ``out_dir`` when its summary records other :data:`SETTINGS_OF_THE_OUTPUTS`
-    than ``settings`` (as :func:`write_summary` takes them): the pairs done then would be skipped
-    as done and kept, as if made with these. A folder without a readable summary is not checked.
+def check_done_settings(jobs: Iterable[BatchJob]) -> None:
+    """Refuse to go on when a pair's done file records other :func:`output_settings` than its
+    job's: it would be skipped as done and kept, as if made with these. Done files without
+    settings (written before they were recorded) are not checked.
 
     Raises
     ------
     OutputError
-        Naming the settings that differ (for ``config``, its options).
+        Naming the first such pair and what differs (for the options, which ones).
     """
-    try:
-        earlier = json.loads((Path(out_dir) / SUMMARY_FILE).read_text(encoding="utf-8")).get("settings")
-    except (OSError, ValueError, AttributeError):
-        return
-    if not isinstance(earlier, dict):
-        return
-    now = json.loads(json.dumps(settings))
-    differing = [key for key in SETTINGS_OF_THE_OUTPUTS if key != "config" and earlier.get(key) != now.get(key)]
-    earlier_config, config = earlier.get("config"), now.get("config")
-    if earlier_config != config:
-        if isinstance(earlier_config, dict) and isinstance(config, dict):
-            differing += [f"config {key}" for key in sorted(earlier_config.keys() | config.keys())
-                          if earlier_config.get(key) != config.get(key)]
-        else:
-            differing.append("config")
-    if differing:
-        raise OutputError(f"{out_dir} holds pairs done with other settings of {', '.join(differing)}: they would be "
-                          f"skipped as done; use another --out, or delete {out_dir} to redo them")
+    for job in jobs:
+        try:
+            recorded = json.loads((Path(job.out_dir) / DONE_FILE).read_text(encoding="utf-8")).get("settings")
+        except (OSError, ValueError, AttributeError):
+            continue
+        if not isinstance(recorded, dict):
+            continue
+        now = output_settings(job)
+        differing = [key for key in ("task", "calibration") if recorded.get(key) != now[key]]
+        before, options = recorded.get("options"), now["options"]
+        if before != options:
+            differing += ([f"option {key}" for key in sorted(before.keys() | options.keys())
+                           if before.get(key) != options.get(key)] if isinstance(before, dict) else ["options"])
+        if differing:
+            raise OutputError(f"{job.out_dir} was done with another {', '.join(differing)}: it would be skipped as "
+                              f"done; use another --out, or delete {job.out_dir} to redo it")
 
 
 def write_summary(out_dir: str | os.PathLike[str], outcomes: list[PairOutcome], *, seconds: float,

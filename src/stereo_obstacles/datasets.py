@@ -364,6 +364,9 @@ def _make_pair(root: Path, name: str, layout: str, left_file: Path, right_file: 
     if nonocc is not None and gt is not None:
         nonocc = nonocc & np.isfinite(gt)
     if calibration is not None and calibration.width_px is None:
+        doubt = calibration.off_centre_doubt(w, h)          # before the images' size is filled in
+        if doubt is not None:
+            logger.warning("%s: %s", root, doubt)
         calibration = replace(calibration, width_px=w, height_px=h)
     return StereoPair(name=name, left=left, right=right, gt_disparity=gt, nonocc=nonocc,
                       calibration=calibration, source=root, layout=layout)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.calibration import StereoCalibration, check_for_images
 from stereo_obstacles.camera_calibration import CameraPairCalibration
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
 
@@ -120,6 +120,29 @@ def _rectify_points(points_px: np.ndarray, k: np.ndarray, distortion: np.ndarray
     if points.shape[0] == 0:
         return points.copy()
     return cv2.undistortPoints(points.reshape(-1, 1, 2), k, distortion, R=r, P=p).reshape(-1, 2)
+
+
+def rig_for_images(calibration: StereoCalibration | CameraPairCalibration, width_px: int,
+                   height_px: int) -> tuple[StereoCalibration, Rectification | None]:
+    """The calibration of ``width_px x height_px`` images taken with ``calibration``, and the
+    rectification to apply to them first (``None`` when they are taken as rectified).
+
+    A rectified rig's calibration is checked against the images
+    (:func:`~stereo_obstacles.calibration.check_for_images`: the size, and a warning for a
+    principal point far off centre); the raw cameras' (as ``calibrate`` writes them) must be of
+    the images' size and gives the rectified calibration with its rectification.
+
+    Raises
+    ------
+    CalibrationError
+        A calibration of other images.
+    """
+    if not isinstance(calibration, CameraPairCalibration):
+        check_for_images(calibration, width_px, height_px)
+        return calibration, None
+    calibration.check_image_size(width_px, height_px)
+    rectification = rectify_calibration(calibration)
+    return rectification.rectified, rectification
 
 
 def rectify_calibration(calibration: CameraPairCalibration, *, alpha: float = 0.0) -> Rectification:

@@ -98,20 +98,13 @@ def calibration_and_rectification(args: argparse.Namespace, width_px: int, heigh
     CalibrationError
         As :func:`calibration_from_args`.
     """
-    from stereo_obstacles.calibration import check_for_images
-    from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
-    from stereo_obstacles.rectification import rectify_calibration
+    from stereo_obstacles.camera_calibration import read_camera_calibration
+    from stereo_obstacles.rectification import rig_for_images
 
     if not args.calib:
         return calibration_from_args(args, width_px, height_px), None
     check_manual_calibration(args)
-    loaded = read_camera_calibration(args.calib, length_unit=args.calib_unit)     # read once
-    if not isinstance(loaded, CameraPairCalibration):
-        check_for_images(loaded, width_px, height_px)
-        return loaded, None
-    loaded.check_image_size(width_px, height_px)
-    rectification = rectify_calibration(loaded)
-    return rectification.rectified, rectification
+    return rig_for_images(read_camera_calibration(args.calib, length_unit=args.calib_unit), width_px, height_px)
 
 
 def prepare_pair(args: argparse.Namespace, left, right):

@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles.atomic import check_output_folder
-    from stereo_obstacles.batch import (DONE_FILE, BatchJob, check_earlier_settings, find_pairs, finished_unreported,
+    from stereo_obstacles.batch import (DONE_FILE, BatchJob, check_done_settings, find_pairs, finished_unreported,
                                         run_batch, write_summary)
     from stereo_obstacles.camera_calibration import read_camera_calibration
     from stereo_obstacles.commands._compile_notice import announce_compilation
@@ -73,9 +73,9 @@ def run(args: argparse.Namespace) -> int:
     settings = {"input_dir": str(args.input_dir), "task": args.task, "workers": None if args.scheduler else workers,
                 "scheduler": args.scheduler, "calib": args.calib, "calib_unit": args.calib_unit,
                 "config": config.to_dict()}
-    pending = [job for job in jobs if not (Path(job.out_dir) / DONE_FILE).is_file()]
-    if len(pending) < len(jobs):
-        check_earlier_settings(out, settings)
+    done = [(Path(job.out_dir) / DONE_FILE).is_file() for job in jobs]
+    pending = [job for job, was_done in zip(jobs, done) if not was_done]
+    check_done_settings(job for job, was_done in zip(jobs, done) if was_done)
     announce_compilation()         # the workers compile on their first pair
     progress = Progress(len(jobs), label="pair")
 
