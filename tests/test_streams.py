@@ -59,6 +59,17 @@ def test_a_frame_missing_on_one_side_of_named_sequences_is_refused(tmp_path):
         ImageSequenceSource(left_dir, right_dir)
 
 
+def test_files_of_one_stem_and_two_endings_are_paired_by_their_whole_names(tmp_path):
+    # 0000.png and 0000.jpg on both sides were refused with an empty file name (found by a review)
+    left_dir, right_dir = write_sequences(tmp_path)
+    for folder in (left_dir, right_dir):
+        for path in sorted(folder.iterdir())[:2]:
+            cv2.imwrite(str(path.with_suffix(".jpg")), cv2.imread(str(path)))
+    got = list(ImageSequenceSource(left_dir, right_dir))
+    assert len(got) == N_FRAMES + 2
+    assert [f.name for f in got[:4]] == ["0000.jpg", "0000.png", "0001.jpg", "0001.png"]     # one output folder each
+
+
 def test_a_pattern_over_one_folder_per_frame_keeps_the_frames_in_order(tmp_path):
     # the layout `scene --frames` writes: frame_*/left.png; sorted by file name alone, the frames
     # came in folder-listing order, all named "left"
@@ -82,12 +93,19 @@ def test_pairing_by_order_warns_when_the_frame_numbers_disagree(tmp_path, caplog
     with caplog.at_level("WARNING", logger="stereo_obstacles"):
         ImageSequenceSource(left_dir, right_dir)
     assert "cam0_1.png goes with" in caplog.text and "cam1_2.png" in caplog.text
-    caplog.clear()
-    left_dir, right_dir = write_sequences(tmp_path / "agreeing", left_name="cam0_{:d}.png",
-                                          right_name="cam1_{:d}.png")
-    with caplog.at_level("WARNING", logger="stereo_obstacles"):
-        ImageSequenceSource(left_dir, right_dir)
-    assert caplog.text == ""
+    for folder, left_name, right_name in (("agreeing", "cam0_{:d}.png", "cam1_{:d}.png"),
+                                          ("camera_last", "{:04d}_cam0.png", "{:04d}_cam1.png"),
+                                          ("offset", "left_{:04d}.png", "right_1{:03d}.png")):
+        caplog.clear()
+        left_dir, right_dir = write_sequences(tmp_path / folder, left_name=left_name, right_name=right_name)
+        with caplog.at_level("WARNING", logger="stereo_obstacles"):
+            ImageSequenceSource(left_dir, right_dir)
+        assert caplog.text == "", folder
+    # per-camera timestamps (ms) a little apart are in step; the reviewer's names warned
+    assert streams._first_out_of_step(["1650000000100.png", "1650000000133.png", "1650000000167.png"],
+                                      ["1650000000102.png", "1650000000134.png", "1650000000170.png"]) is None
+    assert streams._first_out_of_step(["1650000000100.png", "1650000000133.png", "1650000000167.png"],
+                                      ["1650000000102.png", "1650000000170.png", "1650000000200.png"]) == 1
 
 
 def test_image_sequence_errors(tmp_path):

@@ -11,7 +11,7 @@ Every source yields :class:`StereoFrame` objects (index, timestamp, left and rig
   one folder per frame), in natural order of their paths. When both sides hold the same names
   they are paired by name; when they share some names but not all they are refused (a frame
   missing on one side); otherwise by order, and then the counts must agree (a warning when
-  the paired names' last numbers differ). Timestamps are ``index / fps``.
+  the paired names' frame numbers fall out of step). Timestamps are ``index / fps``.
 * :class:`SideBySideSource` — one video whose frames hold the left view in the left half and
   the right view in the right half (common cheap stereo cameras); the width must be even.
 * :class:`CameraPairSource` — two live cameras by device index; both are *grabbed* before
@@ -260,16 +260,41 @@ def _list_images(spec: str | os.PathLike[str], side: str) -> list[Path]:
     return sorted(files, key=lambda path: _natural_key(path.as_posix()))
 
 
-def _frame_names(files: list[Path]) -> list[str]:
-    """Each file's path below the folder common to all, without its ending (``/`` as ``_``): the
-    file's stem when all lie in one folder, ``frame_0003_left`` for ``frame_0003/left.png``."""
+def _relative_paths(files: list[Path]) -> list[str]:
+    """Each file's path below the folder common to all (``frame_0003/left.png``; the file name
+    when all lie in one folder): what the two sides are paired by."""
     common = Path(os.path.commonpath([p.parent for p in files])) if len(files) > 1 else files[0].parent
-    return [p.relative_to(common).with_suffix("").as_posix().replace("/", "_") for p in files]
+    return [p.relative_to(common).as_posix() for p in files]
 
 
-def _last_number(name: str) -> int | None:
-    numbers = re.findall(r"\d+", name)
-    return int(numbers[-1]) if numbers else None
+def _file_frame_name(relative_path: str) -> str:
+    """A frame's name for per-frame outputs: its relative path without the ending, ``/`` as
+    ``_`` (``frame_0003_left``)."""
+    return os.path.splitext(relative_path)[0].replace("/", "_")
+
+
+def _first_out_of_step(left_names: list[str], right_names: list[str]) -> int | None:
+    """Index of the first pair (paired by order) whose frame numbers are out of step with the
+    first pair's, or None.
+
+    The frame number is the first number in the names that changes along the left sequence
+    (``cam0_0012``: 12; ``0012_cam0``: 12 too). Its difference between the right and the left
+    name may be anything (``left_0012`` with ``right_1012``), but must stay that of the first
+    pair within half the sequence's typical step: per-camera timestamps that differ by a little
+    jitter keep in step; a frame missing on one side does not. Names whose numbers are not laid
+    out alike on both sides are not judged."""
+    numbers = [[int(n) for n in re.findall(r"\d+", name)] for name in left_names + right_names]
+    if len(left_names) < 2 or not numbers[0] or any(len(n) != len(numbers[0]) for n in numbers):
+        return None
+    left_numbers, right_numbers = np.array(numbers[:len(left_names)]), np.array(numbers[len(left_names):])
+    varying = np.flatnonzero(np.ptp(left_numbers, axis=0) > 0)
+    if varying.size == 0:
+        return None
+    field = varying[0]
+    step = np.median(np.abs(np.diff(left_numbers[:, field])))
+    offset = right_numbers[:, field] - left_numbers[:, field]
+    out_of_step = np.abs(offset - offset[0]) > step / 2
+    return int(np.argmax(out_of_step)) if out_of_step.any() else None
 
 
 def _paired(left_files: list[Path], right_files: list[Path], left: object, right: object) -> list[tuple[int, int]]:
@@ -277,9 +302,9 @@ def _paired(left_files: list[Path], right_files: list[Path], left: object, right
 
     Both sides with the same names: by name. Some names in common but not all: refused (a frame
     missing on one side would pair every later frame with the wrong partner). No name in
-    common: by order, the counts equal; a warning when the last numbers in the paired names
-    differ (``cam0_12`` with ``cam1_13``: a frame may be missing)."""
-    left_names, right_names = _frame_names(left_files), _frame_names(right_files)
+    common: by order, the counts equal; a warning when the frame numbers in the paired names
+    fall out of step (:func:`_first_out_of_step`: a frame may be missing)."""
+    left_names, right_names = _relative_paths(left_files), _relative_paths(right_files)
     right_index = {name: j for j, name in enumerate(right_names)}
     common = right_index.keys() & set(left_names)
     if common and len(common) == len(left_names) == len(right_names):
@@ -294,11 +319,11 @@ def _paired(left_files: list[Path], right_files: list[Path], left: object, right
     if len(left_files) != len(right_files):
         raise ImageMismatchError(f"{left} holds {len(left_files)} images but {right} holds "
                                  f"{len(right_files)}, and their names differ, so they cannot be paired")
-    for i, (left_name, right_name) in enumerate(zip(left_names, right_names)):
-        if _last_number(left_name) != _last_number(right_name):
-            logger.warning("pairing the images by order, but %s goes with %s: their frame numbers differ "
-                           "(is a frame missing on one side?)", left_files[i], right_files[i])
-            break
+    out_of_step = _first_out_of_step(left_names, right_names)
+    if out_of_step is not None:
+        logger.warning("pairing the images by order, but %s goes with %s: their frame numbers are out of step "
+                       "with the first pair's (is a frame missing on one side?)", left_files[out_of_step],
+                       right_files[out_of_step])
     logger.info("pairing %d images by sorted order", len(left_files))
     return [(i, i) for i in range(len(left_files))]
 
@@ -326,7 +351,10 @@ class ImageSequenceSource(StereoSource):
             raise InvalidInputError(f"fps must be > 0, got {fps}")
         self.description = f"image sequences {left} and {right}"
         left_files, right_files = _list_images(left, "left"), _list_images(right, "right")
-        names = _frame_names(left_files)
+        relative = _relative_paths(left_files)
+        names = [_file_frame_name(path) for path in relative]
+        if len(set(names)) < len(names):            # one stem with two endings: the outputs need one name each
+            names = [path.replace("/", "_") for path in relative]
         self._pairs = [(left_files[i], right_files[j], names[i]) for i, j in _paired(left_files, right_files, left, right)]
         self.fps = float(fps)
         self.total_frames = len(self._pairs)
