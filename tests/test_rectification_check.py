@@ -47,6 +47,17 @@ def test_plain_images_cannot_be_judged(caplog):
     assert not caplog.records
 
 
+def test_a_genuine_pair_with_few_matches_on_one_row_is_not_warned_of(caplog):
+    # synthetic scene 9 gives 7 matches, all 0.0 px apart: "the results mean nothing" was wrong
+    from stereo_obstacles.synthetic import random_scene
+
+    pair = render_pair(random_scene(9))
+    with caplog.at_level(logging.WARNING):
+        check = check_rectification(pair.left, pair.right)
+    assert check.rectified is None and 3 <= check.offsets.n_points < 12 and check.offsets.median_px == 0.0
+    assert not caplog.records
+
+
 def test_two_images_of_different_scenes_are_warned_of(shared_dataset, caplog):
     # Cones' left with Teddy's right: 4 obstacles at "0.71 m", said only at -v (found by a review)
     from stereo_obstacles.fileio import read_image
