@@ -54,7 +54,7 @@ def test_a_genuine_pair_with_few_matches_on_one_row_is_not_warned_of(caplog):
     pair = render_pair(random_scene(9))
     with caplog.at_level(logging.WARNING):
         check = check_rectification(pair.left, pair.right)
-    assert check.rectified is None and 3 <= check.offsets.n_points < 12 and check.offsets.median_px == 0.0
+    assert check.rectified is None and 3 <= check.offsets.n_points < 12 and check.offsets.median_px <= 1.0
     assert not caplog.records
 
 
