@@ -36,7 +36,7 @@ def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
     names = sorted(p.name for p in written)
     assert names == sorted(["obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply",
                             "obstacles.png", "disparity_picture.png", "depth_picture.png", "labels_picture.png", "index.html"])
-    assert sorted(p.name for p in out.iterdir()) == names  # nothing else, no staging left-overs
+    assert sorted(p.name for p in out.iterdir()) == [report.REPORT_MARK] + names  # nothing else, no staging left-overs
     assert sorted(report.OUTPUT_FILES) == names            # the list the input-overwrite check uses
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     record = read_obstacles_json(out / "obstacles.json")
@@ -82,7 +82,7 @@ def test_uncalibrated_run_has_no_depth_files_and_says_pixels(tmp_path):
     written = _write(tmp_path, calibrated=False)
     names = {p.name for p in written}
     assert not names & {"depth.npy", "points.ply", "depth_picture.png"}
-    assert {p.name for p in tmp_path.iterdir()} == names
+    assert {p.name for p in tmp_path.iterdir()} == names | {report.REPORT_MARK}
     page = (tmp_path / "index.html").read_text(encoding="utf-8")
     assert "No calibration was given" in page and "distance [m]" not in page
     assert "disparity [px]" in page and "depth_picture.png" not in page
@@ -176,6 +176,30 @@ def test_a_rerun_removes_the_pictures_of_their_former_names_from_its_own_folder_
     _write(former)
     assert not any((former / name).exists() for name in report.FORMER_PICTURE_NAMES)
     assert (former / "disparity_picture.png").exists()
+
+
+def test_a_report_killed_while_moving_in_is_known_by_the_next_run(tmp_path, monkeypatch):
+    # obstacles.json is removed first and moved in last: a kill in between left a folder the next
+    # detect refused as the user's (found by a review)
+    import os
+
+    out = tmp_path / "out"
+    _write(out)
+    real_replace = os.replace
+
+    def killed_at_obstacles_json(src, dst):
+        if os.fspath(dst) == os.fspath(out / "obstacles.json"):          # the move in, not the staged write
+            raise KeyboardInterrupt
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", killed_at_obstacles_json)
+    with pytest.raises(KeyboardInterrupt):
+        _write(out)
+    monkeypatch.setattr(os, "replace", real_replace)
+    assert not (out / "obstacles.json").exists() and (out / "disparity.pfm").is_file()
+    report.check_report_folder(out)                          # still this tool's folder
+    _write(out)
+    assert (out / "obstacles.json").is_file()
 
 
 def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tmp_path):

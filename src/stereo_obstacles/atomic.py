@@ -160,7 +160,7 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
 
 @contextlib.contextmanager
 def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = (),
-                     stale: tuple[str, ...] = ()) -> Iterator[Path]:
+                     stale: tuple[str, ...] = (), first: tuple[str, ...] = ()) -> Iterator[Path]:
     """Yield a hidden staging folder; on success move its files into ``out_dir``.
 
     ``out_dir`` may exist already: files of the same names are replaced, other files are
@@ -174,6 +174,9 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
 
     ``stale`` names files of an earlier run that this one does not write (a depth map beside an
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
+
+    ``first`` names files moved in before the ``last`` ones are removed (a mark that the folder
+    holds this kind of output, so that a run killed while moving is known by the next one).
     """
     final = Path(out_dir)
     check_output_folder(final)
@@ -188,6 +191,9 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         if not final.exists():
             os.replace(stage, final)
             return
+        for name in first:
+            if (stage / name).is_file():
+                os.replace(stage / name, final / name)
         for name in last + stale:
             (final / name).unlink(missing_ok=True)
         files = [src for src in stage.rglob("*") if src.is_file()]

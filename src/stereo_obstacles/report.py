@@ -241,9 +241,16 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
 CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
+REPORT_MARK = ".stereo-obstacles-report"
+"""An empty hidden file every report folder gets, moved in before the report's files: a folder
+whose report was killed while moving in (its ``obstacles.json`` removed, the new one not yet
+there) is still known as this tool's."""
+
+
 def holds_a_report(folder) -> bool:
-    """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format."""
-    return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
+    """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format, or
+    the :data:`REPORT_MARK` of one interrupted while moving in."""
+    return (Path(folder) / REPORT_MARK).is_file() or is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
 
 
 def check_report_folder(folder) -> None:
@@ -255,7 +262,7 @@ def check_report_folder(folder) -> None:
     if (folder / "scene.json").is_file():
         raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
                           f"disparity.pfm are the ground truth; write the report elsewhere")
-    if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
+    if (folder / "obstacles.json").is_file() and not is_document_of(folder / "obstacles.json", OBSTACLES_FORMAT):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
     theirs = [name for name in OUTPUT_FILES if (folder / name).exists()] if not holds_a_report(folder) else []
@@ -324,7 +331,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
     stale = (tuple(name for name in CALIBRATED_ONLY if not calibrated and earlier_report)
              + (FORMER_PICTURE_NAMES if former_kind else ()))
-    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
+    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale, first=(REPORT_MARK,)) as stage:
+        (stage / REPORT_MARK).touch()
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)
         write_pfm(stage / "disparity.pfm", disparity)
