@@ -293,9 +293,12 @@ def test_a_calibration_of_the_raw_cameras_rectifies_every_frame(tmp_path, capsys
             cv2.imwrite(str(tmp_path / side / f"{i}.png"), cv2.cvtColor(getattr(pair, side), cv2.COLOR_RGB2BGR))
     write_camera_pair_json(tmp_path / "rig.json", rig)
     assert main(["video", str(tmp_path / "left"), str(tmp_path / "right"), "--calib", str(tmp_path / "rig.json"),
-                 "--jsonl", str(tmp_path / "f.jsonl")]) == 0
+                 "--jsonl", str(tmp_path / "f.jsonl"), "--frames-out", str(tmp_path / "fo")]) == 0
     header, *records, end = read_json_lines(tmp_path / "f.jsonl")
     assert header["calibration"]["baseline_m"] == pytest.approx(rig.baseline_m, rel=1e-6)
+    said = {"method": "calibrated", "calibration": str(tmp_path / "rig.json")}
+    assert header["rectification"] == said                 # the frames' rectification is said, as detect says it
+    assert json.loads((tmp_path / "fo" / "1" / "obstacles.json").read_text())["run"]["inputs"]["rectification"] == said
     assert [r["type"] for r in records] == ["frame", "frame"] and end["type"] == "end"
     assert main(["detect", str(tmp_path / "left" / "0.png"), str(tmp_path / "right" / "0.png"), "--calib",
                  str(tmp_path / "rig.json"), "--out", str(tmp_path / "d")]) == 0
@@ -303,3 +306,9 @@ def test_a_calibration_of_the_raw_cameras_rectifies_every_frame(tmp_path, capsys
     nearest = min(o["distance_m"] for o in detected)
     assert min(o["measured_distance_m"] for o in records[0]["obstacles"]) == pytest.approx(nearest, rel=0.02)
     assert nearest == pytest.approx(min(t.nearest_depth_m for t in pair.obstacles if t.nearest_depth_m), rel=0.05)
+    small = cv2.resize(cv2.imread(str(tmp_path / "left" / "1.png")), (160, 120))
+    cv2.imwrite(str(tmp_path / "left" / "1.png"), small)
+    cv2.imwrite(str(tmp_path / "right" / "1.png"), small)
+    capsys.readouterr()
+    assert main(["video", str(tmp_path / "left"), str(tmp_path / "right"), "--calib", str(tmp_path / "rig.json")]) == 1
+    assert "frame 1 (1): left image must be 320x240 like the rectification, got 160x120" in capsys.readouterr().err

@@ -53,9 +53,11 @@ class PairMaps:
 
         height, width = self.left_x.shape
         for name, image in (("left", left), ("right", right)):
-            if not isinstance(image, np.ndarray) or image.shape[:2] != (height, width):
+            if not isinstance(image, np.ndarray) or image.ndim < 2:
+                raise ImageMismatchError(f"{name} image must be an image array, got {type(image).__name__}")
+            if image.shape[:2] != (height, width):
                 raise ImageMismatchError(f"{name} image must be {width}x{height} like the rectification, got "
-                                         f"{getattr(image, 'shape', type(image).__name__)}")
+                                         f"{image.shape[1]}x{image.shape[0]}")
         rectified_left = cv2.remap(left, self.left_x, self.left_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
         rectified_right = cv2.remap(right, self.right_x, self.right_y, cv2.INTER_LINEAR,
                                     borderMode=cv2.BORDER_CONSTANT)

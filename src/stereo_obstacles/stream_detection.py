@@ -169,15 +169,18 @@ def _refined_share(disparity: np.ndarray, estimate: np.ndarray) -> float:
 
 
 def header_record(*, source: str, calibration: StereoCalibration | None, config: DetectionConfig,
-                  temporal: TemporalSeedParameters | None, tracking: TrackingParameters) -> dict:
-    """The first line of a stream file: format, version, units, source, calibration, options."""
+                  temporal: TemporalSeedParameters | None, tracking: TrackingParameters,
+                  rectification: dict | None = None) -> dict:
+    """The first line of a stream file: format, version, units, source, calibration (of the
+    rectified frames), how the frames were rectified (``rectification``: ``None`` when they came
+    rectified), options."""
     from stereo_obstacles import __version__
 
     return {"type": "header", "format": STREAM_FORMAT, "version": 1, "package_version": __version__,
             "units": "metres" if calibration is not None else "pixels",
             "frame": "rectified left camera: x right, y down, z forward",
             "source": source, "calibration": calibration.to_dict() if calibration is not None else None,
-            "config": jsonable(config.to_dict()),
+            "rectification": rectification, "config": jsonable(config.to_dict()),
             "temporal_seeds": jsonable(temporal) if temporal is not None else None,
             "tracking": jsonable(tracking)}
 

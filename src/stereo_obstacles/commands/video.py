@@ -60,7 +60,12 @@ def _rectified(rectification, frame):
     """``frame`` (a :class:`~stereo_obstacles.streams.StereoFrame`) with its images rectified."""
     from dataclasses import replace
 
-    left, right = rectification.apply(frame.left, frame.right)
+    from stereo_obstacles.errors import ImageMismatchError
+
+    try:
+        left, right = rectification.apply(frame.left, frame.right)
+    except ImageMismatchError as exc:
+        raise ImageMismatchError(f"frame {frame.index} ({frame.name}): {exc}") from exc
     return replace(frame, left=left, right=right)
 
 
@@ -205,8 +210,10 @@ def run(args: argparse.Namespace) -> int:
             raise InputFileError(f"{source.description}: no frames")
         height, width = first.left.shape[:2]
         calibration, rectification = calibration_and_rectification(args, width, height)
+        rectified_by = None
         if rectification is not None:         # the raw cameras' calibration: every frame is rectified first
             first, frames = _rectified(rectification, first), (_rectified(rectification, f) for f in frames)
+            rectified_by = {"method": "calibrated", "calibration": str(args.calib)}
         if args.forward_speed and calibration is None:
             raise InvalidInputError("--forward-speed needs a calibration (--calib, or --focal and --baseline): "
                                     "without one the motion cannot be turned into disparities")
@@ -223,7 +230,7 @@ def run(args: argparse.Namespace) -> int:
             jsonl = stack.enter_context(JsonLinesWriter("/dev/stdout" if args.jsonl == "-" else args.jsonl,
                                                         sync=args.jsonl != "-"))
             jsonl.write(header_record(source=source.description, calibration=calibration, config=config,
-                                      temporal=temporal, tracking=tracking))
+                                      temporal=temporal, tracking=tracking, rectification=rectified_by))
         video = None
         if args.video_out:
             video = _VideoOut(args.video_out, source.fps, (width, height))
@@ -252,7 +259,8 @@ def run(args: argparse.Namespace) -> int:
                                             depth_m=result.depth_m, obstacle_list=result.obstacles,
                                             calibration=calibration, config=config.to_dict(),
                                             timings=result.timings_s,
-                                            inputs={"source": source.description, "frame": detection.frame.index})
+                                            inputs={"source": source.description, "frame": detection.frame.index,
+                                                    "rectification": rectified_by})
                 count += 1
                 near = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
                 progress.update(note=f"approaching #{near[0].track_id}" if near else "")
