@@ -9,11 +9,13 @@ from stereo_obstacles.commands._calibration_options import CALIB_UNIT_HELP
 from stereo_obstacles.commands.detect import add_detection_options
 
 DESCRIPTION = """\
-Run 'detect' (or 'disparity') on every stereo pair under INPUT_DIR: sub-folders of a known dataset
-layout (as 'evaluate' reads them; KITTI folders give one pair per frame), <name>_left/<name>_right
-(or <name>_L/<name>_R) images, or left/ and right/ folders of same-named images. Each pair's
-outputs go to OUT/<name>/, and a done.json written last marks it complete: a second run skips
-completed pairs. A failing pair is reported with its reason and the batch goes on. The summary
+Run 'detect' (or 'disparity') on every stereo pair under INPUT_DIR: INPUT_DIR itself when it is
+one dataset with its calibration, sub-folders of a known dataset layout (as 'evaluate' reads
+them; KITTI folders give one pair per frame), <name>_left/<name>_right (or <name>_L/<name>_R)
+images, or left/ and right/ folders of same-named images. Each pair's outputs go to
+OUT/<name>/, and a done.json written last marks it complete: a second run skips completed
+pairs, and is refused when a pair was done with another task, calibration or option the task
+uses. A failing pair is reported with its reason and the batch goes on. The summary
 is written to OUT/batch_summary.json. Exit code 0 when every pair is done, 1 when some failed,
 130 on Ctrl-C (pairs already started are finished first; a second Ctrl-C stops at once), 143 on
 SIGTERM."""
