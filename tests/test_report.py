@@ -36,7 +36,7 @@ def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
     names = sorted(p.name for p in written)
     assert names == sorted(["obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply",
                             "obstacles.png", "disparity_picture.png", "depth_picture.png", "labels_picture.png", "index.html"])
-    assert sorted(p.name for p in out.iterdir()) == [report.REPORT_MARK] + names  # nothing else, no staging left-overs
+    assert sorted(p.name for p in out.iterdir()) == names  # nothing else, no staging left-overs
     assert sorted(report.OUTPUT_FILES) == names            # the list the input-overwrite check uses
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     record = read_obstacles_json(out / "obstacles.json")
@@ -82,7 +82,7 @@ def test_uncalibrated_run_has_no_depth_files_and_says_pixels(tmp_path):
     written = _write(tmp_path, calibrated=False)
     names = {p.name for p in written}
     assert not names & {"depth.npy", "points.ply", "depth_picture.png"}
-    assert {p.name for p in tmp_path.iterdir()} == names | {report.REPORT_MARK}
+    assert {p.name for p in tmp_path.iterdir()} == names
     page = (tmp_path / "index.html").read_text(encoding="utf-8")
     assert "No calibration was given" in page and "distance [m]" not in page
     assert "disparity [px]" in page and "depth_picture.png" not in page
@@ -198,8 +198,17 @@ def test_a_report_killed_while_moving_in_is_known_by_the_next_run(tmp_path, monk
     monkeypatch.setattr(os, "replace", real_replace)
     assert not (out / "obstacles.json").exists() and (out / "disparity.pfm").is_file()
     report.check_report_folder(out)                          # still this tool's folder
+    (out / "obstacles.json").write_text('{"mine": 1}')        # but another tool's obstacles.json is refused
+    with pytest.raises(OutputError, match="not a report of this tool"):
+        report.check_report_folder(out)
+    (out / "obstacles.json").unlink()
     _write(out)
-    assert (out / "obstacles.json").is_file()
+    assert (out / "obstacles.json").is_file() and not (out / report.MOVING_MARK).exists()
+    for path in out.iterdir():                               # a user's files where a report was
+        path.unlink()
+    (out / "index.html").write_text("mine")
+    with pytest.raises(OutputError, match="holds index.html but no report of this tool"):
+        report.check_report_folder(out)
 
 
 def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tmp_path):

@@ -160,7 +160,7 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
 
 @contextlib.contextmanager
 def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = (),
-                     stale: tuple[str, ...] = (), first: tuple[str, ...] = ()) -> Iterator[Path]:
+                     stale: tuple[str, ...] = (), moving_mark: str | None = None) -> Iterator[Path]:
     """Yield a hidden staging folder; on success move its files into ``out_dir``.
 
     ``out_dir`` may exist already: files of the same names are replaced, other files are
@@ -175,8 +175,9 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     ``stale`` names files of an earlier run that this one does not write (a depth map beside an
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
 
-    ``first`` names files moved in before the ``last`` ones are removed (a mark that the folder
-    holds this kind of output, so that a run killed while moving is known by the next one).
+    ``moving_mark`` names an empty file created in an existing ``out_dir`` before anything there
+    is removed, and removed once every file is in: it is there only when a run was killed while
+    moving in, so that the next run knows the folder for its own.
     """
     final = Path(out_dir)
     check_output_folder(final)
@@ -191,9 +192,8 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         if not final.exists():
             os.replace(stage, final)
             return
-        for name in first:
-            if (stage / name).is_file():
-                os.replace(stage / name, final / name)
+        if moving_mark is not None:
+            (final / moving_mark).touch()
         for name in last + stale:
             (final / name).unlink(missing_ok=True)
         files = [src for src in stage.rglob("*") if src.is_file()]
@@ -201,6 +201,8 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
             dest = final / src.relative_to(stage)
             dest.parent.mkdir(parents=True, exist_ok=True)
             os.replace(src, dest)
+        if moving_mark is not None:
+            (final / moving_mark).unlink(missing_ok=True)
     except OSError as exc:
         if isinstance(exc, OutputError):
             raise

@@ -241,16 +241,16 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
 CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
-REPORT_MARK = ".stereo-obstacles-report"
-"""An empty hidden file every report folder gets, moved in before the report's files: a folder
-whose report was killed while moving in (its ``obstacles.json`` removed, the new one not yet
-there) is still known as this tool's."""
+MOVING_MARK = ".stereo-obstacles-report-moving"
+"""An empty hidden file in a report folder while a new report moves in over an earlier one
+(:func:`~stereo_obstacles.atomic.staged_directory`); left only by a run killed meanwhile, whose
+``obstacles.json`` was removed and the new one not yet there: the folder is still this tool's."""
 
 
 def holds_a_report(folder) -> bool:
     """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format, or
-    the :data:`REPORT_MARK` of one interrupted while moving in."""
-    return (Path(folder) / REPORT_MARK).is_file() or is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
+    one killed while moving in (:data:`MOVING_MARK`)."""
+    return (Path(folder) / MOVING_MARK).is_file() or is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
 
 
 def check_report_folder(folder) -> None:
@@ -331,8 +331,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
     stale = (tuple(name for name in CALIBRATED_ONLY if not calibrated and earlier_report)
              + (FORMER_PICTURE_NAMES if former_kind else ()))
-    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale, first=(REPORT_MARK,)) as stage:
-        (stage / REPORT_MARK).touch()
+    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale,
+                          moving_mark=MOVING_MARK) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)
         write_pfm(stage / "disparity.pfm", disparity)
