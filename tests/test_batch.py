@@ -146,15 +146,18 @@ def test_going_on_with_other_settings_in_the_same_out_is_refused(pairs_dir, tmp_
     capsys.readouterr()
     assert main(args[:-1] + ["32"]) == 1
     err = capsys.readouterr().err
-    assert "was done with another option matching: it would be skipped as done" in err and len(err.splitlines()) == 1
+    assert "2 pair(s) were done with another option matching (" in err and len(err.splitlines()) == 1
+    assert "out/a" in err and "out/c" in err and "skipped as done" in err
     assert main(args[:6] + ["--task", "detect", "--max-disparity", "40"]) == 1
-    assert "was done with another task, option " in capsys.readouterr().err
+    assert "were done with another task, option " in capsys.readouterr().err
     assert (out / SUMMARY_FILE).read_text() == summary                   # nothing rewritten
-    assert main(args + ["--max-distance", "5", "--matching-scale", "1"]) == 1   # not used by the disparity task
+    write_scene_folder(tmp_path / "scene", frames()[0])                 # a rectified rig's calibration
+    assert main(args + ["--max-distance", "5", "--matching-scale", "1",      # none used by the disparity task
+                        "--calib", str(tmp_path / "scene" / "calibration.json")]) == 1
     assert _summary(out)["counts"] == {"done": 0, "skipped": 2, "failed": 1}
     (out / SUMMARY_FILE).unlink()                                        # as if killed: no summary to go by
     assert main(args[:-1] + ["32"]) == 1
-    assert "was done with another option matching" in capsys.readouterr().err
+    assert "were done with another option matching" in capsys.readouterr().err
 
 
 def test_the_calibration_is_compared_by_its_values_not_its_file_name(tmp_path, capsys, monkeypatch):
@@ -169,7 +172,7 @@ def test_the_calibration_is_compared_by_its_values_not_its_file_name(tmp_path, c
     assert main(args[:-1] + ["../a/cal.json"]) == 0                      # the same file named otherwise
     monkeypatch.chdir(tmp_path / "b")                                    # another file of the same name
     capsys.readouterr()
-    assert main(args) == 1 and "was done with another calibration" in capsys.readouterr().err
+    assert main(args) == 1 and "1 pair(s) were done with another calibration" in capsys.readouterr().err
 
 
 def test_detect_task_writes_the_detect_outputs_with_the_folder_calibration(tmp_path):
@@ -210,9 +213,23 @@ def test_a_dataset_calibration_for_other_images_is_warned_of_in_batch(tmp_path, 
         cv2.imwrite(str(tmp_path / "half" / f"000005_10_{side}.png"),
                     cv2.resize(image, (621, 188), interpolation=cv2.INTER_AREA))
     with caplog.at_level("WARNING", logger="stereo_obstacles"):
-        outcome = process_pair(BatchJob(find_pairs(tmp_path / "half")[0], str(tmp_path / "out"), "detect", CONFIG))
+        found = find_pairs(tmp_path / "half")
+    assert "far from the centre" not in caplog.text          # said once, when the pair is run (it came twice)
+    outcome = process_pair(BatchJob(found[0], str(tmp_path / "out"), "detect", CONFIG))
     assert outcome.status == "done"
-    assert any("lies far from the centre of the 621x188 images" in w for w in outcome.warnings)
+    assert sum("lies far from the centre of the 621x188 images" in w for w in outcome.warnings) == 1
+
+
+def test_a_report_inside_the_input_folder_is_not_a_pair_and_probing_says_nothing(tmp_path, caplog):
+    # a detect report beside a dataset's files was a failed pair (found by a review)
+    write_scene_folder(tmp_path / "scene", frames()[0])
+    assert main(["detect", str(tmp_path / "scene" / "left.png"), str(tmp_path / "scene" / "right.png"), "--calib",
+                 str(tmp_path / "scene" / "calibration.json"), "--out", str(tmp_path / "scene" / "report")]) == 0
+    caplog.clear()
+    with caplog.at_level("INFO", logger="stereo_obstacles"):
+        assert [p.name for p in find_pairs(tmp_path / "scene")] == ["scene"]
+    assert "report holds a report of this tool, not a pair" in caplog.text
+    assert "WARNING" not in [r.levelname for r in caplog.records]
 
 
 def test_two_local_worker_processes(pairs_dir, tmp_path):

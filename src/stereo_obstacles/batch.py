@@ -153,6 +153,7 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
         ``input_dir`` is not a folder, or holds no pair.
     """
     from stereo_obstacles.datasets import list_frames
+    from stereo_obstacles.report import holds_a_report
 
     root = Path(input_dir)
     if not root.is_dir():
@@ -176,6 +177,9 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
                 logger.warning("%s has no partner in %s", left, sides["right"])
     for folder in subfolders:
         if folder in sides.values():
+            continue
+        if holds_a_report(folder):
+            logger.info("%s holds a report of this tool, not a pair: left out", folder)
             continue
         named = _pairs_by_name(folder, prefix=f"{folder.name}_")
         on_the_way = skipped is not None and folder.resolve() in skipped.parents    # holds the output folder
@@ -220,7 +224,8 @@ def _own_frames(root: Path) -> tuple[str | None, ...]:
     if len(_pairs_by_name(root, prefix="")) > 1 or list_frames(root) != (None,):
         return ()
     try:
-        return (None,) if load_pair(root).calibration is not None else ()
+        with _collected_warnings():               # said when the pair is run, not also when it is found
+            return (None,) if load_pair(root).calibration is not None else ()
     except StereoObstaclesError:
         return ()
 
@@ -231,7 +236,8 @@ def _is_a_dataset(folder: Path) -> bool:
     from stereo_obstacles.errors import StereoObstaclesError
 
     try:
-        load_pair(folder)
+        with _collected_warnings():               # said when the pair is run, not also when it is found
+            load_pair(folder)
     except StereoObstaclesError:
         return False
     return True
@@ -285,6 +291,7 @@ def _load(job: BatchJob):
         calibration, rectification = rig_for_images(job.calibration, left.shape[1], left.shape[0])
         if rectification is not None:
             left, right = rectification.apply(left, right)
+            inputs["rectification"] = {"method": "calibrated", "calibration": job.calib_file}
     return left, right, calibration, inputs
 
 
@@ -536,15 +543,17 @@ def output_settings(job: BatchJob) -> dict:
 
 
 def check_done_settings(jobs: Iterable[BatchJob]) -> None:
-    """Refuse to go on when a pair's done file records other :func:`output_settings` than its
-    job's: it would be skipped as done and kept, as if made with these. Done files without
+    """Refuse to go on when pairs' done files record other :func:`output_settings` than their
+    jobs': they would be skipped as done and kept, as if made with these. Done files without
     settings (written before they were recorded) are not checked.
 
     Raises
     ------
     OutputError
-        Naming the first such pair and what differs (for the options, which ones).
+        Counting such pairs, naming the first few and what differs (for the options, which ones).
     """
+    stale: list[str] = []
+    differing: list[str] = []
     for job in jobs:
         try:
             recorded = json.loads((Path(job.out_dir) / DONE_FILE).read_text(encoding="utf-8")).get("settings")
@@ -553,14 +562,18 @@ def check_done_settings(jobs: Iterable[BatchJob]) -> None:
         if not isinstance(recorded, dict):
             continue
         now = output_settings(job)
-        differing = [key for key in ("task", "calibration") if recorded.get(key) != now[key]]
+        these = [key for key in ("task", "calibration") if recorded.get(key) != now[key]]
         before, options = recorded.get("options"), now["options"]
         if before != options:
-            differing += ([f"option {key}" for key in sorted(before.keys() | options.keys())
-                           if before.get(key) != options.get(key)] if isinstance(before, dict) else ["options"])
-        if differing:
-            raise OutputError(f"{job.out_dir} was done with another {', '.join(differing)}: it would be skipped as "
-                              f"done; use another --out, or delete {job.out_dir} to redo it")
+            these += ([f"option {key}" for key in sorted(before.keys() | options.keys())
+                       if before.get(key) != options.get(key)] if isinstance(before, dict) else ["options"])
+        if these:
+            stale.append(job.out_dir)
+            differing += [key for key in these if key not in differing]
+    if stale:
+        shown = ", ".join(stale[:3]) + (f" and {len(stale) - 3} more" if len(stale) > 3 else "")
+        raise OutputError(f"{len(stale)} pair(s) were done with another {', '.join(differing)} ({shown}): they would be "
+                          f"skipped as done; use another --out, or delete them to redo them")
 
 
 def write_summary(out_dir: str | os.PathLike[str], outcomes: list[PairOutcome], *, seconds: float,
