@@ -60,7 +60,8 @@ def test_image_sequences_without_temporal_seeds_and_with_frame_outputs(tmp_path,
     lines = capsys.readouterr().out.strip().splitlines()
     assert len(lines) == 2 and lines[0].startswith("frame 0 t=0.00 s: #1 d=")      # no calibration: pixels
     assert sorted(p.name for p in (tmp_path / "frames").iterdir()) == ["0000", "0001"]
-    assert (tmp_path / "frames" / "0001" / "obstacles.json").is_file()
+    inputs = json.loads((tmp_path / "frames" / "0001" / "obstacles.json").read_text())["run"]["inputs"]
+    assert inputs["rectification_check"]["rectified"] is True and inputs["rectification_check"]["frame"] == 0
 
 
 def test_side_by_side_video_to_stdout_jsonl(tmp_path, capfd):

@@ -222,6 +222,7 @@ def run(args: argparse.Namespace) -> int:
         with refusing_swapped_pairs():
             first_check = pair_rectification_check(first.left, first.right)
         refuse_swapped(first_check)     # before any output is written
+        first_checked = {**first_check.to_dict(), "frame": first.index}      # the rig does not change
         checked = replace(config, check_rectification=False)                # done: the rig does not change
         temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
                                            forward_m_per_frame=args.forward_speed,
@@ -262,7 +263,8 @@ def run(args: argparse.Namespace) -> int:
                                             calibration=calibration, config=config.to_dict(),
                                             timings=result.timings_s,
                                             inputs={"source": source.description, "frame": detection.frame.index,
-                                                    "rectification": rectified_by})
+                                                    "rectification": rectified_by,
+                                                    "rectification_check": first_checked})
                 count += 1
                 near = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
                 progress.update(note=f"approaching #{near[0].track_id}" if near else "")
