@@ -131,7 +131,8 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
                        "(median; 95th percentile %.1f px, %d matches); the disparity will be poor -- rectify "
                        "it first (stereo-obstacles rectify, or --uncalibrated)", offsets.median_px,
                        offsets.p95_px, offsets.n_points)
-    elif rectified is None and warn and (offsets.n_points < MIN_JUDGED_MATCHES or offsets.median_px > threshold_px):
+    elif rectified is None and warn and (offsets.n_points < MIN_JUDGED_MATCHES
+                                         or offsets.p95_px > ONE_ROW_REACH * threshold_px):
         logger.warning(UNCHECKED_WARNING, offsets.n_points, MIN_MATCHES)
     negative = float(np.mean(left_px[:, 0] - right_px[:, 0] < -0.5)) if len(left_px) else 0.0
     swapped = None if offsets.n_points < MIN_MATCHES else negative > SWAPPED_FRACTION
@@ -142,10 +143,15 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
 
 
 MIN_JUDGED_MATCHES = 3
+ONE_ROW_REACH = 1.5
 """Below :data:`MIN_MATCHES` the verdict is "cannot tell", and a warning says so unless at least
-this many matches lie within the threshold of one row (median): a genuine pair of weak texture
-(synthetic scene 9: 7 matches, 0.0 px apart) is not flagged, two images of different scenes are
-(0-9 matches, median 8-280 px apart, on 59 synthetic and 56 shared real cross pairs)."""
+``MIN_JUDGED_MATCHES`` matches lie on one row: 95 % of them within ``ONE_ROW_REACH`` times the
+threshold. Synthetic scene 9, a genuine pair of weak texture, gives the pipeline's check
+(:func:`stereo_obstacles.pipeline.pair_rectification_check`: ORB on the pair shrunk) 7 matches
+with a 95th percentile of 1.31 px and is not flagged; of the 1560 pairs of different synthetic scenes 0..39,
+the 472 with 3 to 11 matches all lie farther apart (the nearest: 6 matches, 1.9 px; with the
+median instead, 3 of them passed as one row), and 56 pairs of different shared real scenes gave
+0-7 matches."""
 
 UNCHECKED_WARNING = ("the pair could not be checked: only %d feature matches agree with one stereo geometry (%d "
                      "needed); if the two images do not show one scene from two side-by-side cameras, the results "
