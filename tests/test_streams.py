@@ -106,6 +106,11 @@ def test_pairing_by_order_warns_when_the_frame_numbers_disagree(tmp_path, caplog
                                       ["1650000000102.png", "1650000000134.png", "1650000000170.png"]) is None
     assert streams._first_out_of_step(["1650000000100.png", "1650000000133.png", "1650000000167.png"],
                                       ["1650000000102.png", "1650000000170.png", "1650000000200.png"]) == 1
+    # seconds with a fraction (TUM): read whole, not as whole seconds then a fraction (review)
+    left = [f"{1305031102.9 + k / 30:.6f}.png" for k in range(12)]
+    right = [f"{1305031102.885 + k / 30:.6f}.png" for k in range(12)]
+    assert streams._first_out_of_step(left, right) is None
+    assert streams._first_out_of_step(left[:11], right[:5] + right[6:]) == 5
 
 
 def test_image_sequence_errors(tmp_path):

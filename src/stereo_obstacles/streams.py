@@ -278,12 +278,13 @@ def _first_out_of_step(left_names: list[str], right_names: list[str]) -> int | N
     first pair's, or None.
 
     The frame number is the first number in the names that changes along the left sequence
-    (``cam0_0012``: 12; ``0012_cam0``: 12 too). Its difference between the right and the left
-    name may be anything (``left_0012`` with ``right_1012``), but must stay that of the first
-    pair within half the sequence's typical step: per-camera timestamps that differ by a little
-    jitter keep in step; a frame missing on one side does not. Names whose numbers are not laid
-    out alike on both sides are not judged."""
-    numbers = [[int(n) for n in re.findall(r"\d+", name)] for name in left_names + right_names]
+    (``cam0_0012``: 12; ``0012_cam0``: 12 too; a decimal one whole: ``1305031102.885``). Its
+    difference between the right and the left name may be anything (``left_0012`` with
+    ``right_1012``), but must stay that of the first pair within half the sequence's typical
+    step: per-camera timestamps that differ by a little jitter keep in step; a frame missing on
+    one side does not. Names whose numbers are not laid out alike on both sides are not judged."""
+    numbers = [[float(n) for n in re.findall(r"\d+(?:\.\d+)?", os.path.splitext(name)[0])]
+               for name in left_names + right_names]
     if len(left_names) < 2 or not numbers[0] or any(len(n) != len(numbers[0]) for n in numbers):
         return None
     left_numbers, right_numbers = np.array(numbers[:len(left_names)]), np.array(numbers[len(left_names):])
