@@ -209,6 +209,19 @@ def test_a_report_killed_while_moving_in_is_known_by_the_next_run(tmp_path, monk
     (out / "index.html").write_text("mine")
     with pytest.raises(OutputError, match="holds index.html but no report of this tool"):
         report.check_report_folder(out)
+    (out / "index.html").unlink()                                     # killed again, then `rm *`: the mark
+    _write(out)                                                       # stays, the user's files come
+    monkeypatch.setattr(os, "replace", killed_at_obstacles_json)
+    with pytest.raises(KeyboardInterrupt):
+        _write(out)
+    monkeypatch.setattr(os, "replace", real_replace)
+    for path in out.iterdir():
+        if path.name != report.MOVING_MARK:
+            path.unlink()
+    (out / "index.html").write_text("mine")
+    (out / "points.ply").write_text("my cloud")
+    with pytest.raises(OutputError, match="holds index.html, points.ply but no report of this tool"):
+        report.check_report_folder(out)
 
 
 def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tmp_path):

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from stereo_obstacles import __version__
-from stereo_obstacles.atomic import staged_directory, write_text_atomic
+from stereo_obstacles.atomic import move_was_killed, staged_directory, write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import points_from_depth
 from stereo_obstacles.errors import InvalidInputError, OutputError
@@ -242,15 +242,16 @@ CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
 MOVING_MARK = ".stereo-obstacles-report-moving"
-"""An empty hidden file in a report folder while a new report moves in over an earlier one
+"""A hidden file in a report folder while a new report moves in over an earlier one
 (:func:`~stereo_obstacles.atomic.staged_directory`); left only by a run killed meanwhile, whose
-``obstacles.json`` was removed and the new one not yet there: the folder is still this tool's."""
+``obstacles.json`` was removed and the new one not yet there: the folder is still this tool's
+while its report files are those the move knew (:func:`~stereo_obstacles.atomic.move_was_killed`)."""
 
 
 def holds_a_report(folder) -> bool:
     """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format, or
     one killed while moving in (:data:`MOVING_MARK`)."""
-    return (Path(folder) / MOVING_MARK).is_file() or is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
+    return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT) or move_was_killed(folder, MOVING_MARK)
 
 
 def check_report_folder(folder) -> None:
