@@ -58,6 +58,12 @@ def test_a_genuine_pair_with_few_matches_on_one_row_is_not_warned_of(caplog):
         check = pair_rectification_check(pair.left, pair.right)
     assert check.rectified is None and 3 <= check.offsets.n_points < 12 and check.offsets.p95_px <= 1.5
     assert not caplog.records
+    # at 1920x1440 the check matches a copy shrunk 3x: one of its pixels is 3 full-size ones (review)
+    large = render_pair(random_scene(9, width_px=1920, height_px=1440))
+    with caplog.at_level(logging.WARNING):
+        check = pair_rectification_check(large.left, large.right)
+    assert check.rectified is None and check.offsets.p95_px > 1.5
+    assert not caplog.records
 
 
 def test_different_scenes_with_a_few_matches_near_one_row_are_warned_of(caplog):

@@ -70,6 +70,17 @@ def test_files_of_one_stem_and_two_endings_are_paired_by_their_whole_names(tmp_p
     assert [f.name for f in got[:4]] == ["0000.jpg", "0000.png", "0001.jpg", "0001.png"]     # one output folder each
 
 
+def test_per_camera_timestamps_that_meet_by_chance_are_paired_by_order(tmp_path):
+    # one name of four in common was refused as "share 1 image names but not all" (review)
+    left_dir, right_dir = write_sequences(tmp_path, left_name="{:d}.png", right_name="{:d}.png")
+    for i, stamp in enumerate((1650000000100, 1650000000133, 1650000000167, 1650000000200)):
+        (left_dir / f"{i}.png").rename(left_dir / f"{stamp}.png")
+        (right_dir / f"{i}.png").rename(right_dir / f"{stamp + (0 if i == 2 else 3)}.png")
+    got = list(ImageSequenceSource(left_dir, right_dir))
+    assert len(got) == N_FRAMES
+    np.testing.assert_array_equal(got[3].right, frames()[3].right)
+
+
 def test_a_pattern_over_one_folder_per_frame_keeps_the_frames_in_order(tmp_path):
     # the layout `scene --frames` writes: frame_*/left.png; sorted by file name alone, the frames
     # came in folder-listing order, all named "left"

@@ -6,7 +6,8 @@
   pair with its calibration that :func:`stereo_obstacles.datasets.load_pair` reads;
 * every sub-folder that :func:`stereo_obstacles.datasets.load_pair` reads (a KITTI 2015
   folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair, unless
-  it holds no images at all (left out with a warning: notes, calibration files); a
+  it holds no images at all, or is a report of this tool holding no pair (left out with a
+  warning: notes, calibration files, an earlier ``detect --out``); a
   sub-folder holding several pairs of images paired by name (below) gives each of them,
   named ``<folder>_<key>``;
 * image files in the folder itself paired by name: ``<key>left<rest>`` with
@@ -178,10 +179,10 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
     for folder in subfolders:
         if folder in sides.values():
             continue
-        if holds_a_report(folder):
-            logger.info("%s holds a report of this tool, not a pair: left out", folder)
-            continue
         named = _pairs_by_name(folder, prefix=f"{folder.name}_")
+        if not named and holds_a_report(folder) and not _is_a_dataset(folder):
+            logger.warning("%s holds a report of this tool and no pair: left out", folder)
+            continue
         on_the_way = skipped is not None and folder.resolve() in skipped.parents    # holds the output folder
         if len(named) >= 2 or (on_the_way and named):  # several pairs side by side, not one dataset pair
             pairs.extend(named)
@@ -563,10 +564,8 @@ def check_done_settings(jobs: Iterable[BatchJob]) -> None:
             continue
         now = output_settings(job)
         these = [key for key in ("task", "calibration") if recorded.get(key) != now[key]]
-        before, options = recorded.get("options"), now["options"]
-        if before != options:
-            these += ([f"option {key}" for key in sorted(before.keys() | options.keys())
-                       if before.get(key) != options.get(key)] if isinstance(before, dict) else ["options"])
+        if "task" not in these:                  # another task's options are not comparable
+            these += [f"option {path}" for path in _differing_paths(recorded.get("options"), now["options"])]
         if these:
             stale.append(job.out_dir)
             differing += [key for key in these if key not in differing]
@@ -574,6 +573,17 @@ def check_done_settings(jobs: Iterable[BatchJob]) -> None:
         shown = ", ".join(stale[:3]) + (f" and {len(stale) - 3} more" if len(stale) > 3 else "")
         raise OutputError(f"{len(stale)} pair(s) were done with another {', '.join(differing)} ({shown}): they would be "
                           f"skipped as done; use another --out, or delete them to redo them")
+
+
+def _differing_paths(before, now, prefix: str = "") -> list[str]:
+    """Dotted paths (``obstacles.max_distance_m``) of the values that differ between two nested
+    JSON mappings; the path of the whole when either is not a mapping."""
+    if before == now:
+        return []
+    if not (isinstance(before, dict) and isinstance(now, dict)):
+        return [prefix or "options"]
+    return [path for key in sorted(before.keys() | now.keys())
+            for path in _differing_paths(before.get(key), now.get(key), f"{prefix}.{key}" if prefix else key)]
 
 
 def write_summary(out_dir: str | os.PathLike[str], outcomes: list[PairOutcome], *, seconds: float,

@@ -132,7 +132,7 @@ def check_rectification(left: np.ndarray, right: np.ndarray, *, threshold_px: fl
                        "it first (stereo-obstacles rectify, or --uncalibrated)", offsets.median_px,
                        offsets.p95_px, offsets.n_points)
     elif rectified is None and warn and (offsets.n_points < MIN_JUDGED_MATCHES
-                                         or offsets.p95_px > ONE_ROW_REACH * threshold_px):
+                                         or offsets.p95_px > ONE_ROW_REACH * threshold_px * max(scale, 1.0)):
         logger.warning(UNCHECKED_WARNING, offsets.n_points, MIN_MATCHES)
     negative = float(np.mean(left_px[:, 0] - right_px[:, 0] < -0.5)) if len(left_px) else 0.0
     swapped = None if offsets.n_points < MIN_MATCHES else negative > SWAPPED_FRACTION
@@ -146,7 +146,8 @@ MIN_JUDGED_MATCHES = 3
 ONE_ROW_REACH = 1.5
 """Below :data:`MIN_MATCHES` the verdict is "cannot tell", and a warning says so unless at least
 ``MIN_JUDGED_MATCHES`` matches lie on one row: 95 % of them within ``ONE_ROW_REACH`` times the
-threshold. Synthetic scene 9, a genuine pair of weak texture, gives the pipeline's check
+threshold, in pixels of the images the features were matched on (``max_side_px``: scene 9 at
+1920x1440, matched shrunk 3x, has them within 2.1 full-size pixels). Synthetic scene 9, a genuine pair of weak texture, gives the pipeline's check
 (:func:`stereo_obstacles.pipeline.pair_rectification_check`: ORB on the pair shrunk) 7 matches
 with a 95th percentile of 1.31 px and is not flagged; of the 1560 pairs of different synthetic scenes 0..39,
 the 472 with 3 to 11 matches all lie farther apart (the nearest: 6 matches, 1.9 px; with the

@@ -9,8 +9,8 @@ Every source yields :class:`StereoFrame` objects (index, timestamp, left and rig
   state them) differ are refused; otherwise the shorter one ends the stream.
 * :class:`ImageSequenceSource` — two folders or glob patterns of images (a pattern may cover
   one folder per frame), in natural order of their paths. When both sides hold the same names
-  they are paired by name; when they share some names but not all they are refused (a frame
-  missing on one side); otherwise by order, and then the counts must agree (a warning when
+  they are paired by name; when they share at least half their names but not all they are
+  refused (a frame missing on one side); otherwise by order, and then the counts must agree (a warning when
   the paired names' frame numbers fall out of step). Timestamps are ``index / fps``.
 * :class:`SideBySideSource` — one video whose frames hold the left view in the left half and
   the right view in the right half (common cheap stereo cameras); the width must be even.
@@ -301,9 +301,10 @@ def _first_out_of_step(left_names: list[str], right_names: list[str]) -> int | N
 def _paired(left_files: list[Path], right_files: list[Path], left: object, right: object) -> list[tuple[int, int]]:
     """Indices ``(i, j)`` of the left and right files that form the frames, in order.
 
-    Both sides with the same names: by name. Some names in common but not all: refused (a frame
-    missing on one side would pair every later frame with the wrong partner). No name in
-    common: by order, the counts equal; a warning when the frame numbers in the paired names
+    Both sides with the same names: by name. At least half of the names in common but not all:
+    refused (a frame missing on one side would pair every later frame with the wrong partner).
+    Fewer in common (per-camera timestamps that meet by chance) or none: by order, the counts
+    equal; a warning when the frame numbers in the paired names
     fall out of step (:func:`_first_out_of_step`: a frame may be missing)."""
     left_names, right_names = _relative_paths(left_files), _relative_paths(right_files)
     right_index = {name: j for j, name in enumerate(right_names)}
@@ -311,7 +312,7 @@ def _paired(left_files: list[Path], right_files: list[Path], left: object, right
     if common and len(common) == len(left_names) == len(right_names):
         logger.info("pairing %d images by name", len(left_names))
         return [(i, right_index[name]) for i, name in enumerate(left_names)]
-    if common:
+    if 2 * len(common) >= min(len(left_names), len(right_names)):     # one naming, a frame missing
         unpaired = [f"{left_files[i]}" for i, name in enumerate(left_names) if name not in common][:1] + \
                    [f"{right_files[j]}" for j, name in enumerate(right_names) if name not in common][:1]
         raise ImageMismatchError(f"{left} and {right} share {len(common)} image names but not all "

@@ -12,7 +12,8 @@ DESCRIPTION = """\
 Run 'detect' (or 'disparity') on every stereo pair under INPUT_DIR: INPUT_DIR itself when it is
 one dataset with its calibration, sub-folders of a known dataset layout (as 'evaluate' reads
 them; KITTI folders give one pair per frame), <name>_left/<name>_right (or <name>_L/<name>_R)
-images, or left/ and right/ folders of same-named images. Each pair's outputs go to
+images, or left/ and right/ folders of same-named images (folders without images, and reports of
+this tool holding no pair, are left out with a warning). Each pair's outputs go to
 OUT/<name>/, and a done.json written last marks it complete: a second run skips completed
 pairs, and is refused when a pair was done with another task, calibration or option the task
 uses. A failing pair is reported with its reason and the batch goes on. The summary

@@ -15,8 +15,8 @@ id, its distance is smoothed, and obstacles coming nearer are flagged with their
 contact. The frames must be rectified, unless --calib describes the raw cameras (as 'calibrate'
 writes them): then every frame is rectified first. SOURCE is one side-by-side video (left view
 in the left half), two video files, two folders or glob patterns of images (in path order,
-paired by name when both sides hold the same names, else by order; refused when they share
-only some names), or two camera device indices. With --jsonl every frame is one line of JSON, written and synced line by line:
+paired by name when both sides hold the same names, else by order; refused when they share at
+least half their names but not all), or two camera device indices. With --jsonl every frame is one line of JSON, written and synced line by line:
 a run stopped by Ctrl-C (it finishes the current frame, closes every output and exits with 130;
 a second Ctrl-C stops at once), by SIGTERM (at once, exit 143) or killed leaves only complete
 lines (the first line is a header, the last one, after a clean, Ctrl-C or SIGTERM stop, a
