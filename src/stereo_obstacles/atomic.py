@@ -9,7 +9,6 @@ hidden temporary folder beside the destination and moved in only when every file
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import shutil
 import tempfile
@@ -161,7 +160,7 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
 
 @contextlib.contextmanager
 def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = (),
-                     stale: tuple[str, ...] = (), moving_mark: str | None = None) -> Iterator[Path]:
+                     stale: tuple[str, ...] = ()) -> Iterator[Path]:
     """Yield a hidden staging folder; on success move its files into ``out_dir``.
 
     ``out_dir`` may exist already: files of the same names are replaced, other files are
@@ -175,12 +174,6 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
 
     ``stale`` names files of an earlier run that this one does not write (a depth map beside an
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
-
-    ``moving_mark`` names a file created in an existing ``out_dir`` before anything there is
-    removed, and removed once every file is in: it is there only when a run was killed while
-    moving in. It lists the size of each file the move replaces or brings, old and new
-    (:func:`move_was_killed`), so that the next run knows the folder for its own while every
-    such file there is one of them.
     """
     final = Path(out_dir)
     check_output_folder(final)
@@ -195,41 +188,16 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         if not final.exists():
             os.replace(stage, final)
             return
-        files = [src for src in stage.rglob("*") if src.is_file()]
-        if moving_mark is not None:
-            sizes: dict[str, list[int]] = {}
-            for name in [src.relative_to(stage).as_posix() for src in files] + list(stale):
-                sizes[name] = [path.stat().st_size for path in (stage / name, final / name) if path.is_file()]
-            (final / moving_mark).write_text(json.dumps(sizes) + "\n", encoding="utf-8")
         for name in last + stale:
             (final / name).unlink(missing_ok=True)
+        files = [src for src in stage.rglob("*") if src.is_file()]
         for src in sorted(files, key=lambda f: (f.relative_to(stage).as_posix() in last, f)):
             dest = final / src.relative_to(stage)
             dest.parent.mkdir(parents=True, exist_ok=True)
             os.replace(src, dest)
-        if moving_mark is not None:
-            (final / moving_mark).unlink(missing_ok=True)
     except OSError as exc:
         if isinstance(exc, OutputError):
             raise
         raise OutputError(f"cannot write to {final}: {exc.strerror or exc}") from exc
     finally:
         shutil.rmtree(stage, ignore_errors=True)
-
-
-def move_was_killed(folder: str | os.PathLike[str], moving_mark: str) -> bool:
-    """Whether ``folder`` holds the ``moving_mark`` of a :func:`staged_directory` move killed
-    midway, with every file it lists either absent or of one of the sizes it lists (old or new):
-    files put there since, of the same names, are someone else's."""
-    folder = Path(folder)
-    try:
-        sizes = json.loads((folder / moving_mark).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    if not isinstance(sizes, dict):
-        return False
-    for name, known in sizes.items():
-        path = folder / name
-        if path.is_file() and (not isinstance(known, list) or path.stat().st_size not in known):
-            return False
-    return True

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from stereo_obstacles import __version__
-from stereo_obstacles.atomic import move_was_killed, staged_directory, write_text_atomic
+from stereo_obstacles.atomic import staged_directory, write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import points_from_depth
 from stereo_obstacles.errors import InvalidInputError, OutputError
@@ -241,17 +241,9 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
 CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
 """Files of a detection written only with a calibration."""
 
-MOVING_MARK = ".stereo-obstacles-report-moving"
-"""A hidden file in a report folder while a new report moves in over an earlier one
-(:func:`~stereo_obstacles.atomic.staged_directory`); left only by a run killed meanwhile, whose
-``obstacles.json`` was removed and the new one not yet there: the folder is still this tool's
-while its report files are those the move knew (:func:`~stereo_obstacles.atomic.move_was_killed`)."""
-
-
 def holds_a_report(folder) -> bool:
-    """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format, or
-    one killed while moving in (:data:`MOVING_MARK`)."""
-    return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT) or move_was_killed(folder, MOVING_MARK)
+    """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format."""
+    return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
 
 
 def check_report_folder(folder) -> None:
@@ -263,13 +255,14 @@ def check_report_folder(folder) -> None:
     if (folder / "scene.json").is_file():
         raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
                           f"disparity.pfm are the ground truth; write the report elsewhere")
-    if (folder / "obstacles.json").is_file() and not is_document_of(folder / "obstacles.json", OBSTACLES_FORMAT):
+    if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
     theirs = [name for name in OUTPUT_FILES if (folder / name).exists()] if not holds_a_report(folder) else []
     if theirs:
         raise OutputError(f"{folder} holds {', '.join(theirs)} but no report of this tool (no obstacles.json of "
-                          f"it): a report would replace them; write it elsewhere")
+                          f"it; a report killed while moving in leaves that too): a report would replace them; write "
+                          f"it elsewhere, or delete them")
 
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
@@ -332,8 +325,7 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
     stale = (tuple(name for name in CALIBRATED_ONLY if not calibrated and earlier_report)
              + (FORMER_PICTURE_NAMES if former_kind else ()))
-    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale,
-                          moving_mark=MOVING_MARK) as stage:
+    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)
         write_pfm(stage / "disparity.pfm", disparity)
