@@ -78,6 +78,21 @@ def test_different_scenes_with_a_few_matches_near_one_row_are_warned_of(caplog):
     assert "the results mean nothing" in caplog.text
 
 
+@pytest.mark.parametrize("n, median, p95, scale, expected", [
+    (7, 0.0, 1.31, 1.0, True),        # scene 9 as detect checks it
+    (7, 0.0, 2.1, 3.0, True),         # scene 9 at 1920x1440, matched shrunk 3x
+    (7, 0.8, 168.0, 1.0, False),      # scene 1's left with scene 19's right
+    (5, 2.88, 4.8, 6.0, False),       # scene 19's left with scene 1's right at 3840x2160 (review)
+    (2, 0.0, 0.0, 1.0, False),        # too few to say anything
+])
+def test_matches_too_few_for_a_verdict_on_one_row(n, median, p95, scale, expected):
+    from stereo_obstacles.rectification_check import on_one_row
+    from stereo_obstacles.rectification_quality import VerticalOffsetStats
+
+    offsets = VerticalOffsetStats(n_points=n, median_px=median, p95_px=p95, max_px=p95, mean_signed_px=0.0)
+    assert on_one_row(offsets, 1.0, scale) is expected
+
+
 def test_two_images_of_different_scenes_are_warned_of(shared_dataset, caplog):
     # Cones' left with Teddy's right: 4 obstacles at "0.71 m", said only at -v (found by a review)
     from stereo_obstacles.fileio import read_image

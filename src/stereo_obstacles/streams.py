@@ -345,7 +345,8 @@ class ImageSequenceSource(StereoSource):
     InputFileError
         A folder or pattern names no images.
     ImageMismatchError
-        The two sides share some names but not all, or no names and their counts differ.
+        The two sides share at least half their names but not all, or fewer and their counts
+        differ.
     """
 
     def __init__(self, left: str | os.PathLike[str], right: str | os.PathLike[str], *, fps: float = 30.0) -> None:
