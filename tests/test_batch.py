@@ -155,6 +155,10 @@ def test_going_on_with_other_settings_in_the_same_out_is_refused(pairs_dir, tmp_
     assert main(args + ["--max-distance", "5", "--matching-scale", "1",      # none used by the disparity task
                         "--calib", str(tmp_path / "scene" / "calibration.json")]) == 1
     assert _summary(out)["counts"] == {"done": 0, "skipped": 2, "failed": 1}
+    capsys.readouterr()
+    assert main(args + ["--seeds", "sobel"]) == 1                        # the default, written out (review)
+    assert "were done with another" not in capsys.readouterr().err
+    assert _summary(out)["counts"] == {"done": 0, "skipped": 2, "failed": 1}
     (out / SUMMARY_FILE).unlink()                                        # as if killed: no summary to go by
     assert main(args[:-1] + ["32"]) == 1
     assert "were done with another option matching.max_disparity" in capsys.readouterr().err

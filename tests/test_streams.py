@@ -122,6 +122,11 @@ def test_pairing_by_order_warns_when_the_frame_numbers_disagree(tmp_path, caplog
     right = [f"{1305031102.885 + k / 30:.6f}.png" for k in range(12)]
     assert streams._first_out_of_step(left, right) is None
     assert streams._first_out_of_step(left[:11], right[:5] + right[6:]) == 5
+    # ROS's seconds_nanoseconds, the right camera 4 ms late across a second (review)
+    left = [f"left_1680000000_{n:03d}000000.png" for n in (900, 933, 966, 999)]
+    right = [f"right_1680000000_{n:03d}000000.png" for n in (904, 937, 970)] + ["right_1680000001_003000000.png"]
+    assert streams._first_out_of_step(left, right) is None
+    assert streams._first_out_of_step(left[:3], right[:1] + right[2:]) == 1
 
 
 def test_image_sequence_errors(tmp_path):

@@ -528,16 +528,24 @@ def output_settings(job: BatchJob) -> dict:
     """What a job's outputs depend on besides its pair, as JSON values: the task, the calibration
     it was given (its values, not its file's name: the same file named from another folder is
     the same) and the options the task uses (``disparity``: the matching options only; a rectified
-    rig's calibration plays no part in it). Stored in each pair's done file, and compared when a
-    batch goes on in the same output folder (:func:`check_done_settings`)."""
-    from stereo_obstacles.camera_calibration import CameraPairCalibration
-    from stereo_obstacles.obstacle_json import jsonable
+    rig's calibration plays no part in it), the matcher's with its defaults filled in (``--seeds
+    sobel`` is the default). Stored in each pair's done file, and compared when a batch goes on in
+    the same output folder (:func:`check_done_settings`)."""
+    from inspect import Parameter, signature
 
+    from stereo_obstacles.camera_calibration import CameraPairCalibration
+    from stereo_obstacles.matching import match
+    from stereo_obstacles.obstacle_json import jsonable
+    from stereo_obstacles.pipeline import pipeline_match_kwargs
+
+    match_defaults = {name: parameter.default for name, parameter in signature(match).parameters.items()
+                      if parameter.default is not Parameter.empty}
     if job.task == "detect":
         calibration, options = job.calibration, job.config.to_dict()
+        options["matching"] = {**match_defaults, **pipeline_match_kwargs(job.config.matching)}
     else:
         calibration = job.calibration if isinstance(job.calibration, CameraPairCalibration) else None
-        options = {"matching": job.config.matching.to_kwargs()}
+        options = {"matching": {**match_defaults, **job.config.matching.to_kwargs()}}
     settings = {"task": job.task, "calibration": None if calibration is None else calibration.to_dict(),
                 "options": options}
     return json.loads(json.dumps(jsonable(settings)))

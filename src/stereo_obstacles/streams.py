@@ -277,25 +277,24 @@ def _first_out_of_step(left_names: list[str], right_names: list[str]) -> int | N
     """Index of the first pair (paired by order) whose frame numbers are out of step with the
     first pair's, or None.
 
-    The frame number is the first number in the names that changes along the left sequence
-    (``cam0_0012``: 12; ``0012_cam0``: 12 too; a decimal one whole: ``1305031102.885``). Its
-    difference between the right and the left name may be anything (``left_0012`` with
-    ``right_1012``), but must stay that of the first pair within half the sequence's typical
-    step: per-camera timestamps that differ by a little jitter keep in step; a frame missing on
-    one side does not. Names whose numbers are not laid out alike on both sides are not judged."""
-    numbers = [[float(n) for n in re.findall(r"\d+(?:\.\d+)?", os.path.splitext(name)[0])]
-               for name in left_names + right_names]
-    if len(left_names) < 2 or not numbers[0] or any(len(n) != len(numbers[0]) for n in numbers):
+    A name's frame number is all its digits read as one number: ``cam0_0012`` 12,
+    ``0012_cam0`` 120, ``1305031102.885000`` and ROS's ``1680000000_003000000`` one timestamp
+    each (fixed-width fields, as cameras write them). Its difference between the right and the
+    left name may be anything (``cam0_12`` with ``cam1_12``, ``left_0012`` with ``right_1012``),
+    but must stay that of the first pair within half the sequence's typical step: per-camera
+    timestamps that differ by a little jitter keep in step; a frame missing on one side does
+    not. Names without digits are not judged."""
+    numbers = ["".join(re.findall(r"\d+", os.path.splitext(name)[0])) for name in left_names + right_names]
+    if len(left_names) < 2 or not all(numbers):
         return None
-    left_numbers, right_numbers = np.array(numbers[:len(left_names)]), np.array(numbers[len(left_names):])
-    varying = np.flatnonzero(np.ptp(left_numbers, axis=0) > 0)
-    if varying.size == 0:
+    values = np.array([int(n) for n in numbers], dtype=object)
+    left_values, right_values = values[:len(left_names)], values[len(left_names):]
+    step = np.median([abs(b - a) for a, b in zip(left_values[:-1], left_values[1:])])
+    if step == 0:
         return None
-    field = varying[0]
-    step = np.median(np.abs(np.diff(left_numbers[:, field])))
-    offset = right_numbers[:, field] - left_numbers[:, field]
-    out_of_step = np.abs(offset - offset[0]) > step / 2
-    return int(np.argmax(out_of_step)) if out_of_step.any() else None
+    offset = right_values - left_values
+    out_of_step = [abs(o - offset[0]) > step / 2 for o in offset]
+    return out_of_step.index(True) if any(out_of_step) else None
 
 
 def _paired(left_files: list[Path], right_files: list[Path], left: object, right: object) -> list[tuple[int, int]]:
