@@ -210,7 +210,8 @@ def test_batch_rectifies_with_the_calibration_calibrate_wrote_and_matches_grey_p
         summary = json.loads((out / "batch_summary.json").read_text())
         assert summary["counts"] == {"done": 2, "skipped": 0, "failed": 0}
         done = json.loads((out / "p01" / "done.json").read_text())        # said, as detect and video say it
-        assert done["inputs"]["rectification"] == {"method": "calibrated", "calibration": str(calib)}
+        said = done["inputs"]["rectification"]
+        assert (said["method"], said["calibration"]) == ("calibrated", str(calib)) and said["rectified"]["focal_px"] > 0
     # the same disparity as the disparity command's, which rectifies with the calibration first
     assert main(["disparity", str(pairs / "p01_left.jpg"), str(pairs / "p01_right.jpg"), "--calib", str(calibrated),
                  "-o", str(tmp_path / "single.pfm")]) == 0

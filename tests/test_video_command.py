@@ -297,7 +297,7 @@ def test_a_calibration_of_the_raw_cameras_rectifies_every_frame(tmp_path, capsys
                  "--jsonl", str(tmp_path / "f.jsonl"), "--frames-out", str(tmp_path / "fo")]) == 0
     header, *records, end = read_json_lines(tmp_path / "f.jsonl")
     assert header["calibration"]["baseline_m"] == pytest.approx(rig.baseline_m, rel=1e-6)
-    said = {"method": "calibrated", "calibration": str(tmp_path / "rig.json")}
+    said = {"method": "calibrated", "calibration": str(tmp_path / "rig.json"), "rectified": header["calibration"]}
     assert header["rectification"] == said                 # the frames' rectification is said, as detect says it
     assert json.loads((tmp_path / "fo" / "1" / "obstacles.json").read_text())["run"]["inputs"]["rectification"] == said
     assert [r["type"] for r in records] == ["frame", "frame"] and end["type"] == "end"

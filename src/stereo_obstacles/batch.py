@@ -292,7 +292,7 @@ def _load(job: BatchJob):
         calibration, rectification = rig_for_images(job.calibration, left.shape[1], left.shape[0])
         if rectification is not None:
             left, right = rectification.apply(left, right)
-            inputs["rectification"] = {"method": "calibrated", "calibration": job.calib_file}
+            inputs["rectification"] = rectification.report(job.calib_file)
     return left, right, calibration, inputs
 
 

@@ -12,6 +12,7 @@ frame, which is the original left camera turned by ``R1``.
 from __future__ import annotations
 
 import logging
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -106,6 +107,12 @@ class Rectification:
         """Rectified coordinates ``(N, 2)`` of original right image points ``(N, 2)``."""
         return _rectify_points(points_px, self.calibration.camera_matrix_right,
                                self.calibration.distortion_right, self.r2, self.p2)
+
+    def report(self, calibration_file: str | os.PathLike[str]) -> dict:
+        """JSON-ready record of rectifying with the file ``calibration_file``, as the outputs
+        store it (``run.inputs.rectification``): method, file, rectified calibration."""
+        return {"method": "calibrated", "calibration": os.fspath(calibration_file),
+                "rectified": self.rectified.to_dict()}
 
     def opencv_matrices(self) -> dict[str, np.ndarray]:
         """``R1``, ``R2``, ``P1``, ``P2``, ``Q`` under OpenCV's names (for its YAML files)."""

@@ -287,13 +287,12 @@ def _first_out_of_step(left_names: list[str], right_names: list[str]) -> int | N
     numbers = ["".join(re.findall(r"\d+", os.path.splitext(name)[0])) for name in left_names + right_names]
     if len(left_names) < 2 or not all(numbers):
         return None
-    values = np.array([int(n) for n in numbers], dtype=object)
-    left_values, right_values = values[:len(left_names)], values[len(left_names):]
+    left_values, right_values = [int(n) for n in numbers[:len(left_names)]], [int(n) for n in numbers[len(left_names):]]
     step = np.median([abs(b - a) for a, b in zip(left_values[:-1], left_values[1:])])
     if step == 0:
         return None
-    offset = right_values - left_values
-    out_of_step = [abs(o - offset[0]) > step / 2 for o in offset]
+    offsets = [r - l for l, r in zip(left_values, right_values)]
+    out_of_step = [abs(o - offsets[0]) > step / 2 for o in offsets]
     return out_of_step.index(True) if any(out_of_step) else None
 
 

@@ -136,8 +136,7 @@ def prepare_pair(args: argparse.Namespace, left, right):
         if rectification is None:
             return left, right, calibration, None
         left, right = rectification.apply(left, right)
-        return left, right, calibration, {"method": "calibrated", "calibration": str(calib_file),
-                                          "rectified": calibration.to_dict()}
+        return left, right, calibration, rectification.report(calib_file)
     if not hasattr(args, "focal"):
         return left, right, None, None
     return left, right, calibration_from_args(args, width, height), None

@@ -74,8 +74,7 @@ def run(args: argparse.Namespace) -> int:
         rectification = rectify_calibration(calibration)
         new_left, new_right = rectification.apply(left, right)
         rectified_calibration = rectification.rectified
-        report["rectification"] = {"method": "calibrated", "calibration": str(args.calib),
-                                   "rectified": rectified_calibration.to_dict()}
+        report["rectification"] = rectification.report(args.calib)
     before = check_rectification(left, right, warn=False)
     after = check_rectification(new_left, new_right, warn=False)
     report["features_before"] = before.to_dict()

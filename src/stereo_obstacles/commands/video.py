@@ -215,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
         rectified_by = None
         if rectification is not None:         # the raw cameras' calibration: every frame is rectified first
             first, frames = _rectified(rectification, first), (_rectified(rectification, f) for f in frames)
-            rectified_by = {"method": "calibrated", "calibration": str(args.calib)}
+            rectified_by = rectification.report(args.calib)
         if args.forward_speed and calibration is None:
             raise InvalidInputError("--forward-speed needs a calibration (--calib, or --focal and --baseline): "
                                     "without one the motion cannot be turned into disparities")
