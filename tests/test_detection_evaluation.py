@@ -176,9 +176,14 @@ def test_evaluate_detection_command_renders_with_the_asked_rays_per_pixel(tmp_pa
     assert cli.main(["evaluate-detection", "--scenes", "1", "--size", "320x240", "--supersample", "2",
                      "--json", str(out)]) == 0
     assert [(o.supersample, o.noise_sigma, o.jpeg_quality) for o in seen if o is not None] == [(2, 0.0, None)]
-    assert "(320x240, 2x2 rays per pixel)" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "(320x240, 2x2 rays per pixel)" in printed
     figures = json.loads(out.read_text())["synthetic"]
     assert figures["supersample"] == 2 and figures["n_scenes"] == 1
+    scan = figures["scan"]
+    assert scan["n_sectors"] == 60 and scan["n_reported"] <= scan["n_with_obstacle"] > 0
+    assert (f"free range per 1 deg of bearing: {scan['n_reported']}/{scan['n_with_obstacle']} sectors with such an "
+            f"obstacle ranged") in printed
     assert figures["n_found"] == figures["n_obstacles"] == 6  # the built-in scene: six true obstacles
     with pytest.raises(SystemExit) as exit_info:
         cli.main(["evaluate-detection", "--supersample", "5"])

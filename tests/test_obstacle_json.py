@@ -38,6 +38,21 @@ def test_obstacles_nearest_first_with_every_field_and_rejections_and_corridor():
     assert doc["corridor"] == {"width_m": 1.0, "nearest_obstacle_id": 1, "free_distance_m": 4.0}
 
 
+def test_the_scan_lists_a_range_and_an_id_per_sector_and_says_what_they_mean():
+    scan = obstacles_to_dict(DETECTION.calibrated, RIG)["scan"]
+    assert set(scan) == {"sector_deg", "first_bearing_deg", "ranges_m", "obstacle_ids", "note"}
+    assert scan["sector_deg"] == 1.0 and len(scan["ranges_m"]) == len(scan["obstacle_ids"]) > 10
+    assert None in scan["ranges_m"] and 1 in scan["obstacle_ids"]
+    assert "positive to the right" in scan["note"] and "sqrt(x^2 + z^2)" in scan["note"]
+
+
+def test_a_document_written_before_the_scan_reads_without_one(tmp_path):
+    doc = obstacles_to_dict(DETECTION.calibrated, RIG)
+    del doc["scan"]
+    record = read_obstacles_json(_write(tmp_path, doc))
+    assert record.scan is None and record.obstacles == DETECTION.calibrated.obstacles
+
+
 def test_write_read_round_trip_keeps_everything(tmp_path):
     config = {"tau": 0.6, "out": Path("/tmp/x"), "k": np.int64(10), "ratio": np.float32(0.5), "bad": float("nan")}
     path = write_obstacles_json(tmp_path / "obstacles.json", DETECTION.calibrated, RIG, config=config,
@@ -47,6 +62,7 @@ def test_write_read_round_trip_keeps_everything(tmp_path):
     assert record.obstacles == DETECTION.calibrated.obstacles
     assert record.rejected == DETECTION.calibrated.rejected
     assert record.corridor == DETECTION.calibrated.corridor
+    assert record.scan == DETECTION.calibrated.scan and record.scan is not None
     assert record.calibration == RIG and record.calibrated
     assert record.image_size_px == (320, 240)
     assert record.run["config"] == {"tau": 0.6, "out": "/tmp/x", "k": 10, "ratio": 0.5, "bad": None}
@@ -60,7 +76,7 @@ def test_uncalibrated_document_says_pixels_and_has_no_calibration(tmp_path):
     assert doc["calibration"] is None and doc["units"] == "pixels"
     assert "No calibration" in doc["units_note"] and "pixels" in doc["units_note"]
     assert all(o["distance_m"] is None and o["disparity_px"] > 0 for o in doc["obstacles"])
-    assert doc["corridor"] is None
+    assert doc["corridor"] is None and doc["scan"] is None
     record = read_obstacles_json(path)
     assert record.obstacles == DETECTION.uncalibrated.obstacles and not record.calibrated
 
@@ -79,6 +95,9 @@ def _write(tmp_path, doc) -> Path:
     (lambda d: d["obstacles"][0].pop("id"), "obstacles\\[0\\]"),
     (lambda d: d["calibration"].update(baseline_m=-1), "baseline_m must be > 0"),
     (lambda d: d.update(image_size_px={"width": 3}), "lacks 'height'"),
+    (lambda d: d.update(scan=[1.0]), "scan is not an object"),
+    (lambda d: d["scan"].update(speed=3), "scan has unknown fields speed"),
+    (lambda d: d["scan"]["ranges_m"].pop(), "one value per sector"),
 ])
 def test_bad_documents_raise_input_file_error(tmp_path, change, message):
     doc = obstacles_to_dict(DETECTION.calibrated, RIG)

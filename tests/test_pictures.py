@@ -10,9 +10,10 @@ from stereo_obstacles.colorize import colorize_depth, colorize_disparity
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
+from stereo_obstacles.direction_scan import DirectionScan
 from stereo_obstacles.pictures import (
-    MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, TINT_ALPHA, depth_picture, describe_detection, disparity_picture,
-    draw_obstacles, labels_picture, obstacle_colour)
+    FREE_RGB, MIN_PANEL_WIDTH_PX, REJECTED_COLOUR_RGB, SCAN_PICTURE_SIZE_PX, TINT_ALPHA, UNSEEN_RGB, depth_picture,
+    describe_detection, disparity_picture, draw_obstacles, labels_picture, obstacle_colour, scan_picture)
 
 DETECTION = detection()
 
@@ -145,3 +146,27 @@ def test_captions_that_find_no_room_are_left_out_and_counted():
     many = draw_obstacles(left, _stacked(30), calibrated=False)
     np.testing.assert_array_equal(three[:120], many[:120])  # the same three places hold captions
     assert many.shape[0] > three.shape[0]                    # plus a line saying how many were left out
+
+
+def test_the_scan_seen_from_above_is_free_up_to_each_arc_and_grey_where_nothing_was_reported():
+    # sectors of 10 deg from -30: obstacle 1 4 m away at 0..10 deg, nothing at -30..-20; rings every 2 m
+    scan = DirectionScan(sector_deg=10.0, first_bearing_deg=-30.0, ranges_m=(None, 6.0, 6.0, 4.0, 6.0, 6.0),
+                         obstacle_ids=(None, 2, 2, 1, 2, 2))
+    picture = scan_picture(scan, max_range_m=8.0)
+    width, height = SCAN_PICTURE_SIZE_PX
+    assert picture.shape[1] == width and picture.shape[0] > height                 # the view and its legend
+    view = picture[:height]
+    origin_x, origin_y = width / 2, height - 12
+    px_per_m = (height - 24) / 8.0
+
+    def pixel(bearing_deg, range_m):
+        b = np.radians(bearing_deg)
+        return view[int(round(origin_y - px_per_m * range_m * np.cos(b))), int(round(origin_x + px_per_m * range_m * np.sin(b)))]
+
+    assert tuple(pixel(5.0, 2.9)) == FREE_RGB and tuple(pixel(5.0, 4.6)) != FREE_RGB   # free before the arc only
+    assert tuple(pixel(5.0, 4.0)) == obstacle_colour(1) and tuple(pixel(-15.0, 6.0)) == obstacle_colour(2)
+    assert tuple(pixel(-25.0, 3.0)) == UNSEEN_RGB and tuple(pixel(-25.0, 7.5)) == UNSEEN_RGB
+    assert tuple(pixel(-35.0, 3.0)) == (32, 32, 32)                                   # outside the field of view
+    assert scan_picture(scan).shape == picture.shape                                  # the default range: 6 m rounded up
+    with pytest.raises(InvalidInputError, match="scan range must be finite"):
+        scan_picture(scan, max_range_m=0.0)

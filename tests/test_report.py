@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -34,8 +35,9 @@ def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
     out = tmp_path / "out"
     written = _write(out)
     names = sorted(p.name for p in written)
-    assert names == sorted(["obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply",
-                            "obstacles.png", "disparity_picture.png", "depth_picture.png", "labels_picture.png", "index.html"])
+    assert names == sorted(["obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply", "obstacles.png",
+                            "disparity_picture.png", "depth_picture.png", "labels_picture.png", "scan_picture.png",
+                            "index.html"])
     assert sorted(p.name for p in out.iterdir()) == names  # nothing else, no staging left-overs
     assert sorted(report.OUTPUT_FILES) == names            # the list the input-overwrite check uses
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
@@ -48,6 +50,7 @@ def test_calibrated_run_writes_every_file_and_each_reads_back(tmp_path):
     for picture in ("obstacles.png", "disparity_picture.png", "depth_picture.png", "labels_picture.png"):
         image = read_image(out / picture, mode="color")
         assert image.shape[0] > DETECTION.left.shape[0] and image.shape[2] == 3  # the picture and its legend
+    assert read_image(out / "scan_picture.png", mode="color").shape[0] > 400     # the top view and its legend
 
 
 def test_point_cloud_holds_every_pixel_with_depth_coloured_by_the_left_image(tmp_path):
@@ -81,12 +84,25 @@ def test_index_html_shows_every_picture_obstacle_rejection_timing_and_the_versio
 def test_uncalibrated_run_has_no_depth_files_and_says_pixels(tmp_path):
     written = _write(tmp_path, calibrated=False)
     names = {p.name for p in written}
-    assert not names & {"depth.npy", "points.ply", "depth_picture.png"}
+    assert not names & {"depth.npy", "points.ply", "depth_picture.png", "scan_picture.png"}
     assert {p.name for p in tmp_path.iterdir()} == names
     page = (tmp_path / "index.html").read_text(encoding="utf-8")
     assert "No calibration was given" in page and "distance [m]" not in page
     assert "disparity [px]" in page and "depth_picture.png" not in page
     assert read_obstacles_json(tmp_path / "obstacles.json").calibration is None
+
+
+def test_a_rerun_removes_the_calibrated_files_it_does_not_write_again(tmp_path):
+    _write(tmp_path)
+    report.write_detection_outputs(tmp_path, left=DETECTION.left, labels=DETECTION.labels,
+                                   disparity=DETECTION.disparity, depth_m=DETECTION.depth_m,
+                                   obstacle_list=dataclasses.replace(DETECTION.calibrated, scan=None), calibration=RIG,
+                                   config=CONFIG, timings=TIMINGS, inputs=INPUTS)
+    names = {p.name for p in tmp_path.iterdir()}
+    assert "scan_picture.png" not in names and "depth_picture.png" in names
+    assert "scan_picture.png" not in (tmp_path / "index.html").read_text(encoding="utf-8")
+    _write(tmp_path, calibrated=False)
+    assert not {p.name for p in tmp_path.iterdir()} & set(report.CALIBRATED_ONLY)
 
 
 def test_failure_midway_leaves_nothing_behind(tmp_path, monkeypatch):

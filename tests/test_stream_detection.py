@@ -30,6 +30,10 @@ def test_stream_detection_record_and_pictures():
         record = json.loads(json.dumps(frame_record(detection), allow_nan=False))
         assert [o["track_id"] for o in record["obstacles"]] == [t.track_id for t in seen]
         assert [o["detection_id"] for o in record["obstacles"]] == [t.obstacle.id for t in seen]
+        track_of = {t.obstacle.id: t.track_id for t in seen}
+        scan = detection.result.obstacles.scan
+        assert record["scan"]["ranges_m"] == list(scan.ranges_m) and any(scan.obstacle_ids)
+        assert record["scan"]["obstacle_ids"] == [track_of.get(i) for i in scan.obstacle_ids]
 
         renamed = tracked_list(detection)
         original = detection.result.obstacles.id_map
@@ -37,6 +41,7 @@ def test_stream_detection_record_and_pictures():
             assert np.all(renamed.id_map[original == track.obstacle.id] == track.track_id)
         assert np.all(renamed.id_map[original == 0] == 0)
         assert [o.distance_m for o in renamed.obstacles] == [t.distance_m for t in seen]
+        assert renamed.scan.obstacle_ids == tuple(record["scan"]["obstacle_ids"])
 
         picture = annotate_frame(detection)
         assert picture.shape == (SIZE[1], SIZE[0], 3) and picture.dtype == np.uint8

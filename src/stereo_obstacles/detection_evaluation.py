@@ -28,6 +28,7 @@ import numpy as np
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacles import ObstacleList
+from stereo_obstacles.scan_evaluation import ScanComparison, ScanSummary, compare_scan_with_truth, summarise_scans
 
 
 FALSE_ALARM_MAX_ON_OBSTACLE = 0.2
@@ -165,6 +166,8 @@ class SceneEvaluation:
     n_detections: int = 0
     n_repeated: int = 0
     """Detections that repeat an obstacle a larger one covers (:func:`repeated_detections`)."""
+    scan: ScanComparison | None = None
+    """The free range per direction beside its truth (:mod:`stereo_obstacles.scan_evaluation`)."""
 
 
 @dataclass(frozen=True)
@@ -193,6 +196,8 @@ class DetectionSummary:
     n_detections: int = 0
     n_repeated: int = 0
     """Detections, of all scenes, that repeat an obstacle a larger one covers."""
+    scan: ScanSummary | None = None
+    """The free range per direction over the scenes' sectors (those evaluated with a scan)."""
 
     def to_dict(self) -> dict:
         """JSON-ready mapping."""
@@ -211,10 +216,11 @@ rays bound the error at 1/6 px per outline, 1/3 px in disparity."""
 
 
 def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int = 480, config=None,
-                             render_options=None) -> SceneEvaluation:
+                             render_options=None, min_height_m: float = 0.3) -> SceneEvaluation:
     """Render scene ``seed`` (0 = the built-in one) with ``render_options``
     (:class:`~stereo_obstacles.synthetic.RenderOptions`; default: ``EVALUATION_SUPERSAMPLE`` rays
-    per pixel along each axis, no noise, uncompressed), detect, compare with the truth."""
+    per pixel along each axis, no noise, uncompressed), detect, compare with the truth (the
+    scan's with the true obstacles at least ``min_height_m`` high)."""
     import time
 
     from stereo_obstacles.pipeline import DetectionConfig, detect
@@ -228,9 +234,14 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
     seconds = time.perf_counter() - started
     comparisons, alarms = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles,
                                              seen_by_both=pair.nonocc)
+    calibration = pair.calibration
+    scan = compare_scan_with_truth(result.obstacles.scan, pair.instances,
+                                   calibration.focal_baseline_px_m / pair.depth - calibration.doffs_px, pair.nonocc,
+                                   pair.obstacles, calibration, min_height_m=min_height_m,
+                                   min_pixels=result.config.obstacles.scan_min_pixels)
     return SceneEvaluation(seed=seed, ground=scene.ground.name, comparisons=tuple(comparisons),
                            false_alarms=tuple(alarms), seconds=seconds, n_detections=len(result.obstacles.obstacles),
-                           n_repeated=len(repeated_detections(result.obstacles, pair.instances)))
+                           n_repeated=len(repeated_detections(result.obstacles, pair.instances)), scan=scan)
 
 
 def _stereo_visible(comparison: TruthComparison) -> int:
@@ -261,6 +272,7 @@ def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, 
                 and c.true_distance_m <= max_distance_m and _stereo_visible(c) >= min_visible_px]
     errors = np.array([abs(c.relative_error) * 100 for _, c in relevant if c.relative_error is not None])
     alarms = [a.lies_on for e in evaluations for a in e.false_alarms]
+    scans = [e.scan for e in evaluations if e.scan is not None]
     return DetectionSummary(
         n_scenes=len(evaluations), n_obstacles=len(relevant),
         n_found=sum(c.detected_id is not None for _, c in relevant),
@@ -272,6 +284,7 @@ def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, 
         median_seconds=float(np.median([e.seconds for e in evaluations])) if evaluations else 0.0,
         min_height_m=min_height_m, max_distance_m=max_distance_m, min_visible_px=min_visible_px,
         n_detections=sum(e.n_detections for e in evaluations), n_repeated=sum(e.n_repeated for e in evaluations),
+        scan=summarise_scans(scans, max_distance_m=max_distance_m) if scans else None,
         missed=tuple(f"seed {s}: #{c.truth_id} {c.kind} at {c.true_distance_m:.1f} m ({_stereo_visible(c)} px seen by "
                      f"both cameras)"
                      for s, c in relevant if c.detected_id is None),

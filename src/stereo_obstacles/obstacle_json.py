@@ -6,8 +6,11 @@ calibration used. Without a calibration there are no metres: ``"calibration"`` i
 ``"units"`` is ``"pixels"`` and a note says that only image positions and disparities were
 measured. Obstacles are listed nearest first with every field of
 :class:`~stereo_obstacles.obstacles.Obstacle`; rejected groups carry their reason; the
-walking-corridor summary follows. A caller may add its own context (the resolved configuration,
-the package version, stage timings, input file names) under ``"run"``.
+walking-corridor summary and the free range per direction
+(:class:`~stereo_obstacles.direction_scan.DirectionScan`, with a note on its bearings) follow;
+documents written before the scan existed have no ``"scan"``. A caller may add its own
+context (the resolved configuration, the package version, stage timings, input file names)
+under ``"run"``.
 
 Example document (abridged)::
 
@@ -16,6 +19,8 @@ Example document (abridged)::
      "obstacles": [{"id": 1, "distance_m": 4.0, "box_px": [300, 275, 400, 450], ...}],
      "rejected": [{"box_px": [...], "pixel_count": 2250, "reason": "flat on the ground ..."}],
      "corridor": {"width_m": 1.0, "nearest_obstacle_id": 1, "free_distance_m": 4.0},
+     "scan": {"sector_deg": 1.0, "first_bearing_deg": -30.0, "ranges_m": [null, ..., 4.06, ...],
+              "obstacle_ids": [null, ..., 1, ...], "note": "..."},
      "run": {"package_version": "0.1.0", "config": {...}, "timings_s": {...}, "inputs": {...}}}
 """
 
@@ -36,6 +41,7 @@ import numpy as np
 from stereo_obstacles import __version__
 from stereo_obstacles.atomic import write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.direction_scan import DirectionScan
 from stereo_obstacles.errors import CalibrationError, InputFileError, InvalidInputError
 from stereo_obstacles.json_documents import check_document, load_json_file
 from stereo_obstacles.obstacles import CorridorSummary, Obstacle, ObstacleList, RejectedGroup
@@ -59,7 +65,13 @@ UNITS_NOTE_UNCALIBRATED = ("No calibration was given: distances and sizes are un
                            "positions and disparities are reported, in pixels; a larger disparity "
                            "means a nearer obstacle.")
 
-_TUPLE_FIELDS = ("box_px", "centre_m", "lateral_extent_m")
+SCAN_NOTE = ("Sector k covers bearings [first_bearing_deg + k * sector_deg, first_bearing_deg + (k + 1) * sector_deg) "
+             "degrees: the angle atan2(x, z) in the camera's x-z plane, 0 along the optical axis, positive to the "
+             "right. ranges_m[k] is the horizontal range sqrt(x^2 + z^2) in metres to the nearest obstacle there "
+             "(obstacle_ids[k]); null: no obstacle reported in that sector.")
+"""What the document's ``"scan"`` says about its numbers."""
+
+_TUPLE_FIELDS = ("box_px", "centre_m", "lateral_extent_m", "ranges_m", "obstacle_ids")
 
 
 @dataclass(frozen=True)
@@ -80,6 +92,9 @@ class ObstacleRecord:
         ``(width, height)`` of the left image.
     run : dict
         Caller-given context: ``package_version``, ``config``, ``timings_s``, ``inputs``.
+    scan : DirectionScan or None
+        The free range per direction (``None`` without a calibration, and in documents written
+        before it was added).
     """
 
     obstacles: tuple[Obstacle, ...]
@@ -88,6 +103,7 @@ class ObstacleRecord:
     calibration: StereoCalibration | None
     image_size_px: tuple[int, int]
     run: dict = field(default_factory=dict)
+    scan: DirectionScan | None = None
 
     @property
     def calibrated(self) -> bool:
@@ -172,6 +188,7 @@ def obstacles_to_dict(obstacle_list: ObstacleList, calibration: StereoCalibratio
         "obstacles": [jsonable(o) for o in obstacle_list.obstacles],
         "rejected": [jsonable(r) for r in obstacle_list.rejected],
         "corridor": jsonable(obstacle_list.corridor),
+        "scan": None if obstacle_list.scan is None else {**jsonable(obstacle_list.scan), "note": SCAN_NOTE},
         "run": run,
     }
 
@@ -239,11 +256,19 @@ def read_obstacles_json(path: str | os.PathLike[str]) -> ObstacleRecord:
     corridor = data.get("corridor")
     if corridor is not None:
         corridor = _from_fields(CorridorSummary, corridor, "corridor", source)
+    scan = data.get("scan")
+    if scan is not None:
+        if not isinstance(scan, dict):
+            raise InputFileError(f"{source}: scan is not an object")
+        try:
+            scan = _from_fields(DirectionScan, {k: v for k, v in scan.items() if k != "note"}, "scan", source)
+        except InvalidInputError as exc:
+            raise InputFileError(f"{source}: scan: {exc}") from exc
     run = data.get("run", {})
     if not isinstance(run, dict):
         raise InputFileError(f"{source}: run is not an object")
     return ObstacleRecord(obstacles=obstacles, rejected=rejected, corridor=corridor,
-                          calibration=calibration, image_size_px=image_size, run=run)
+                          calibration=calibration, image_size_px=image_size, run=run, scan=scan)
 
 
 __all__ = ["OBSTACLES_FORMAT", "OBSTACLES_VERSION", "FRAME", "ObstacleRecord",

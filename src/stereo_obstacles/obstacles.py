@@ -22,6 +22,7 @@ import numpy as np
 
 from stereo_obstacles import quantiles
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.direction_scan import DirectionScan, direction_scan
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
@@ -60,6 +61,12 @@ class ObstacleParameters:
     slanted_face : SlantedFaceParameters or None
         When a face slanted in depth is measured by a plane through its patches instead of the
         percentile (:mod:`stereo_obstacles.near_face`); ``None`` always takes the percentile.
+    scan_sector_deg : float
+        Width in degrees of bearing of the sectors of the free-range scan
+        (:mod:`stereo_obstacles.direction_scan`; needs a calibration).
+    scan_min_pixels : int
+        Pixels of known depth an obstacle needs in a sector to count in the scan there (its
+        range there is the ``distance_percentile`` of their horizontal ranges).
     min_disparity_px : float
         Without a calibration, groups whose median disparity is below this are at infinity (or
         the two images are the same) and are not reported; with one, ``max_distance_m`` decides.
@@ -74,12 +81,16 @@ class ObstacleParameters:
     distance_min_patch_pixels: int = 16
     min_disparity_px: float = 0.5
     slanted_face: SlantedFaceParameters | None = field(default_factory=SlantedFaceParameters)
+    scan_sector_deg: float = 1.0
+    scan_min_pixels: int = 10
 
     def __post_init__(self) -> None:
         check_numbers(self, (("distance_percentile", 0.0, 100.0), ("min_standing_fraction", 0.0, 1.0),
-                             ("min_disparity_px", 0.0, math.inf)))
-        check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),))
-        check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"))
+                             ("min_disparity_px", 0.0, math.inf), ("scan_sector_deg", 0.0, 180.0)))
+        check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),
+                              ("scan_min_pixels", 1, 10 ** 9)))
+        check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m",
+                              "scan_sector_deg"))
         check_types(self, (("slanted_face", SlantedFaceParameters),), allow_none=True)
 
 
@@ -129,7 +140,8 @@ class CorridorSummary:
 
 @dataclass(frozen=True)
 class ObstacleList:
-    """Obstacles nearest first, the groups rejected, and the corridor summary (if calibrated).
+    """Obstacles nearest first, the groups rejected, and (if calibrated) the corridor summary and
+    the free range per direction.
 
     ``id_map`` is ``int32 (H, W)``: the id of the obstacle each pixel belongs to, 0 for none.
     """
@@ -138,6 +150,7 @@ class ObstacleList:
     id_map: np.ndarray
     rejected: tuple[RejectedGroup, ...] = field(default_factory=tuple)
     corridor: CorridorSummary | None = None
+    scan: DirectionScan | None = None
 
 
 def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: GroundPlane | None,
@@ -181,7 +194,7 @@ def _confidence(pixel_count: int, quartiles: tuple[float, float, float]) -> floa
 
 def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
                       calibration: StereoCalibration | None, ground: GroundPlane | None,
-                      params: ObstacleParameters = ObstacleParameters()) -> ObstacleList:
+                      params: ObstacleParameters = ObstacleParameters(), *, with_scan: bool = True) -> ObstacleList:
     """Measure each group of obstacle pixels; reject flat and far ones; sort nearest first.
 
     Parameters
@@ -198,6 +211,9 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
         nothing is rejected as flat and heights above the ground are not reported).
     params
         Thresholds.
+    with_scan
+        Whether to measure the free range per direction (with a calibration; the pipeline's
+        list of flat groups, kept only for their rejections, needs none).
     """
     groups = np.asarray(groups)
     d = np.asarray(disparity, dtype=np.float32)
@@ -227,8 +243,14 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     for i, (_, group) in enumerate(kept):
         group_to_id[group] = i + 1
     id_map = np.take(group_to_id, groups, mode="clip")     # one pass; out-of-range numbers clipped as before
-    corridor = corridor_summary(numbered, params.corridor_width_m) if calibration is not None else None
-    return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected), corridor=corridor)
+    if calibration is None:
+        return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected))
+    scan = None
+    if with_scan:
+        scan = direction_scan(id_map, d, calibration, sector_deg=params.scan_sector_deg,
+                              min_pixels=params.scan_min_pixels, percentile=params.distance_percentile)
+    return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected),
+                        corridor=corridor_summary(numbered, params.corridor_width_m), scan=scan)
 
 
 def _flat(box, count: int, above: float, unit: str, tolerance: float) -> RejectedGroup:

@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles.colorize import colorize_depth, colorize_disparity
+from stereo_obstacles.direction_scan import DirectionScan
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import LABEL_COLOURS_RGB, Label, colorize_labels
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
@@ -382,5 +383,76 @@ def depth_picture(depth_m: np.ndarray, *, max_m: float | None = None) -> np.ndar
     return _stack_with_panel(colorize_depth(z, max_m), bar)
 
 
+SCAN_PICTURE_SIZE_PX = (640, 400)
+"""Width and height of :func:`scan_picture`'s top view, without its legend."""
+
+FREE_RGB, UNSEEN_RGB = (200, 230, 200), (90, 90, 90)
+"""Top view: a sector free up to its nearest obstacle, and one with no obstacle reported."""
+
+
+def scan_picture(scan: DirectionScan, *, max_range_m: float | None = None) -> np.ndarray:
+    """The free range per direction seen from above: the camera at the bottom centre, each
+    sector of bearing a wedge, free (light green) up to its nearest obstacle, drawn as an arc in
+    that obstacle's colour and named at its nearest sector (nearest first, where a name fits);
+    sectors with no obstacle reported are grey. Rings mark the range.
+
+    Parameters
+    ----------
+    scan
+        The scan (:mod:`stereo_obstacles.direction_scan`).
+    max_range_m
+        Range at the top edge; by default the farthest range of the scan rounded up (10 m when
+        it has none).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``uint8`` RGB picture: :data:`SCAN_PICTURE_SIZE_PX` with a legend panel under it.
+    """
+    ranges = [r for r in scan.ranges_m if r is not None]
+    if max_range_m is None:
+        max_range_m = _nice_ceil(max(ranges) * 1.05) if ranges else 10.0
+    _check_range("scan", 0.0, float(max_range_m))
+    width, height = SCAN_PICTURE_SIZE_PX
+    out = np.full((height, width, 3), 32, np.uint8)
+    origin = np.array([width / 2.0, height - 12.0])
+    px_per_m = min((height - 24.0) / max_range_m, (width / 2.0 - 8.0) / (max_range_m * math.sin(math.radians(
+        min(89.0, max(abs(scan.first_bearing_deg), abs(scan.first_bearing_deg + len(scan.ranges_m) * scan.sector_deg)))))))
+
+    def at(bearing_deg: float, range_m: float) -> tuple[int, int]:
+        b = math.radians(bearing_deg)
+        x, y = origin + px_per_m * range_m * np.array([math.sin(b), -math.cos(b)])
+        return int(round(x)), int(round(y))
+
+    edges = [scan.first_bearing_deg + k * scan.sector_deg for k in range(len(scan.ranges_m) + 1)]
+    for b0, b1, rng in zip(edges, edges[1:], scan.ranges_m):
+        far = min(rng, max_range_m) if rng is not None else max_range_m
+        cv2.fillPoly(out, [np.array([at(b0, 0.0), at(b0, far), at(b1, far)], np.int32)],
+                     FREE_RGB if rng is not None else UNSEEN_RGB)
+    scale = _panel_scale(width)
+    step = _nice_step(max_range_m / 4.0)
+    for ring in np.arange(step, max_range_m + 1e-9, step):
+        cv2.circle(out, at(0.0, 0.0), int(round(px_per_m * ring)), (150, 150, 150), 1, cv2.LINE_AA)
+        x, y = at(0.0, ring)
+        _put_label(out, f"{ring:g} m", x + 3, y + 1, (32, 32, 32), scale)
+    for b0, b1, rng, obstacle in zip(edges, edges[1:], scan.ranges_m, scan.obstacle_ids):
+        if rng is not None and rng <= max_range_m:
+            cv2.line(out, at(b0, rng), at(b1, rng), obstacle_colour(obstacle) if obstacle else REJECTED_COLOUR_RGB, 3,
+                     cv2.LINE_AA)
+    nearest: dict[int, tuple[float, int]] = {}
+    for k, (rng, obstacle) in enumerate(zip(scan.ranges_m, scan.obstacle_ids)):
+        if rng is not None and obstacle is not None and rng <= max_range_m and rng < nearest.get(obstacle, (math.inf,))[0]:
+            nearest[obstacle] = (rng, k)
+    drawn: list[tuple[int, int, int, int]] = []
+    for obstacle, (rng, k) in sorted(nearest.items(), key=lambda item: item[1][0]):      # nearest named first
+        x, y = at(scan.first_bearing_deg + (k + 0.5) * scan.sector_deg, rng)
+        rect = _label_rect(f"#{obstacle}", x - 10, y - _label_height(scale) - 4, scale, out.shape)
+        if not any(_overlaps(rect, other) for other in drawn):
+            drawn.append(_put_label(out, f"#{obstacle}", rect[0], rect[1], obstacle_colour(obstacle), scale))
+    legend = [f"top view, camera at the bottom centre; {scan.sector_deg:g} deg sectors of bearing",
+              "light: free up to the nearest obstacle (arc in its colour)", "grey: no obstacle reported"]
+    return _stack_with_panel(out, _text_panel(legend, width))
+
+
 __all__ = ["OBSTACLE_COLOURS_RGB", "obstacle_colour", "obstacle_caption", "describe_detection",
-           "draw_obstacles", "labels_picture", "disparity_picture", "depth_picture"]
+           "draw_obstacles", "labels_picture", "disparity_picture", "depth_picture", "scan_picture"]

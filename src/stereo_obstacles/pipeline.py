@@ -537,7 +537,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles)
     if ground is not None:
         flat_groups = _without_feet(grouped[1], obstacles.id_map)
-        flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles)
+        flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles, with_scan=False)
         # groups high enough but not clearly above the plane in disparity (far, or noisy matches)
         unclear = tuple(RejectedGroup(o.box_px, o.pixel_count, _not_clearly_raised(config)) for o in flat.obstacles)
         obstacles = replace(obstacles, rejected=obstacles.rejected + flat.rejected + unclear)

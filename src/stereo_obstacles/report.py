@@ -13,6 +13,7 @@ hidden folder and moved in only when every one is written):
 ``disparity_picture.png``   disparity in turbo with a colour bar
 ``depth_picture.png``       depth in magma with a colour bar (with a calibration only)
 ``labels_picture.png``      the labels in colour with a legend
+``scan_picture.png``        the free range per direction, seen from above (with a calibration only)
 ``index.html``              all of the above on one page, with the tables, timings and configuration
 ==========================  ==================================================================
 
@@ -43,7 +44,7 @@ from stereo_obstacles.obstacle_json import (OBSTACLES_FORMAT, UNITS_NOTE_UNCALIB
                                             write_obstacles_json)
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
 from stereo_obstacles.pictures import (
-    depth_picture, describe_detection, disparity_picture, draw_obstacles, labels_picture, obstacle_colour)
+    depth_picture, describe_detection, disparity_picture, draw_obstacles, labels_picture, obstacle_colour, scan_picture)
 from stereo_obstacles.point_cloud import write_ply
 
 logger = logging.getLogger(__name__)
@@ -54,6 +55,8 @@ PICTURE_TITLES = {
     "depth_picture.png": "Depth (metres)",
     "labels_picture.png": ("Phase-1 labels by colour (ground, shadow, obstacle); with a calibration, ground-coloured "
                            "things standing above the ground plane become obstacles from the disparity"),
+    "scan_picture.png": ("Free range per direction, seen from above: how far each sector of bearing is free before "
+                         "its nearest obstacle (obstacles.json, \"scan\")"),
 }
 DATA_DESCRIPTIONS = {
     "obstacles.json": "obstacles, units, camera frame and calibration (JSON)",
@@ -238,8 +241,9 @@ def _check_inputs(left: np.ndarray, labels: np.ndarray, disparity: np.ndarray, d
         raise InvalidInputError("depth_m was given without a calibration; pass the calibration it came from")
 
 
-CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png")
-"""Files of a detection written only with a calibration."""
+CALIBRATED_ONLY = ("depth.npy", "points.ply", "depth_picture.png", "scan_picture.png")
+"""Files of a detection written only with a calibration (the scan's picture: when the obstacle
+list has a scan, as every calibrated detection's has)."""
 
 def holds_a_report(folder) -> bool:
     """Whether ``folder`` holds a report this tool wrote: an ``obstacles.json`` of its format."""
@@ -283,8 +287,9 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     """Write the data files, pictures and ``index.html`` of one detection into ``out_dir``.
 
     All or nothing: on any error ``out_dir`` is left as it was. Files already in ``out_dir``
-    with other names are kept; files of the same names are replaced, and without a calibration
-    the :data:`CALIBRATED_ONLY` files of an earlier calibrated run are removed.
+    with other names are kept; files of the same names are replaced, and the
+    :data:`CALIBRATED_ONLY` files of an earlier report that this one does not write (without a
+    calibration, or without a scan) are removed.
 
     Parameters
     ----------
@@ -319,11 +324,12 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]
     data_files += ["points.ply"] if calibrated else []
+    with_scan = calibrated and obstacle_list.scan is not None
     pictures = (["obstacles.png", "disparity_picture.png"] + (["depth_picture.png"] if calibrated else [])
-                + ["labels_picture.png"])
+                + ["labels_picture.png"] + (["scan_picture.png"] if with_scan else []))
     earlier_report = holds_a_report(out_dir)                             # else the files there are the user's
     former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
-    stale = (tuple(name for name in CALIBRATED_ONLY if not calibrated and earlier_report)
+    stale = (tuple(name for name in CALIBRATED_ONLY if earlier_report and name not in data_files + pictures)
              + (FORMER_PICTURE_NAMES if former_kind else ()))
     with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
@@ -338,6 +344,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
         write_image(stage / "obstacles.png", draw_obstacles(left, obstacle_list, calibrated=calibrated))
         write_image(stage / "disparity_picture.png", disparity_picture(disparity))
         write_image(stage / "labels_picture.png", labels_picture(np.asarray(labels)))
+        if with_scan:
+            write_image(stage / "scan_picture.png", scan_picture(obstacle_list.scan))
         write_text_atomic(stage / "index.html", _html_report(obstacle_list, calibration, pictures=pictures,
                                                              data_files=data_files, config=config,
                                                              timings=timings, inputs=inputs))

@@ -186,12 +186,15 @@ def header_record(*, source: str, calibration: StereoCalibration | None, config:
 
 
 def frame_record(detection: FrameDetection) -> dict:
-    """One frame as a JSON-ready dict: index, time, seeds, timings and tracked obstacles.
+    """One frame as a JSON-ready dict: index, time, seeds, timings, tracked obstacles and the
+    free range per direction.
 
     Each obstacle has its stable ``track_id``, the smoothed ``distance_m``, the
     ``measured_distance_m`` of this frame, ``closing_speed_mps``, ``time_to_contact_s``,
     ``approaching``, and the detection's fields (box, centre, size, confidence). Tracks missed
-    in this frame are listed under ``missed`` with their predicted distance.
+    in this frame are listed under ``missed`` with their predicted distance. ``scan`` is the
+    frame's :class:`~stereo_obstacles.direction_scan.DirectionScan` (measured, not smoothed) with
+    track ids for its ``obstacle_ids``; ``None`` without a calibration.
     """
     obstacles, missed = [], []
     for track in detection.tracks:
@@ -208,25 +211,37 @@ def frame_record(detection: FrameDetection) -> dict:
     return jsonable({"type": "frame", "frame": detection.frame.index, "timestamp_s": detection.frame.timestamp_s,
                       "name": detection.frame.name, "seeds": detection.seeds,
                       "n_seed_points": detection.n_seed_points, "density": detection.result.density,
-                      "timings_s": detection.result.timings_s, "obstacles": obstacles, "missed": missed})
+                      "timings_s": detection.result.timings_s, "obstacles": obstacles, "missed": missed,
+                      "scan": _tracked_scan(detection, _track_ids(detection))})
+
+
+def _track_ids(detection: FrameDetection) -> np.ndarray:
+    """``int32``: the track id of each detection id of the frame (0: none)."""
+    lookup = np.zeros(max((o.id for o in detection.result.obstacles.obstacles), default=0) + 1, np.int32)
+    for track in detection.tracks:
+        if track.obstacle is not None:
+            lookup[track.obstacle.id] = track.track_id
+    return lookup
+
+
+def _tracked_scan(detection: FrameDetection, track_ids: np.ndarray):
+    """The frame's scan with track ids (None without a calibration)."""
+    scan = detection.result.obstacles.scan
+    return None if scan is None else scan.renumbered(track_ids)
 
 
 def tracked_list(detection: FrameDetection) -> ObstacleList:
     """The frame's obstacles renumbered by track id, distances smoothed (for pictures)."""
     obstacle_list = detection.result.obstacles
-    lookup = np.zeros(max((o.id for o in obstacle_list.obstacles), default=0) + 1, np.int32)
-    renamed = []
-    for track in detection.tracks:
-        if track.obstacle is None:
-            continue
-        lookup[track.obstacle.id] = track.track_id
-        renamed.append(dataclasses.replace(track.obstacle, id=track.track_id, distance_m=track.distance_m))
+    lookup = _track_ids(detection)
+    renamed = [dataclasses.replace(track.obstacle, id=track.track_id, distance_m=track.distance_m)
+               for track in detection.tracks if track.obstacle is not None]
     corridor = obstacle_list.corridor
     if corridor is not None and corridor.nearest_obstacle_id is not None:
         corridor = dataclasses.replace(corridor, nearest_obstacle_id=int(lookup[corridor.nearest_obstacle_id]))
     id_map = np.asarray(obstacle_list.id_map)
     return ObstacleList(tuple(renamed), lookup[np.clip(id_map, 0, len(lookup) - 1)], obstacle_list.rejected,
-                        corridor)
+                        corridor, _tracked_scan(detection, lookup))
 
 
 def annotate_frame(detection: FrameDetection) -> np.ndarray:

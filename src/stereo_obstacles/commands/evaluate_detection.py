@@ -83,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
                                                        evaluate_synthetic_scene, summarise)
     from stereo_obstacles.evaluation import machine_info
     from stereo_obstacles.pipeline import DetectionConfig, warm_up
+    from stereo_obstacles.scan_evaluation import TOLERANCE_PCT
     from stereo_obstacles.synthetic import RenderOptions
 
     width, height = image_size(args.size)
@@ -99,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
     imaging = RenderOptions(supersample=supersample, noise_sigma=args.noise, jpeg_quality=args.jpeg_quality)
     warm_up()
     evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config,
-                                            render_options=imaging)
+                                            render_options=imaging, min_height_m=args.min_height)
                    for seed in range(args.first_seed, args.first_seed + args.scenes)]
     summary = summarise(evaluations, min_height_m=args.min_height, max_distance_m=args.max_distance)
     report = {"machine": machine_info(), "config": config.to_dict(),
@@ -124,6 +125,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"  false alarms: {s.false_alarms_on_shadow} on shadows, {s.false_alarms_on_marking} on markings, "
               f"{s.false_alarms_other} elsewhere; median pipeline time {s.median_seconds * 1000:.0f} ms per pair")
         print(f"  detections: {s.n_detections}, of which {s.n_repeated} repeat an obstacle a larger detection covers")
+        if s.scan is not None and s.scan.n_with_obstacle:
+            c = s.scan
+            print(f"  free range per {config.obstacles.scan_sector_deg:g} deg of bearing: {c.n_reported}/"
+                  f"{c.n_with_obstacle} sectors with such an obstacle ranged, error median "
+                  f"{c.median_abs_error_pct:.2f} %, 95th percentile {c.p95_abs_error_pct:.2f} %, "
+                  f"{_frac(c.within_tolerance)} within {TOLERANCE_PCT:g} %; free range overstated in "
+                  f"{c.n_overstated}, understated in {c.n_understated} of {c.n_sectors} sectors")
         for miss in s.missed:
             print(f"  missed: {miss}")
         for large in s.large_errors:
