@@ -164,6 +164,23 @@ def test_going_on_with_other_settings_in_the_same_out_is_refused(pairs_dir, tmp_
     assert "were done with another option matching.max_disparity" in capsys.readouterr().err
 
 
+def test_a_resume_over_pairs_done_by_a_version_without_an_option_says_so(tmp_path, capsys):
+    write_scene_folder(tmp_path / "in" / "scene", frames()[0])
+    args = ["batch", str(tmp_path / "in"), "--out", str(tmp_path / "out"), "--workers", "1"]
+    assert main(args) == 0
+    done = tmp_path / "out" / "scene" / DONE_FILE
+    record = json.loads(done.read_text())
+    del record["settings"]["options"]["obstacles"]["scan_sector_deg"]     # as an older version wrote it
+    done.write_text(json.dumps(record))
+    capsys.readouterr()
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert "done with another option obstacles.scan_sector_deg (or by a version of this tool without some" in err
+    record["settings"]["options"]["obstacles"]["scan_sector_deg"] = 2.0  # a value of its own: no such note
+    done.write_text(json.dumps(record))
+    assert main(args) == 1 and "or by a version" not in capsys.readouterr().err
+
+
 def test_the_calibration_is_compared_by_its_values_not_its_file_name(tmp_path, capsys, monkeypatch):
     write_scene_folder(tmp_path / "in" / "scene", frames()[0])
     calibration = json.loads((tmp_path / "in" / "scene" / "calibration.json").read_text())

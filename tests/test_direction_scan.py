@@ -83,13 +83,35 @@ def test_pixels_without_a_depth_do_not_count():
     ids, d = _scene([(1, 120, 140, slice(0, 40), 10.0)])
     doffs = StereoCalibration(focal_px=500.0, cx_px=100.0, cy_px=20.0, baseline_m=0.1, doffs_px=-10.0)
     assert direction_scan(ids, d, doffs, sector_deg=90.0, min_pixels=1, percentile=0.0).ranges_m == (None, None)
-    d[:] = np.nan
-    assert direction_scan(ids, d, CAMERA, sector_deg=90.0, min_pixels=1, percentile=0.0).ranges_m == (None, None)
+    for missing in (np.nan, np.inf):                            # an infinite disparity is no depth either (not 0 m)
+        d[:] = missing
+        assert direction_scan(ids, d, CAMERA, sector_deg=90.0, min_pixels=1, percentile=0.0).ranges_m == (None, None)
+
+
+def test_the_range_counts_doffs_as_the_depth_does():
+    ids, d = _scene([(1, 120, 140, slice(0, 40), 10.0)])
+    middlebury = StereoCalibration(focal_px=500.0, cx_px=100.0, cy_px=20.0, baseline_m=0.1, doffs_px=15.0)
+    scan = direction_scan(ids, d, middlebury, sector_deg=90.0, min_pixels=1, percentile=0.0)
+    assert scan.ranges_m[1] == round(50.0 / 25.0 * math.hypot(1.0, 20 / 500), 3)      # f B / (d + doffs) = 2 m
+
+
+def test_any_obstacle_numbers_are_taken_and_given_back():
+    for big in (7, 50_000_000, 2 ** 40):                      # the pipeline's 1..N, sparse numbers, beyond int32
+        ids = np.zeros((40, 200), np.int64)
+        ids[0:20, 120:140], ids[20:40, 120:140], ids[:, 0:10] = big, 3, -4      # negative: no obstacle
+        d = np.full((40, 200), 10.0, np.float32)
+        d[0:20, 120:140] = 20.0
+        scan = direction_scan(ids, d, CAMERA, sector_deg=1.0, min_pixels=1, percentile=0.0)
+        assert {i for i in scan.obstacle_ids if i is not None} == {big}
+        narrow = direction_scan(ids, d, CAMERA, sector_deg=0.01, min_pixels=1, percentile=0.0)     # 0.11 deg a column
+        assert narrow.obstacle_ids.count(big) == 20 and len(narrow.ranges_m) > 2000
 
 
 def test_renumbered_maps_the_ids_and_keeps_the_ranges():
-    scan = DirectionScan(sector_deg=1.0, first_bearing_deg=-2.0, ranges_m=(None, 4.0, 5.0), obstacle_ids=(None, 1, 2))
-    assert scan.renumbered(np.array([0, 7, 0])) == DirectionScan(1.0, -2.0, (None, 4.0, 5.0), (None, 7, None))
+    scan = DirectionScan(sector_deg=1.0, first_bearing_deg=-2.0, field_of_view_deg=(-1.5, 0.5),
+                         ranges_m=(None, 4.0, 5.0), obstacle_ids=(None, 1, 2))
+    assert scan.renumbered(np.array([0, 7, 0])) == DirectionScan(1.0, -2.0, (-1.5, 0.5), (None, 4.0, 5.0), (None, 7, None))
+    assert scan.renumbered(np.array([0, 7])).obstacle_ids == (None, 7, None)          # 2 is beyond the new numbers
 
 
 def test_the_measured_obstacle_list_carries_a_scan_when_calibrated():
@@ -111,14 +133,38 @@ def test_the_measured_obstacle_list_carries_a_scan_when_calibrated():
 
 @pytest.mark.parametrize("kwargs, message", [
     ({"sector_deg": 0.0}, "sector_deg must be"), ({"sector_deg": float("nan")}, "sector_deg must be"),
-    ({"sector_deg": 181.0}, "sector_deg must be"), ({"min_pixels": 0}, "min_pixels must be"),
-    ({"min_pixels": 2.5}, "min_pixels must be"), ({"percentile": 101.0}, "percentile must lie"),
+    ({"sector_deg": 181.0}, "sector_deg must be"), ({"sector_deg": 1e-9}, "sector_deg must be"),
+    ({"min_pixels": 0}, "min_pixels must be"), ({"min_pixels": 2.5}, "min_pixels must be"),
+    ({"min_pixels": True}, "min_pixels must be"), ({"percentile": 101.0}, "percentile must lie"),
+    ({"calibration": None}, "calibration must be a StereoCalibration"),
 ])
 def test_bad_arguments_are_refused(kwargs, message):
     ids, d = _scene([])
     with pytest.raises(InvalidInputError, match=message):
-        direction_scan(ids, d, CAMERA, **{"sector_deg": 1.0, "min_pixels": 1, "percentile": 10.0, **kwargs})
-    with pytest.raises(InvalidInputError, match="same 2-D shape"):
-        direction_scan(ids, d[:, :10], CAMERA, sector_deg=1.0, min_pixels=1, percentile=10.0)
-    with pytest.raises(InvalidInputError, match="one value per sector"):
-        DirectionScan(1.0, 0.0, (None,), ())
+        direction_scan(ids, d, **{"calibration": CAMERA, "sector_deg": 1.0, "min_pixels": 1, "percentile": 10.0,
+                                  **kwargs})
+
+
+@pytest.mark.parametrize("shapes", [((40, 200), (40, 10)), ((40, 0), (40, 0)), ((200,), (200,))])
+def test_maps_of_other_shapes_or_without_columns_are_refused(shapes):
+    with pytest.raises(InvalidInputError, match="same 2-D shape, with columns"):
+        direction_scan(np.zeros(shapes[0], np.int32), np.zeros(shapes[1], np.float32), CAMERA, sector_deg=1.0,
+                       min_pixels=1, percentile=10.0)
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"ranges_m": (None,), "obstacle_ids": ()}, "one value per sector"),
+    ({"ranges_m": [4.0, None], "obstacle_ids": [1, None]}, "must be tuples"),
+    ({"ranges_m": (0.0, None)}, "ranges_m must be"), ({"ranges_m": (float("nan"), None)}, "ranges_m must be"),
+    ({"ranges_m": ("4", None)}, "ranges_m must be"),
+    ({"obstacle_ids": (0, None)}, "obstacle_ids must be"), ({"obstacle_ids": (1.5, None)}, "obstacle_ids must be"),
+    ({"obstacle_ids": (None, 2)}, "obstacle_ids must be"),                     # an id without a range
+    ({"sector_deg": 0.0}, "sector_deg must be"), ({"sector_deg": "1"}, "sector_deg must be"),
+    ({"field_of_view_deg": (-3.0, 1.0)}, "field_of_view_deg"), ({"field_of_view_deg": (1.0, 0.0)}, "field_of_view_deg"),
+    ({"first_bearing_deg": float("inf")}, "first_bearing_deg"),
+])
+def test_a_scan_that_cannot_be_is_refused(change, message):
+    fields = {"sector_deg": 1.0, "first_bearing_deg": -2.0, "field_of_view_deg": (-1.5, -0.5),
+              "ranges_m": (4.0, None), "obstacle_ids": (1, None), **change}
+    with pytest.raises(InvalidInputError, match=message):
+        DirectionScan(**fields)

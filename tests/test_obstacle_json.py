@@ -40,7 +40,7 @@ def test_obstacles_nearest_first_with_every_field_and_rejections_and_corridor():
 
 def test_the_scan_lists_a_range_and_an_id_per_sector_and_says_what_they_mean():
     scan = obstacles_to_dict(DETECTION.calibrated, RIG)["scan"]
-    assert set(scan) == {"sector_deg", "first_bearing_deg", "ranges_m", "obstacle_ids", "note"}
+    assert set(scan) == {"sector_deg", "first_bearing_deg", "field_of_view_deg", "ranges_m", "obstacle_ids", "note"}
     assert scan["sector_deg"] == 1.0 and len(scan["ranges_m"]) == len(scan["obstacle_ids"]) > 10
     assert None in scan["ranges_m"] and 1 in scan["obstacle_ids"]
     assert "positive to the right" in scan["note"] and "sqrt(x^2 + z^2)" in scan["note"]
@@ -98,6 +98,12 @@ def _write(tmp_path, doc) -> Path:
     (lambda d: d.update(scan=[1.0]), "scan is not an object"),
     (lambda d: d["scan"].update(speed=3), "scan has unknown fields speed"),
     (lambda d: d["scan"]["ranges_m"].pop(), "one value per sector"),
+    (lambda d: d["scan"].update(ranges_m="x" * 50), "one value per sector"),
+    (lambda d: d["scan"].update(sector_deg=-1), "sector_deg must be"),
+    (lambda d: d["scan"]["ranges_m"].__setitem__(d["scan"]["obstacle_ids"].index(1), -2.0), "ranges_m must be"),
+    (lambda d: d["scan"]["obstacle_ids"].__setitem__(d["scan"]["obstacle_ids"].index(1), 999),
+     r"scan names obstacles the document does not list: \[999\]"),
+    (lambda d: d.update(calibration=None), "a scan needs a calibration"),
 ])
 def test_bad_documents_raise_input_file_error(tmp_path, change, message):
     doc = obstacles_to_dict(DETECTION.calibrated, RIG)

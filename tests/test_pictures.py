@@ -150,7 +150,8 @@ def test_captions_that_find_no_room_are_left_out_and_counted():
 
 def test_the_scan_seen_from_above_is_free_up_to_each_arc_and_grey_where_nothing_was_reported():
     # sectors of 10 deg from -30: obstacle 1 4 m away at 0..10 deg, nothing at -30..-20; rings every 2 m
-    scan = DirectionScan(sector_deg=10.0, first_bearing_deg=-30.0, ranges_m=(None, 6.0, 6.0, 4.0, 6.0, 6.0),
+    scan = DirectionScan(sector_deg=10.0, first_bearing_deg=-30.0, field_of_view_deg=(-30.0, 30.0),
+                         ranges_m=(None, 6.0, 6.0, 4.0, 6.0, 6.0),
                          obstacle_ids=(None, 2, 2, 1, 2, 2))
     picture = scan_picture(scan, max_range_m=8.0)
     width, height = SCAN_PICTURE_SIZE_PX
@@ -168,5 +169,10 @@ def test_the_scan_seen_from_above_is_free_up_to_each_arc_and_grey_where_nothing_
     assert tuple(pixel(-25.0, 3.0)) == UNSEEN_RGB and tuple(pixel(-25.0, 7.5)) == UNSEEN_RGB
     assert tuple(pixel(-35.0, 3.0)) == (32, 32, 32)                                   # outside the field of view
     assert scan_picture(scan).shape == picture.shape                                  # the default range: 6 m rounded up
+    wide = DirectionScan(sector_deg=45.0, first_bearing_deg=-45.0, field_of_view_deg=(-30.0, 30.0),
+                         ranges_m=(4.0, None), obstacle_ids=(1, None))
+    view = scan_picture(wide, max_range_m=8.0)[:height]
+    assert tuple(pixel(-22.5, 3.8)) == FREE_RGB                    # the wedge follows its arc, not the chord (3.7 m)
+    assert tuple(pixel(-35.0, 3.0)) == (32, 32, 32)                # a sector is drawn within the field of view only
     with pytest.raises(InvalidInputError, match="scan range must be finite"):
         scan_picture(scan, max_range_m=0.0)

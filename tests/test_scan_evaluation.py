@@ -20,21 +20,32 @@ def _range_m(column: int, depth_m: float) -> float:
     return depth_m * math.hypot(1.0, (column - CAMERA.cx_px) / CAMERA.focal_px)
 
 
-def _world():
+def _world(low_step: bool = False):
     """A 1 m box 5 m ahead right of the axis (columns 120-139; 120-124 seen by the left camera
-    only) and a 0.2 m kerb 2.5 m ahead left of it (columns 40-59)."""
+    only) and a 0.2 m kerb 2.5 m ahead left of it (columns 40-59); ``low_step``: a 0.2 m step
+    3 m ahead in front of the box too (columns 150-169)."""
     instances = np.zeros((40, 200), np.uint8)
     disparity = np.full((40, 200), np.nan, np.float32)
     instances[10:30, 120:140], disparity[10:30, 120:140] = 1, CAMERA.focal_baseline_px_m / 5.0
     instances[30:34, 40:60], disparity[30:34, 40:60] = 2, CAMERA.focal_baseline_px_m / 2.5
+    if low_step:
+        instances[34:38, 150:170], disparity[34:38, 150:170] = 2, CAMERA.focal_baseline_px_m / 3.0
     seen_by_both = np.ones((40, 200), bool)
     seen_by_both[:, 120:125] = False
     truths = [SimpleNamespace(obstacle_id=1, size_m=(0.5, 0.5, 1.0)), SimpleNamespace(obstacle_id=2, size_m=(1, 1, 0.2))]
     return instances, disparity, seen_by_both, truths
 
 
+VIEW_DEG = (math.degrees(math.atan2(-100, 500)), math.degrees(math.atan2(99, 500)))
+
+
+def _scan(reported) -> DirectionScan:
+    return DirectionScan(sector_deg=90.0, first_bearing_deg=-90.0, field_of_view_deg=VIEW_DEG, ranges_m=reported,
+                         obstacle_ids=(None, None))
+
+
 def _compare(reported):
-    scan = DirectionScan(sector_deg=90.0, first_bearing_deg=-90.0, ranges_m=reported, obstacle_ids=(None, None))
+    scan = _scan(reported)
     return compare_scan_with_truth(scan, *_world(), CAMERA, min_height_m=0.3, min_pixels=10)
 
 
@@ -43,8 +54,8 @@ def test_the_truth_is_the_nearest_tall_obstacle_both_cameras_see_and_the_nearest
     assert comparison.true_m == (None, round(_range_m(125, 5.0), 3))           # the kerb is too low to score
     assert comparison.nearest_seen_m == (round(_range_m(59, 2.5), 3), round(_range_m(120, 5.0), 3))
     for min_pixels, expected in ((300, comparison.true_m), (301, (None, None))):    # the box: 300 px seen by both
-        assert compare_scan_with_truth(DirectionScan(90.0, -90.0, (None, None), (None, None)), *_world(), CAMERA,
-                                       min_height_m=0.3, min_pixels=min_pixels).true_m == expected
+        assert compare_scan_with_truth(_scan((None, None)), *_world(), CAMERA, min_height_m=0.3,
+                                       min_pixels=min_pixels).true_m == expected
 
 
 def test_sectors_are_counted_found_overstated_and_understated():
@@ -61,8 +72,17 @@ def test_sectors_are_counted_found_overstated_and_understated():
     assert (beyond.n_with_obstacle, beyond.n_overstated, beyond.median_abs_error_pct) == (0, 0, None)
 
 
+def test_a_range_nearer_than_the_tall_obstacle_is_not_understated_when_something_lower_stands_there():
+    scan = _scan((None, 4.0))
+    with_step = compare_scan_with_truth(scan, *_world(low_step=True), CAMERA, min_height_m=0.3, min_pixels=10)
+    assert with_step.true_m[1] > 5.0 and with_step.nearest_seen_m[1] < 3.1                # the box scores, the step is seen
+    assert summarise_scans([with_step], max_distance_m=10.0).n_understated == 0
+    assert summarise_scans([_compare((None, 4.0))], max_distance_m=10.0).n_understated == 1   # no step: 4 m is too near
+
+
 def test_a_scan_of_other_images_is_refused():
-    other = DirectionScan(sector_deg=90.0, first_bearing_deg=-180.0, ranges_m=(None,) * 3, obstacle_ids=(None,) * 3)
+    other = DirectionScan(sector_deg=90.0, first_bearing_deg=-180.0, field_of_view_deg=VIEW_DEG, ranges_m=(None,) * 3,
+                          obstacle_ids=(None,) * 3)
     with pytest.raises(InvalidInputError, match="not measured on these images"):
         compare_scan_with_truth(other, *_world(), CAMERA, min_height_m=0.3, min_pixels=10)
     instances, disparity, seen_by_both, truths = _world()
@@ -92,3 +112,6 @@ def test_the_truth_counts_a_sector_by_the_scans_own_pixel_rule():
     usual, fewer = (summarise_scans([evaluate_synthetic_scene(0, width_px=320, height_px=240, config=c).scan],
                                     max_distance_m=10.0) for c in (config, strict))
     assert 0 < fewer.n_with_obstacle < usual.n_with_obstacle and fewer.n_reported <= fewer.n_with_obstacle
+    tall = summarise_scans([evaluate_synthetic_scene(0, width_px=320, height_px=240, min_height_m=2.0).scan],
+                           max_distance_m=10.0)
+    assert 0 < tall.n_with_obstacle < usual.n_with_obstacle                  # only the 2.4 m pole is 2 m high

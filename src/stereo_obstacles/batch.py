@@ -563,6 +563,7 @@ def check_done_settings(jobs: Iterable[BatchJob]) -> None:
     """
     stale: list[str] = []
     differing: list[str] = []
+    unknown_before = False
     for job in jobs:
         try:
             recorded = json.loads((Path(job.out_dir) / DONE_FILE).read_text(encoding="utf-8")).get("settings")
@@ -573,14 +574,27 @@ def check_done_settings(jobs: Iterable[BatchJob]) -> None:
         now = output_settings(job)
         these = [key for key in ("task", "calibration") if recorded.get(key) != now[key]]
         if "task" not in these:                  # another task's options are not comparable
-            these += [f"option {path}" for path in _differing_paths(recorded.get("options"), now["options"])]
+            paths = _differing_paths(recorded.get("options"), now["options"])
+            these += [f"option {path}" for path in paths]
+            unknown_before = unknown_before or any(_lacks(recorded.get("options"), path) for path in paths)
         if these:
             stale.append(job.out_dir)
             differing += [key for key in these if key not in differing]
     if stale:
         shown = ", ".join(stale[:3]) + (f" and {len(stale) - 3} more" if len(stale) > 3 else "")
-        raise OutputError(f"{len(stale)} pair(s) were done with another {', '.join(differing)} ({shown}): they would be "
-                          f"skipped as done; use another --out, or delete them to redo them")
+        older = " (or by a version of this tool without some of these options)" if unknown_before else ""
+        raise OutputError(f"{len(stale)} pair(s) were done with another {', '.join(differing)}{older} ({shown}): they "
+                          f"would be skipped as done; use another --out, or delete them to redo them")
+
+
+def _lacks(options, path: str) -> bool:
+    """Whether the nested mapping ``options`` has no value at the dotted ``path`` (an option the
+    version that wrote it did not have)."""
+    for key in path.split("."):
+        if not isinstance(options, dict) or key not in options:
+            return True
+        options = options[key]
+    return False
 
 
 def _differing_paths(before, now, prefix: str = "") -> list[str]:

@@ -256,7 +256,10 @@ LARGE_ERROR_PCT = 5.0
 
 def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, max_distance_m: float = 10.0,
               min_visible_px: int = 200) -> DetectionSummary:
-    """Found rate, distance errors and false alarms over many scene evaluations.
+    """Found rate, distance errors and false alarms over many scene evaluations, and the scan's
+    figures (:func:`stereo_obstacles.scan_evaluation.summarise_scans` within ``max_distance_m``).
+    The scan's truth was set per scene, with the ``min_height_m`` given to
+    :func:`evaluate_synthetic_scene`, not this one's.
 
     Raises
     ------

@@ -67,11 +67,11 @@ UNITS_NOTE_UNCALIBRATED = ("No calibration was given: distances and sizes are un
 
 SCAN_NOTE = ("Sector k covers bearings [first_bearing_deg + k * sector_deg, first_bearing_deg + (k + 1) * sector_deg) "
              "degrees: the angle atan2(x, z) in the camera's x-z plane, 0 along the optical axis, positive to the "
-             "right. ranges_m[k] is the horizontal range sqrt(x^2 + z^2) in metres to the nearest obstacle there "
-             "(obstacle_ids[k]); null: no obstacle reported in that sector.")
+             "right; the image sees field_of_view_deg. ranges_m[k] is the horizontal range sqrt(x^2 + z^2) in metres "
+             "to the nearest obstacle there (obstacle_ids[k]); null: no obstacle reported in that sector.")
 """What the document's ``"scan"`` says about its numbers."""
 
-_TUPLE_FIELDS = ("box_px", "centre_m", "lateral_extent_m", "ranges_m", "obstacle_ids")
+_TUPLE_FIELDS = ("box_px", "centre_m", "lateral_extent_m", "field_of_view_deg", "ranges_m", "obstacle_ids")
 
 
 @dataclass(frozen=True)
@@ -228,6 +228,22 @@ def _from_fields(cls: type, data: Any, where: str, source: str) -> Any:
         raise InputFileError(f"{source}: {where}: {exc}") from exc
 
 
+def _scan(data: Any, calibration: StereoCalibration | None, ids: set[int], source: str) -> DirectionScan:
+    """The document's ``"scan"``, which needs a calibration and names listed obstacles only."""
+    if not isinstance(data, dict):
+        raise InputFileError(f"{source}: scan is not an object")
+    if calibration is None:
+        raise InputFileError(f"{source}: a scan needs a calibration, and the document has none")
+    try:
+        scan = _from_fields(DirectionScan, {k: v for k, v in data.items() if k != "note"}, "scan", source)
+    except InvalidInputError as exc:
+        raise InputFileError(f"{source}: scan: {exc}") from exc
+    unknown = sorted({i for i in scan.obstacle_ids if i is not None} - ids)
+    if unknown:
+        raise InputFileError(f"{source}: scan names obstacles the document does not list: {unknown}")
+    return scan
+
+
 def read_obstacles_json(path: str | os.PathLike[str]) -> ObstacleRecord:
     """Read a document written by :func:`write_obstacles_json`.
 
@@ -258,12 +274,7 @@ def read_obstacles_json(path: str | os.PathLike[str]) -> ObstacleRecord:
         corridor = _from_fields(CorridorSummary, corridor, "corridor", source)
     scan = data.get("scan")
     if scan is not None:
-        if not isinstance(scan, dict):
-            raise InputFileError(f"{source}: scan is not an object")
-        try:
-            scan = _from_fields(DirectionScan, {k: v for k, v in scan.items() if k != "note"}, "scan", source)
-        except InvalidInputError as exc:
-            raise InputFileError(f"{source}: scan: {exc}") from exc
+        scan = _scan(scan, calibration, {o.id for o in obstacles}, source)
     run = data.get("run", {})
     if not isinstance(run, dict):
         raise InputFileError(f"{source}: run is not an object")

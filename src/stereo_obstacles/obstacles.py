@@ -22,7 +22,7 @@ import numpy as np
 
 from stereo_obstacles import quantiles
 from stereo_obstacles.calibration import StereoCalibration
-from stereo_obstacles.direction_scan import DirectionScan, direction_scan
+from stereo_obstacles.direction_scan import MIN_SECTOR_DEG, DirectionScan, direction_scan
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
@@ -86,11 +86,10 @@ class ObstacleParameters:
 
     def __post_init__(self) -> None:
         check_numbers(self, (("distance_percentile", 0.0, 100.0), ("min_standing_fraction", 0.0, 1.0),
-                             ("min_disparity_px", 0.0, math.inf), ("scan_sector_deg", 0.0, 180.0)))
+                             ("min_disparity_px", 0.0, math.inf), ("scan_sector_deg", MIN_SECTOR_DEG, 180.0)))
         check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),
                               ("scan_min_pixels", 1, 10 ** 9)))
-        check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m",
-                              "scan_sector_deg"))
+        check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"))
         check_types(self, (("slanted_face", SlantedFaceParameters),), allow_none=True)
 
 
@@ -245,12 +244,18 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     id_map = np.take(group_to_id, groups, mode="clip")     # one pass; out-of-range numbers clipped as before
     if calibration is None:
         return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected))
-    scan = None
-    if with_scan:
-        scan = direction_scan(id_map, d, calibration, sector_deg=params.scan_sector_deg,
-                              min_pixels=params.scan_min_pixels, percentile=params.distance_percentile)
     return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected),
-                        corridor=corridor_summary(numbered, params.corridor_width_m), scan=scan)
+                        corridor=corridor_summary(numbered, params.corridor_width_m),
+                        scan=obstacle_scan(id_map, d, calibration, params) if with_scan else None)
+
+
+def obstacle_scan(id_map: np.ndarray, disparity: np.ndarray, calibration: StereoCalibration,
+                  params: ObstacleParameters = ObstacleParameters()) -> DirectionScan:
+    """The free range per direction of the obstacles of ``id_map`` (``int (H, W)``, 0: none),
+    at the disparities ``disparity`` (``float32 (H, W)`` pixels, NaN: none), with the sectors,
+    pixel count and percentile of ``params`` (:mod:`stereo_obstacles.direction_scan`)."""
+    return direction_scan(id_map, disparity, calibration, sector_deg=params.scan_sector_deg,
+                          min_pixels=params.scan_min_pixels, percentile=params.distance_percentile)
 
 
 def _flat(box, count: int, above: float, unit: str, tolerance: float) -> RejectedGroup:

@@ -386,15 +386,67 @@ def depth_picture(depth_m: np.ndarray, *, max_m: float | None = None) -> np.ndar
 SCAN_PICTURE_SIZE_PX = (640, 400)
 """Width and height of :func:`scan_picture`'s top view, without its legend."""
 
-FREE_RGB, UNSEEN_RGB = (200, 230, 200), (90, 90, 90)
-"""Top view: a sector free up to its nearest obstacle, and one with no obstacle reported."""
+FREE_RGB = (200, 230, 200)
+"""Top view: a sector free up to its nearest obstacle."""
+
+UNSEEN_RGB = (90, 90, 90)
+"""Top view: a sector with no obstacle reported."""
+
+ARC_STEP_DEG = 1.0
+"""Arcs of the top view are drawn as straight pieces of at most this many degrees."""
+
+
+class _TopView:
+    """Pixel positions of a top view: the camera at the bottom centre, ``max_range_m`` at the
+    top edge or at the side edges (whichever the field of view reaches first)."""
+
+    def __init__(self, field_of_view_deg: tuple[float, float], max_range_m: float) -> None:
+        width, height = SCAN_PICTURE_SIZE_PX
+        self.origin = np.array([width / 2.0, height - 12.0])
+        widest = math.sin(math.radians(min(89.0, max(abs(b) for b in field_of_view_deg))))
+        self.px_per_m = min((height - 24.0) / max_range_m, (width / 2.0 - 8.0) / (max_range_m * max(widest, 1e-3)))
+
+    def at(self, bearing_deg: float, range_m: float) -> tuple[int, int]:
+        """The pixel ``(x, y)`` of the point at ``range_m`` along ``bearing_deg``."""
+        b = math.radians(bearing_deg)
+        x, y = self.origin + self.px_per_m * range_m * np.array([math.sin(b), -math.cos(b)])
+        return int(round(x)), int(round(y))
+
+    def arc(self, first_deg: float, last_deg: float, range_m: float) -> list[tuple[int, int]]:
+        """The pixels of the arc at ``range_m`` from ``first_deg`` to ``last_deg``."""
+        steps = max(1, math.ceil((last_deg - first_deg) / ARC_STEP_DEG))
+        return [self.at(b, range_m) for b in np.linspace(first_deg, last_deg, steps + 1)]
+
+
+def _seen_sectors(scan: DirectionScan):
+    """``(first, last, range, id)`` of each sector, its bearings cut to the field of view."""
+    low, high = scan.field_of_view_deg
+    for k, (rng, obstacle) in enumerate(zip(scan.ranges_m, scan.obstacle_ids)):
+        start = scan.first_bearing_deg + k * scan.sector_deg
+        first, last = max(start, low), min(start + scan.sector_deg, high)
+        if first < last:
+            yield first, last, rng, obstacle
+
+
+def _name_obstacles(out: np.ndarray, view: _TopView, scan: DirectionScan, max_range_m: float, scale: float) -> None:
+    """Write ``#id`` over each obstacle's nearest sector, nearest first, where a name fits."""
+    nearest: dict[int, tuple[float, float]] = {}
+    for first, last, rng, obstacle in _seen_sectors(scan):
+        if obstacle is not None and rng <= max_range_m and rng < nearest.get(obstacle, (math.inf,))[0]:
+            nearest[obstacle] = (rng, (first + last) / 2)
+    drawn: list[tuple[int, int, int, int]] = []
+    for obstacle, (rng, bearing) in sorted(nearest.items(), key=lambda item: item[1][0]):
+        x, y = view.at(bearing, rng)
+        rect = _label_rect(f"#{obstacle}", x - 10, y - _label_height(scale) - 4, scale, out.shape)
+        if not any(_overlaps(rect, other) for other in drawn):
+            drawn.append(_put_label(out, f"#{obstacle}", rect[0], rect[1], obstacle_colour(obstacle), scale))
 
 
 def scan_picture(scan: DirectionScan, *, max_range_m: float | None = None) -> np.ndarray:
     """The free range per direction seen from above: the camera at the bottom centre, each
-    sector of bearing a wedge, free (light green) up to its nearest obstacle, drawn as an arc in
-    that obstacle's colour and named at its nearest sector (nearest first, where a name fits);
-    sectors with no obstacle reported are grey. Rings mark the range.
+    sector of bearing (within the field of view) a wedge, free (light green) up to its nearest
+    obstacle, drawn as an arc in that obstacle's colour and named at its nearest sector (nearest
+    first, where a name fits); sectors with no obstacle reported are grey. Rings mark the range.
 
     Parameters
     ----------
@@ -408,6 +460,11 @@ def scan_picture(scan: DirectionScan, *, max_range_m: float | None = None) -> np
     -------
     numpy.ndarray
         ``uint8`` RGB picture: :data:`SCAN_PICTURE_SIZE_PX` with a legend panel under it.
+
+    Raises
+    ------
+    InvalidInputError
+        ``max_range_m`` not a finite number > 0.
     """
     ranges = [r for r in scan.ranges_m if r is not None]
     if max_range_m is None:
@@ -415,40 +472,21 @@ def scan_picture(scan: DirectionScan, *, max_range_m: float | None = None) -> np
     _check_range("scan", 0.0, float(max_range_m))
     width, height = SCAN_PICTURE_SIZE_PX
     out = np.full((height, width, 3), 32, np.uint8)
-    origin = np.array([width / 2.0, height - 12.0])
-    px_per_m = min((height - 24.0) / max_range_m, (width / 2.0 - 8.0) / (max_range_m * math.sin(math.radians(
-        min(89.0, max(abs(scan.first_bearing_deg), abs(scan.first_bearing_deg + len(scan.ranges_m) * scan.sector_deg)))))))
-
-    def at(bearing_deg: float, range_m: float) -> tuple[int, int]:
-        b = math.radians(bearing_deg)
-        x, y = origin + px_per_m * range_m * np.array([math.sin(b), -math.cos(b)])
-        return int(round(x)), int(round(y))
-
-    edges = [scan.first_bearing_deg + k * scan.sector_deg for k in range(len(scan.ranges_m) + 1)]
-    for b0, b1, rng in zip(edges, edges[1:], scan.ranges_m):
-        far = min(rng, max_range_m) if rng is not None else max_range_m
-        cv2.fillPoly(out, [np.array([at(b0, 0.0), at(b0, far), at(b1, far)], np.int32)],
-                     FREE_RGB if rng is not None else UNSEEN_RGB)
+    view = _TopView(scan.field_of_view_deg, max_range_m)
+    for first, last, rng, _ in _seen_sectors(scan):
+        wedge = [view.at(0.0, 0.0)] + view.arc(first, last, min(rng, max_range_m) if rng is not None else max_range_m)
+        cv2.fillPoly(out, [np.array(wedge, np.int32)], FREE_RGB if rng is not None else UNSEEN_RGB)
     scale = _panel_scale(width)
     step = _nice_step(max_range_m / 4.0)
     for ring in np.arange(step, max_range_m + 1e-9, step):
-        cv2.circle(out, at(0.0, 0.0), int(round(px_per_m * ring)), (150, 150, 150), 1, cv2.LINE_AA)
-        x, y = at(0.0, ring)
+        cv2.circle(out, view.at(0.0, 0.0), int(round(view.px_per_m * ring)), (150, 150, 150), 1, cv2.LINE_AA)
+        x, y = view.at(0.0, ring)
         _put_label(out, f"{ring:g} m", x + 3, y + 1, (32, 32, 32), scale)
-    for b0, b1, rng, obstacle in zip(edges, edges[1:], scan.ranges_m, scan.obstacle_ids):
+    for first, last, rng, obstacle in _seen_sectors(scan):
         if rng is not None and rng <= max_range_m:
-            cv2.line(out, at(b0, rng), at(b1, rng), obstacle_colour(obstacle) if obstacle else REJECTED_COLOUR_RGB, 3,
-                     cv2.LINE_AA)
-    nearest: dict[int, tuple[float, int]] = {}
-    for k, (rng, obstacle) in enumerate(zip(scan.ranges_m, scan.obstacle_ids)):
-        if rng is not None and obstacle is not None and rng <= max_range_m and rng < nearest.get(obstacle, (math.inf,))[0]:
-            nearest[obstacle] = (rng, k)
-    drawn: list[tuple[int, int, int, int]] = []
-    for obstacle, (rng, k) in sorted(nearest.items(), key=lambda item: item[1][0]):      # nearest named first
-        x, y = at(scan.first_bearing_deg + (k + 0.5) * scan.sector_deg, rng)
-        rect = _label_rect(f"#{obstacle}", x - 10, y - _label_height(scale) - 4, scale, out.shape)
-        if not any(_overlaps(rect, other) for other in drawn):
-            drawn.append(_put_label(out, f"#{obstacle}", rect[0], rect[1], obstacle_colour(obstacle), scale))
+            cv2.polylines(out, [np.array(view.arc(first, last, rng), np.int32)], False,
+                          obstacle_colour(obstacle) if obstacle else REJECTED_COLOUR_RGB, 3, cv2.LINE_AA)
+    _name_obstacles(out, view, scan, max_range_m, scale)
     legend = [f"top view, camera at the bottom centre; {scan.sector_deg:g} deg sectors of bearing",
               "light: free up to the nearest obstacle (arc in its colour)", "grey: no obstacle reported"]
     return _stack_with_panel(out, _text_panel(legend, width))

@@ -58,12 +58,13 @@ from stereo_obstacles.matching import MIN_SIZE, disparity_range, warn_if_range_c
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, measure_obstacles,
-                                       standing_pixels)
+                                       obstacle_scan, standing_pixels)
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
+from stereo_obstacles.textureless_fill import TexturelessFillParameters, fill_textureless, textureless_candidates
 from stereo_obstacles.thread_pool import run_each_in_threads
 from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
 
@@ -136,6 +137,10 @@ class DetectionConfig:
     ``standing_max_sigma_px`` (full-size pixels); ``None`` switches the test off. It keeps noisy
     or compressed images from raising patches of far ground as obstacles (``docs/pipeline.md``,
     "Noise and compression"); groups it keeps down are listed as rejected.
+    ``textureless_fill``: with a calibration, a ground plane and trusted colour labels, the
+    free range per direction is measured with the textureless faces the matcher left empty
+    filled from their outlines (:mod:`stereo_obstacles.textureless_fill`); ``None`` measures it
+    on the matched pixels only.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -151,6 +156,7 @@ class DetectionConfig:
     visibility: VisibilityParameters | None = field(default_factory=VisibilityParameters)
     standing_significance: float | None = 3.0
     standing_max_sigma_px: float = 0.75
+    textureless_fill: TexturelessFillParameters | None = field(default_factory=TexturelessFillParameters)
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
@@ -409,19 +415,23 @@ def warm_up() -> float:
     return time.perf_counter() - started
 
 
-def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, timings: dict[str, float]
-                  ) -> tuple[SegmentationResult, ColourCue | None, RectificationCheck | None]:
-    """Phase 1 with the colour cue of the grouping (``None`` when the split along colour is off),
-    and the rectification check; their times written to ``timings`` (seconds)."""
+def _colour_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, calibrated: bool,
+                  timings: dict[str, float]
+                  ) -> tuple[SegmentationResult, ColourCue | None, np.ndarray | None, RectificationCheck | None]:
+    """Phase 1 with the colour cue of the grouping (``None`` when the split along colour is off)
+    and, for a calibrated pair, the candidates of the textureless fill (``None`` when it is off),
+    then the rectification check; their times written to ``timings`` (seconds)."""
     t = time.perf_counter()
     segmentation = segment(left, reference=config.reference, params=config.segmentation)
     colour = (colour_cue(left, segmentation.labels == Label.OBSTACLE.value, config.grouping.colour_split)
               if config.grouping.colour_split is not None else None)
+    textureless = (textureless_candidates(segmentation.labels, left, config.textureless_fill)
+                   if calibrated and config.textureless_fill is not None else None)
     timings["segmentation"] = time.perf_counter() - t
     t = time.perf_counter()
     rectification = pair_rectification_check(left, right) if config.check_rectification else None
     timings["rectification_check"] = time.perf_counter() - t
-    return segmentation, colour, rectification
+    return segmentation, colour, textureless, rectification
 
 
 def pair_rectification_check(left: np.ndarray, right: np.ndarray) -> RectificationCheck:
@@ -504,9 +514,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     # phase 1 and the rectification check on a pool thread while the matcher runs here, on the
     # core its serial stages leave idle (whole call 4-7 % faster: docs/pipeline.md, "Speed")
     stage_times: dict[str, float] = {}
-    (disparity, matched), (segmentation, colour, rectification) = run_each_in_threads([
+    (disparity, matched), (segmentation, colour, textureless, rectification) = run_each_in_threads([
         (_match_stage, left, right, config, seed_points, disparity_estimate, stage_times),
-        (_colour_stage, left, right, config, stage_times)])
+        (_colour_stage, left, right, config, calibration is not None, stage_times)])
     timings.update((name, stage_times[name]) for name in ("segmentation", "rectification_check", "matching"))
 
     d_max = disparity_range(left.shape[1], 0, config.matching.max_disparity)[1]
@@ -534,7 +544,14 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     if config.blind_strip is not None:
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
                                                       config.blind_strip)
-    obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles)
+    obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles, with_scan=False)
+    if calibration is not None:
+        # the scan from the delivered disparity (no blind-strip extrapolation), textureless faces filled
+        scan_ids, scan_disparity = obstacles.id_map, disparity
+        if textureless is not None and ground is not None and colour_trusted:
+            scan_ids, scan_disparity = fill_textureless(textureless, scan_ids, scan_disparity, segmentation.labels,
+                                                        ground, config.textureless_fill)
+        obstacles = replace(obstacles, scan=obstacle_scan(scan_ids, scan_disparity, calibration, config.obstacles))
     if ground is not None:
         flat_groups = _without_feet(grouped[1], obstacles.id_map)
         flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles, with_scan=False)

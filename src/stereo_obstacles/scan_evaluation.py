@@ -2,8 +2,9 @@
 
 The true range of a sector of the detection's scan (:mod:`stereo_obstacles.direction_scan`) is the
 smallest horizontal range over the pixels of true obstacles at least ``min_height_m`` high that
-both cameras see (the renderer's ``nonocc``), when the sector holds at least the scan's
-``min_pixels`` of them: what a stereo method could range by the scan's own rule. Each sector
+both cameras see (the renderer's ``nonocc``), counting an obstacle there when it has at least
+the scan's ``min_pixels`` such pixels in the sector: what a stereo method could range by the
+scan's own rule. Each sector
 whose true range lies within ``max_distance_m`` is scored:
 
 * found, when the scan has a range there, with its relative error;
@@ -84,6 +85,15 @@ def compare_scan_with_truth(scan: DirectionScan, instances: np.ndarray, true_dis
         True obstacles lower than this are not scored (they still count for understated sectors).
     min_pixels
         Pixels a true obstacle needs in a sector to count there (the scan's ``min_pixels``).
+
+    Returns
+    -------
+    ScanComparison
+
+    Raises
+    ------
+    InvalidInputError
+        Maps of other shapes, or a scan of other sectors than these images give.
     """
     instances = np.asarray(instances)
     if np.shape(true_disparity) != instances.shape or np.shape(seen_by_both) != instances.shape:
@@ -104,7 +114,8 @@ def compare_scan_with_truth(scan: DirectionScan, instances: np.ndarray, true_dis
 
 
 def summarise_scans(comparisons: list[ScanComparison], *, max_distance_m: float) -> ScanSummary:
-    """Pool the sectors of many scenes (module docstring)."""
+    """Pool the sectors of many scenes (module docstring); sectors whose true range lies beyond
+    ``max_distance_m`` (metres) are not scored."""
     def values(name: str) -> np.ndarray:
         return np.array([math.inf if v is None else v for c in comparisons for v in getattr(c, name)], dtype=float)
 
@@ -120,3 +131,6 @@ def summarise_scans(comparisons: list[ScanComparison], *, max_distance_m: float)
         within_tolerance=float(np.mean(errors <= TOLERANCE_PCT)) if errors.size else None,
         n_overstated=int(np.count_nonzero(scored & (reported > true * (1 + off)))),     # none: inf
         n_understated=int(np.count_nonzero((reported <= max_distance_m) & (reported < seen * (1 - off)))))
+
+
+__all__ = ["TOLERANCE_PCT", "ScanComparison", "ScanSummary", "compare_scan_with_truth", "summarise_scans"]

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.direction_scan import DirectionScan
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.matching import disparity_range
 from stereo_obstacles.obstacle_json import jsonable
@@ -224,7 +225,7 @@ def _track_ids(detection: FrameDetection) -> np.ndarray:
     return lookup
 
 
-def _tracked_scan(detection: FrameDetection, track_ids: np.ndarray):
+def _tracked_scan(detection: FrameDetection, track_ids: np.ndarray) -> DirectionScan | None:
     """The frame's scan with track ids (None without a calibration)."""
     scan = detection.result.obstacles.scan
     return None if scan is None else scan.renumbered(track_ids)

@@ -1,0 +1,181 @@
+"""Filling the textureless faces the matcher leaves empty, for the free range per direction.
+
+A face of dark or dull paint can have so little texture (a window standard deviation under the
+matcher's ``min_std`` of 1 grey level) that the matcher calls it flat and matches only its
+outline: the obstacle is found at the right distance, but as a thin piece, and the free range
+per direction (:mod:`stereo_obstacles.direction_scan`) sees through its middle to what stands
+behind it (``docs/pipeline.md``, "Free range per direction"). Phase 1 still labels such a face
+obstacle by its colour; what it lacks is a disparity.
+
+A *textureless region* is what has no disparity and belongs to no obstacle in a 4-connected set
+of pixels that phase 1 calls obstacle and that lie off the left image's edges (Canny on a copy of
+half the size, dilated by one pixel: a textured surface falls apart into small pieces), when at
+least ``min_area_px`` pixels remain. Along each
+row, a run of the region is *bracketed* when an obstacle pixel with a disparity lies within
+``reach_px`` on both sides and the two disparities agree (``max(end_tolerance_px,
+end_tolerance_fraction * d)``): one surface continues between them. A region is filled when
+
+* at least ``min_bracketed_fraction`` of its rows have a bracketed run, and
+* it stands on the ground at the depth of its outline: walking down from its lowest pixel in
+  each column (at most ``max_walk_px`` rows, through the object's own outline) to the first
+  pixel phase 1 calls ground or shadow, at least ``min_contact_fraction`` of its columns meet
+  the ground, and the ground plane's disparity there (median) agrees with the bracketing
+  disparities (median) within ``max(contact_tolerance_px, contact_tolerance_fraction * d)``.
+
+The sky between two poles is textureless and labelled obstacle too, and bracketed by the poles,
+but it meets the ground at the horizon, far behind them: the contact test keeps it empty.
+
+Each bracketed run of a filled region takes the disparities interpolated linearly between its
+two ends, and the id of the nearer end's obstacle. Only the scan uses the filled maps: an
+obstacle's distance, size and box are measured on its matched pixels.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from stereo_obstacles._textureless_fill_kernel import bracketed_runs_kernel, empty_regions_kernel, ground_contacts_kernel
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.ground_plane import GroundPlane
+from stereo_obstacles.labels import Label
+
+
+@dataclass(frozen=True)
+class TexturelessFillParameters:
+    """When a textureless region is filled (module docstring). Lengths in pixels; disparity
+    tolerances in pixels or as a fraction of the disparity.
+
+    ``edge_thresholds`` are Canny's two thresholds on the left image's grey levels (0-255).
+    """
+
+    min_area_px: int = 150
+    reach_px: int = 6
+    end_tolerance_px: float = 1.0
+    end_tolerance_fraction: float = 0.1
+    min_bracketed_fraction: float = 0.5
+    contact_tolerance_px: float = 1.0
+    contact_tolerance_fraction: float = 0.08
+    min_contact_fraction: float = 0.5
+    max_walk_px: int = 40
+    edge_thresholds: tuple[float, float] = (20.0, 60.0)
+
+    def __post_init__(self) -> None:
+        check_integers(self, (("min_area_px", 1, 10 ** 9), ("reach_px", 1, 1000), ("max_walk_px", 1, 10 ** 5)))
+        check_numbers(self, (("end_tolerance_px", 0.0, 1000.0), ("end_tolerance_fraction", 0.0, 1.0),
+                             ("min_bracketed_fraction", 0.0, 1.0), ("contact_tolerance_px", 0.0, 1000.0),
+                             ("contact_tolerance_fraction", 0.0, 1.0), ("min_contact_fraction", 0.0, 1.0)))
+        low, high = self.edge_thresholds
+        if not (math.isfinite(low) and math.isfinite(high) and 0 <= low <= high):
+            raise InvalidInputError(f"edge_thresholds must be two grey levels, low <= high, got {self.edge_thresholds}")
+
+
+def _agree(a: np.ndarray | float, b: np.ndarray | float, tolerance_px: float, fraction: float) -> np.ndarray:
+    """Whether disparities ``a`` and ``b`` lie within ``max(tolerance_px, fraction * max(a, b))``."""
+    return np.abs(a - b) <= np.maximum(tolerance_px, fraction * np.maximum(a, b))
+
+
+def textureless_candidates(labels: np.ndarray, left_rgb: np.ndarray,
+                           params: TexturelessFillParameters = TexturelessFillParameters()) -> np.ndarray:
+    """``int32 (H, W)``: the 4-connected sets of pixels that phase 1 calls obstacle (``labels``,
+    ``uint8 (H, W)``) off the edges of the left image (``uint8 (H, W, 3)`` RGB), numbered from 1
+    (0: none); sets of fewer than ``min_area_px`` pixels are left out. Found on copies of half
+    the size (a fifth of the time; the regions that matter are hundreds of pixels). Needs no
+    disparity, so the pipeline finds them beside the matcher; :func:`fill_textureless` keeps their
+    pixels without a disparity."""
+    labels = np.asarray(labels)
+    if labels.shape != np.shape(left_rgb)[:2] or labels.ndim != 2:
+        raise InvalidInputError(f"labels {labels.shape} and the left image {np.shape(left_rgb)[:2]} must have one "
+                                f"height and width")
+    h, w = labels.shape
+    half = (max(1, w // 2), max(1, h // 2))
+    grey = cv2.resize(cv2.cvtColor(np.ascontiguousarray(left_rgb), cv2.COLOR_RGB2GRAY), half,
+                      interpolation=cv2.INTER_AREA)
+    edges = cv2.dilate(cv2.Canny(grey, *params.edge_thresholds), np.ones((3, 3), np.uint8))
+    obstacle = (labels == Label.OBSTACLE.value).astype(np.uint8)
+    plain = cv2.resize(obstacle, half, interpolation=cv2.INTER_NEAREST) & (edges == 0)
+    n, components, stats, _ = cv2.connectedComponentsWithStats(plain.astype(np.uint8), connectivity=4,
+                                                               ltype=cv2.CV_32S)
+    large = stats[:, cv2.CC_STAT_AREA] * (w * h) / (half[0] * half[1]) >= params.min_area_px
+    large[0] = False
+    renumber = np.zeros(n, np.int32)
+    renumber[large] = np.arange(1, int(large.sum()) + 1, dtype=np.int32)
+    return cv2.resize(renumber[components], (w, h), interpolation=cv2.INTER_NEAREST) * obstacle
+
+
+def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray, labels: np.ndarray,
+                     ground: GroundPlane, params: TexturelessFillParameters = TexturelessFillParameters()
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The id map and disparity with the textureless regions filled (module docstring).
+
+    Parameters
+    ----------
+    candidates
+        ``int32 (H, W)``: :func:`textureless_candidates` of the pair; a region is the pixels of
+        one candidate set that have no disparity and belong to no obstacle (at least
+        ``min_area_px`` of them).
+    id_map
+        ``int (H, W)``: the obstacle each pixel belongs to, 0 for none.
+    disparity
+        ``float32 (H, W)`` disparity in pixels, NaN where unmatched.
+    labels
+        ``uint8 (H, W)`` phase-1 labels (:class:`~stereo_obstacles.labels.Label`).
+    ground
+        The ground plane in disparity space.
+    params
+        When to fill.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``int32 (H, W)`` ids and ``float32 (H, W)`` disparities: copies of the inputs with the
+        filled pixels set (the inputs themselves when nothing is filled).
+    """
+    ids = np.ascontiguousarray(id_map, dtype=np.int32)
+    d = np.ascontiguousarray(disparity, dtype=np.float32)
+    if d.shape != ids.shape or np.shape(labels) != ids.shape or np.shape(candidates) != ids.shape:
+        raise InvalidInputError(f"candidates {np.shape(candidates)}, id_map {ids.shape}, disparity {d.shape} and "
+                                f"labels {np.shape(labels)} must have one shape")
+    regions = empty_regions_kernel(np.ascontiguousarray(candidates, dtype=np.int32), ids, d, params.min_area_px)
+    n_regions = int(regions.max(initial=0))
+    if n_regions == 0:
+        return ids, d
+    y, x0, x1, region, xl, xr = bracketed_runs_kernel(regions, ids, d, params.reach_px).T
+    bracketed = (xl >= 0) & (xr >= 0)
+    d_left, d_right = d[y, np.maximum(xl, 0)], d[y, np.maximum(xr, 0)]
+    bracketed &= _agree(d_left, d_right, params.end_tolerance_px, params.end_tolerance_fraction)
+    contacts, columns = ground_contacts_kernel(regions, n_regions, np.ascontiguousarray(labels, dtype=np.uint8),
+                                               Label.GROUND.value, Label.SHADOW.value, params.max_walk_px)
+    contact_d = ground.disparity_at(contacts[:, 1].astype(np.float64), contacts[:, 2].astype(np.float64))
+    rows = np.bincount(np.unique(region * ids.shape[0] + y) // ids.shape[0], minlength=n_regions + 1)
+    rows_bracketed = np.bincount(np.unique((region * ids.shape[0] + y)[bracketed]) // ids.shape[0],
+                                 minlength=n_regions + 1)
+    filled = np.zeros(n_regions + 1, bool)
+    for k in np.flatnonzero(rows_bracketed >= np.maximum(params.min_bracketed_fraction * rows, 1)):
+        meets = contacts[:, 0] == k
+        if np.count_nonzero(meets) < params.min_contact_fraction * columns[k]:
+            continue
+        ends = np.concatenate([d_left[bracketed & (region == k)], d_right[bracketed & (region == k)]])
+        filled[k] = bool(_agree(float(np.median(ends)), float(np.median(contact_d[meets])),
+                                params.contact_tolerance_px, params.contact_tolerance_fraction))
+    chosen = bracketed & filled[region]
+    if not chosen.any():
+        return ids, d
+    lengths = (x1 - x0 + 1)[chosen]
+    run = np.repeat(np.arange(lengths.size), lengths)
+    xs = x0[chosen][run] + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    ys = y[chosen][run]
+    left_d, right_d = d_left[chosen][run], d_right[chosen][run]
+    t = (xs - xl[chosen][run]) / (xr[chosen][run] - xl[chosen][run])
+    nearer = np.where(left_d >= right_d, xl[chosen][run], xr[chosen][run])
+    ids, d = ids.copy(), d.copy()
+    d[ys, xs] = left_d + (right_d - left_d) * t
+    ids[ys, xs] = ids[ys, nearer]
+    return ids, d
+
+
+__all__ = ["TexturelessFillParameters", "fill_textureless", "textureless_candidates"]

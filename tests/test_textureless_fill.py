@@ -1,0 +1,134 @@
+"""Filling textureless faces from their outlines: a box on the ground is filled, the sky between
+two poles is not, and neither is a face whose outlines disagree or that does not meet the ground."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from _obstacle_scene import CAMERA_HEIGHT_M, GROUND, RIG
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.labels import Label
+from stereo_obstacles.textureless_fill import TexturelessFillParameters, fill_textureless, textureless_candidates
+
+H, W = RIG.height_px, RIG.width_px
+OUTLINE_PX = 3
+BOX_ROWS = slice(138, 225)                 # a 1 m box 4 m ahead of a camera 1.2 m high: rows 138-224
+
+
+def _world(box_m: float = 4.0, right_outline_m: float | None = None, floating: bool = False, right_id: int = 1,
+           hanging_rows: int = 12, hanging_columns: slice = slice(120, 200)):
+    """Ground below the horizon, sky above; a dark box of one flat colour ``box_m`` ahead at
+    columns 120-199, matched only along its left and right outlines (obstacle 1, the right one
+    at ``right_outline_m`` and numbered ``right_id``); two poles 5 m ahead at columns 20-29 and 60-69 (obstacles
+    2 and 3) rising into the sky. ``floating``: the box stands on nothing: an unmatched obstacle
+    of its colour hangs ``hanging_rows`` below it over ``hanging_columns``."""
+    rows = np.arange(H)[:, None]
+    labels = np.where(np.broadcast_to(rows, (H, W)) > RIG.cy_px, Label.GROUND.value,
+                      Label.OBSTACLE.value).astype(np.uint8)                       # the sky is an obstacle by colour
+    left = np.zeros((H, W, 3), np.uint8)
+    left[:] = (150, 190, 230)
+    checks = ((np.arange(W)[None, :] // 6 + rows // 6) % 2 * 40 + 90).astype(np.uint8)
+    left[rows[:, 0] > RIG.cy_px] = np.stack([checks] * 3, axis=-1)[rows[:, 0] > RIG.cy_px]
+    disparity = np.where(rows > RIG.cy_px, GROUND.disparity_at(np.arange(W)[None, :], rows), np.nan).astype(np.float32)
+    ids = np.zeros((H, W), np.int32)
+
+    def stand(x0, x1, z_m, height_m, rgb, obstacle, matched_columns):
+        bottom = int(round(RIG.cy_px + RIG.focal_px * CAMERA_HEIGHT_M / z_m))
+        top = int(round(bottom - RIG.focal_px * height_m / z_m))
+        labels[top:bottom, x0:x1] = Label.OBSTACLE.value
+        left[top:bottom, x0:x1] = rgb
+        disparity[top:bottom, x0:x1] = np.nan
+        for columns, z, number in matched_columns:
+            disparity[top:bottom, columns] = RIG.focal_baseline_px_m / z
+            ids[top:bottom, columns] = number
+        return top, bottom
+
+    right_z = box_m if right_outline_m is None else right_outline_m
+    top, bottom = stand(120, 200, box_m, 1.0, (45, 45, 50), 1,
+                        [(slice(120, 120 + OUTLINE_PX), box_m, 1), (slice(200 - OUTLINE_PX, 200), right_z, right_id)])
+    if floating:
+        below = slice(bottom, bottom + hanging_rows)
+        labels[below, hanging_columns] = Label.OBSTACLE.value
+        left[below, hanging_columns] = (45, 45, 50)
+        disparity[below, hanging_columns] = np.nan
+    for x0, obstacle in ((20, 2), (60, 3)):
+        pole_top, _ = stand(x0, x0 + 10, 5.0, 3.0, (200, 40, 40), obstacle, [(slice(x0, x0 + 10), 5.0, obstacle)])
+        labels[:pole_top, x0:x0 + 10] = Label.OBSTACLE.value          # the pole's top leaves the image
+        left[:pole_top, x0:x0 + 10] = (200, 40, 40)
+        disparity[:pole_top, x0:x0 + 10] = RIG.focal_baseline_px_m / 5.0
+        ids[:pole_top, x0:x0 + 10] = obstacle
+    return ids, disparity, labels, left
+
+
+def _fill(world, params=TexturelessFillParameters()):
+    ids, disparity, labels, left = world
+    return fill_textureless(textureless_candidates(labels, left, params), ids, disparity, labels, GROUND, params)
+
+
+def test_a_flat_box_on_the_ground_is_filled_at_its_outlines_depth():
+    ids, disparity, labels, left = world = _world()
+    filled_ids, filled = _fill(world)
+    inside = np.zeros((H, W), bool)
+    inside[BOX_ROWS, 120 + OUTLINE_PX:200 - OUTLINE_PX] = True
+    box = filled_ids[inside] == 1
+    assert box.mean() > 0.9                                             # all but the rim the edges keep empty
+    np.testing.assert_allclose(filled[inside][box], RIG.focal_baseline_px_m / 4.0, rtol=1e-5)
+    assert np.array_equal(filled_ids[ids > 0], ids[ids > 0]) and np.array_equal(filled[ids > 0], disparity[ids > 0])
+
+
+def test_the_sky_between_two_poles_is_left_empty():
+    filled_ids, filled = _fill(_world())
+    between = (slice(0, int(RIG.cy_px)), slice(30, 60))
+    assert not filled_ids[between].any() and np.isnan(filled[between]).all()
+
+
+def test_a_fill_takes_the_nearer_outline_and_interpolates_between_them():
+    ids, disparity, labels, left = world = _world(box_m=4.0, right_outline_m=3.8, right_id=4)   # within the 10 %
+    filled_ids, filled = _fill(world)
+    row = 180
+    values = filled[row, 120 + OUTLINE_PX:200 - OUTLINE_PX]
+    assert np.all(np.diff(values[np.isfinite(values)]) > 0)             # rising towards the nearer right outline
+    assert set(np.unique(filled_ids[row, 125:195])) == {4}                 # the id of the nearer end
+
+
+LOOSE_CONTACT = TexturelessFillParameters(contact_tolerance_fraction=0.5)
+
+
+@pytest.mark.parametrize("world, params, why", [
+    (lambda: _world(box_m=4.0, right_outline_m=3.4), LOOSE_CONTACT, "outlines 15 % apart: two surfaces"),
+    (lambda: _world(floating=True), TexturelessFillParameters(), "it meets the ground nearer than its outlines"),
+    (lambda: _world(floating=True, hanging_rows=60, hanging_columns=slice(120, 190)), TexturelessFillParameters(),
+     "a few of its columns meet the ground (at its depth), the others none within 40 rows"),
+])
+def test_a_face_is_left_empty_unless_one_surface_continues_and_stands_on_the_ground(world, params, why):
+    ids, disparity, labels, left = w = world()
+    filled_ids, filled = _fill(w, params)
+    assert np.array_equal(filled_ids, ids) and np.array_equal(np.isnan(filled), np.isnan(disparity)), why
+
+
+def test_a_textured_face_is_no_candidate():
+    labels = np.full((60, 80), Label.OBSTACLE.value, np.uint8)
+    left = np.full((60, 80, 3), 60, np.uint8)
+    assert textureless_candidates(labels, left).max() == 1                          # one plain region
+    left[:, 40:] = ((np.arange(40)[None, :] // 6 + np.arange(60)[:, None] // 6) % 2 * 60 + 60)[..., None]
+    candidates = textureless_candidates(labels, left)
+    assert candidates.max() == 1 and not candidates[:, 42:].any()                   # the checks fall into pieces
+
+
+def test_regions_smaller_than_the_least_area_are_left_empty():
+    world = _world()
+    filled_ids, _ = _fill(world, TexturelessFillParameters(min_area_px=100_000))
+    assert np.array_equal(filled_ids, world[0])
+
+
+def test_bad_input_is_refused():
+    ids, disparity, labels, left = _world()
+    with pytest.raises(InvalidInputError, match="must have one shape"):
+        fill_textureless(textureless_candidates(labels, left), ids[:, :10], disparity, labels, GROUND)
+    with pytest.raises(InvalidInputError, match="one height and width"):
+        textureless_candidates(labels[:10], left)
+    with pytest.raises(InvalidInputError, match="edge_thresholds"):
+        TexturelessFillParameters(edge_thresholds=(60.0, 20.0))
+    with pytest.raises(InvalidInputError, match="reach_px"):
+        TexturelessFillParameters(reach_px=0)
