@@ -110,7 +110,8 @@ def test_any_obstacle_numbers_are_taken_and_given_back():
 def test_renumbered_maps_the_ids_and_keeps_the_ranges():
     scan = DirectionScan(sector_deg=1.0, first_bearing_deg=-2.0, field_of_view_deg=(-1.5, 0.5),
                          ranges_m=(None, 4.0, 5.0), obstacle_ids=(None, 1, 2))
-    assert scan.renumbered(np.array([0, 7, 0])) == DirectionScan(1.0, -2.0, (-1.5, 0.5), (None, 4.0, 5.0), (None, 7, None))
+    assert scan.renumbered(np.array([0, 7, 0])) == DirectionScan(1.0, -2.0, (-1.5, 0.5), (None, 4.0, 5.0),
+                                                                 (None, 7, None))
     assert scan.renumbered(np.array([0, 7])).obstacle_ids == (None, 7, None)          # 2 is beyond the new numbers
 
 
@@ -154,6 +155,8 @@ def test_maps_of_other_shapes_or_without_columns_are_refused(shapes):
 
 @pytest.mark.parametrize("change, message", [
     ({"ranges_m": (None,), "obstacle_ids": ()}, "one value per sector"),
+    ({"ranges_m": (), "obstacle_ids": ()}, "at least one sector"),
+    ({"field_of_view_deg": (-1.5, 0.5)}, "within the sectors"),                    # the sectors end at 0
     ({"ranges_m": [4.0, None], "obstacle_ids": [1, None]}, "must be tuples"),
     ({"ranges_m": (0.0, None)}, "ranges_m must be"), ({"ranges_m": (float("nan"), None)}, "ranges_m must be"),
     ({"ranges_m": ("4", None)}, "ranges_m must be"),

@@ -46,6 +46,14 @@ def test_the_scan_lists_a_range_and_an_id_per_sector_and_says_what_they_mean():
     assert "positive to the right" in scan["note"] and "sqrt(x^2 + z^2)" in scan["note"]
 
 
+def test_a_scan_of_the_first_version_without_its_field_of_view_reads_as_covering_its_sectors(tmp_path):
+    doc = obstacles_to_dict(DETECTION.calibrated, RIG)
+    del doc["scan"]["field_of_view_deg"]
+    scan = read_obstacles_json(_write(tmp_path, doc)).scan
+    assert scan.ranges_m == DETECTION.calibrated.scan.ranges_m
+    assert scan.field_of_view_deg == (scan.first_bearing_deg, scan.first_bearing_deg + len(scan.ranges_m))
+
+
 def test_a_document_written_before_the_scan_reads_without_one(tmp_path):
     doc = obstacles_to_dict(DETECTION.calibrated, RIG)
     del doc["scan"]

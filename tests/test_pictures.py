@@ -172,7 +172,7 @@ def test_the_scan_seen_from_above_is_free_up_to_each_arc_and_grey_where_nothing_
     wide = DirectionScan(sector_deg=45.0, first_bearing_deg=-45.0, field_of_view_deg=(-30.0, 30.0),
                          ranges_m=(4.0, None), obstacle_ids=(1, None))
     view = scan_picture(wide, max_range_m=8.0)[:height]
-    assert tuple(pixel(-22.5, 3.8)) == FREE_RGB                    # the wedge follows its arc, not the chord (3.7 m)
+    assert tuple(pixel(-15.0, 3.9)) == FREE_RGB                    # the wedge follows its arc, not the chord (3.86 m)
     assert tuple(pixel(-35.0, 3.0)) == (32, 32, 32)                # a sector is drawn within the field of view only
     with pytest.raises(InvalidInputError, match="scan range must be finite"):
         scan_picture(scan, max_range_m=0.0)

@@ -245,7 +245,35 @@ def test_the_scan_is_measured_with_the_scan_options(default_pair, default_result
     strict = replace(DetectionConfig(), obstacles=replace(DetectionConfig().obstacles, scan_min_pixels=10 ** 6))
     result = detect(default_pair.left, default_pair.right, default_pair.calibration, config=strict)
     assert set(result.obstacles.scan.ranges_m) == {None}
-    assert [o.distance_m for o in result.obstacles.obstacles] == [o.distance_m for o in default_result.obstacles.obstacles]
+    distances = [o.distance_m for o in result.obstacles.obstacles]
+    assert distances == [o.distance_m for o in default_result.obstacles.obstacles]
+
+
+def test_nothing_is_filled_when_the_colour_labels_are_not_trusted(default_pair, default_result, monkeypatch):
+    import stereo_obstacles.pipeline as pipeline
+
+    unfilled = detect(default_pair.left, default_pair.right, default_pair.calibration,
+                      config=DetectionConfig(textureless_fill=None)).obstacles.scan
+    assert default_result.obstacles.scan != unfilled                       # the built-in scene has a face to fill
+    fitted = pipeline._ground_plane
+    monkeypatch.setattr(pipeline, "_ground_plane", lambda *args: (fitted(*args)[0], False))
+    untrusted = [detect(default_pair.left, default_pair.right, default_pair.calibration, config=config).obstacles.scan
+                 for config in (DetectionConfig(), DetectionConfig(textureless_fill=None))]
+    assert untrusted[0] == untrusted[1]
+
+
+def test_the_scan_is_measured_on_the_delivered_disparity_not_the_blind_strips(shared_dataset):
+    """KITTI 000005's obstacle at the left border is continued into the strip only the left camera
+    sees for its distance; that extrapolation put 8.5 m in the leftmost sectors, where the LiDAR
+    sees 17 m."""
+    from stereo_obstacles.datasets import load_pair
+    from stereo_obstacles.obstacles import obstacle_scan
+
+    pair = load_pair(shared_dataset("kitti2015_000005"))
+    config = DetectionConfig(textureless_fill=None)
+    result = detect(pair.left, pair.right, pair.calibration, config=config)
+    delivered = obstacle_scan(result.obstacles.id_map, result.disparity, pair.calibration, config.obstacles)
+    assert result.obstacles.scan == delivered and delivered.ranges_m[2] > 15      # -39 to -38 degrees: 17.9 m
 
 
 def test_a_dark_box_matched_along_its_outlines_blocks_the_scan_across_its_face():
@@ -258,5 +286,6 @@ def test_a_dark_box_matched_along_its_outlines_blocks_the_scan_across_its_face()
     filled = detect(pair.left, pair.right, pair.calibration).obstacles.scan
     across = [k for k, b in enumerate(filled.bearings_deg()) if 6.0 < b < 13.0]        # the box's face, not its outline
     assert all(box.nearest_depth_m <= filled.ranges_m[k] <= 1.1 * box.nearest_depth_m for k in across)
-    empty = detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(textureless_fill=None)).obstacles.scan
+    empty = detect(pair.left, pair.right, pair.calibration,
+                   config=DetectionConfig(textureless_fill=None)).obstacles.scan
     assert sum(empty.ranges_m[k] is None or empty.ranges_m[k] > 2 * box.nearest_depth_m for k in across) >= 4

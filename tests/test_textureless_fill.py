@@ -17,12 +17,15 @@ BOX_ROWS = slice(138, 225)                 # a 1 m box 4 m ahead of a camera 1.2
 
 
 def _world(box_m: float = 4.0, right_outline_m: float | None = None, floating: bool = False, right_id: int = 1,
-           hanging_rows: int = 12, hanging_columns: slice = slice(120, 200)):
+           hanging_rows: int = 12, hanging_columns: slice = slice(120, 200), outline_rows: float = 1.0,
+           shadow_below: bool = False):
     """Ground below the horizon, sky above; a dark box of one flat colour ``box_m`` ahead at
     columns 120-199, matched only along its left and right outlines (obstacle 1, the right one
     at ``right_outline_m`` and numbered ``right_id``); two poles 5 m ahead at columns 20-29 and 60-69 (obstacles
     2 and 3) rising into the sky. ``floating``: the box stands on nothing: an unmatched obstacle
-    of its colour hangs ``hanging_rows`` below it over ``hanging_columns``."""
+    of its colour hangs ``hanging_rows`` below it over ``hanging_columns``. ``outline_rows``: the
+    fraction of the box's rows (from its bottom) whose right outline is matched. ``shadow_below``:
+    the ground under the box is in its shadow."""
     rows = np.arange(H)[:, None]
     labels = np.where(np.broadcast_to(rows, (H, W)) > RIG.cy_px, Label.GROUND.value,
                       Label.OBSTACLE.value).astype(np.uint8)                       # the sky is an obstacle by colour
@@ -47,6 +50,10 @@ def _world(box_m: float = 4.0, right_outline_m: float | None = None, floating: b
     right_z = box_m if right_outline_m is None else right_outline_m
     top, bottom = stand(120, 200, box_m, 1.0, (45, 45, 50), 1,
                         [(slice(120, 120 + OUTLINE_PX), box_m, 1), (slice(200 - OUTLINE_PX, 200), right_z, right_id)])
+    unmatched = slice(top, bottom - int(round(outline_rows * (bottom - top))))
+    disparity[unmatched, 200 - OUTLINE_PX:200], ids[unmatched, 200 - OUTLINE_PX:200] = np.nan, 0
+    if shadow_below:
+        labels[bottom:bottom + 30, 110:210] = Label.SHADOW.value
     if floating:
         below = slice(bottom, bottom + hanging_rows)
         labels[below, hanging_columns] = Label.OBSTACLE.value
@@ -116,6 +123,46 @@ def test_a_textured_face_is_no_candidate():
     assert candidates.max() == 1 and not candidates[:, 42:].any()                   # the checks fall into pieces
 
 
+def test_a_box_whose_outlines_bracket_under_half_its_rows_is_left_empty():
+    world = _world(outline_rows=0.4)
+    assert np.array_equal(_fill(world)[0], world[0])
+    assert (_fill(_world(outline_rows=0.6))[0] == 1).sum() > 2 * (world[0] == 1).sum()
+
+
+def test_a_box_standing_in_its_own_shadow_is_filled():
+    ids, disparity, labels, left = world = _world(shadow_below=True)
+    assert (_fill(world)[0][BOX_ROWS, 125:195] == 1).mean() > 0.9
+
+
+def test_pixels_of_an_obstacle_without_a_disparity_keep_both():
+    ids, disparity, labels, left = _world()
+    ids[180:190, 150:160] = 7                                              # e.g. continued into the blind strip
+    filled_ids, filled = _fill((ids, disparity, labels, left))
+    assert np.all(filled_ids[180:190, 150:160] == 7) and np.isnan(filled[180:190, 150:160]).all()
+    assert (filled_ids[BOX_ROWS, 125:195] == 1).mean() > 0.8
+
+
+def test_a_far_face_seen_between_two_nearer_boxes_is_left_empty():
+    """A dark wall 8 m ahead, seen between the dark edges of two boxes 5 m ahead, joined to the
+    box 4 m ahead by a dark strip (one region, which as a whole stands at the box's depth): the
+    runs between the two edges meet the ground at 8 m in their own columns, not at 5 m."""
+    ids, disparity, labels, left = _world()
+    dark = (45, 45, 50)
+    wall_bottom = int(round(RIG.cy_px + RIG.focal_px * CAMERA_HEIGHT_M / 8.0))
+    wall = (slice(wall_bottom - 60, wall_bottom), slice(234, 264))
+    bridge = (slice(140, 160), slice(200, 234))
+    for area in (wall, bridge):
+        labels[area], left[area], disparity[area], ids[area] = Label.OBSTACLE.value, dark, np.nan, 0
+    for x0, number in ((230, 8), (264, 9)):                                # the boxes' edges, 5 m ahead
+        edge = (slice(wall_bottom - 60, int(round(RIG.cy_px + RIG.focal_px * CAMERA_HEIGHT_M / 5.0))),
+                slice(x0, x0 + 4))
+        labels[edge], left[edge], ids[edge] = Label.OBSTACLE.value, dark, number
+        disparity[edge] = RIG.focal_baseline_px_m / 5.0
+    filled_ids, filled = _fill((ids, disparity, labels, left))
+    assert (filled_ids[BOX_ROWS, 125:195] == 1).mean() > 0.9                 # the box is filled
+    assert not filled_ids[wall].any() and np.isnan(filled[wall]).all()
+
+
 def test_regions_smaller_than_the_least_area_are_left_empty():
     world = _world()
     filled_ids, _ = _fill(world, TexturelessFillParameters(min_area_px=100_000))
@@ -132,3 +179,12 @@ def test_bad_input_is_refused():
         TexturelessFillParameters(edge_thresholds=(60.0, 20.0))
     with pytest.raises(InvalidInputError, match="reach_px"):
         TexturelessFillParameters(reach_px=0)
+    for bad in ((1.0, 2.0, 3.0), "ab", (20.0, float("nan"))):
+        with pytest.raises(InvalidInputError, match="edge_thresholds"):
+            TexturelessFillParameters(edge_thresholds=bad)
+    for image in (left[..., 0], left.astype(np.float32), left[:0]):
+        with pytest.raises(InvalidInputError, match="uint8 RGB"):
+            textureless_candidates(labels[:image.shape[0]], image)
+    with pytest.raises(InvalidInputError, match="fit in 32 bits"):
+        fill_textureless(textureless_candidates(labels, left), ids.astype(np.int64) + 2 ** 32, disparity, labels,
+                         GROUND)

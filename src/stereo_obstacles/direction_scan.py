@@ -30,10 +30,15 @@ import numpy as np
 from stereo_obstacles._direction_scan_kernel import sector_ranges_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import is_finite_real
 
 
 MIN_SECTOR_DEG = 0.01
 """Narrowest sector, degrees of bearing (a pixel of a 1242-px-wide KITTI image spans 0.08)."""
+
+MAX_BUCKETS = 4_000_000
+"""Sectors times obstacle numbers above which the ids are renumbered 1..n first (the kernel
+counts pixels per sector and number)."""
 
 
 def _is_count(value) -> bool:
@@ -66,24 +71,22 @@ class DirectionScan:
     obstacle_ids: tuple[int | None, ...]
 
     def __post_init__(self) -> None:
-        def number(value) -> bool:
-            return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)) \
-                and math.isfinite(value)
-
-        if not (number(self.sector_deg) and MIN_SECTOR_DEG <= self.sector_deg <= 180):
+        if not (is_finite_real(self.sector_deg) and MIN_SECTOR_DEG <= self.sector_deg <= 180):
             raise InvalidInputError(f"sector_deg must be a number of degrees in [{MIN_SECTOR_DEG}, 180], got "
                                     f"{self.sector_deg!r}")
         view = tuple(self.field_of_view_deg) if isinstance(self.field_of_view_deg, (tuple, list)) else ()
-        if not (number(self.first_bearing_deg) and len(view) == 2 and all(number(b) for b in view)
-                and self.first_bearing_deg <= view[0] <= view[1]):
+        if not (isinstance(self.ranges_m, tuple) and isinstance(self.obstacle_ids, tuple)
+                and len(self.ranges_m) == len(self.obstacle_ids) >= 1):
+            raise InvalidInputError("ranges_m and obstacle_ids must be tuples with one value per sector, of at "
+                                    "least one sector")
+        end = self.first_bearing_deg + len(self.ranges_m) * self.sector_deg if is_finite_real(self.first_bearing_deg) else 0
+        if not (is_finite_real(self.first_bearing_deg) and len(view) == 2 and all(is_finite_real(b) for b in view)
+                and self.first_bearing_deg <= view[0] <= view[1] <= end):
             raise InvalidInputError(f"first_bearing_deg ({self.first_bearing_deg!r}) and field_of_view_deg "
                                     f"({self.field_of_view_deg!r}) must be finite bearings, the view from left to "
-                                    f"right and starting in the first sector")
-        if not (isinstance(self.ranges_m, tuple) and isinstance(self.obstacle_ids, tuple)
-                and len(self.ranges_m) == len(self.obstacle_ids)):
-            raise InvalidInputError("ranges_m and obstacle_ids must be tuples with one value per sector")
+                                    f"right and within the sectors")
         for rng, obstacle in zip(self.ranges_m, self.obstacle_ids):
-            if rng is not None and not (number(rng) and rng > 0):
+            if rng is not None and not (is_finite_real(rng) and rng > 0):
                 raise InvalidInputError(f"ranges_m must be None or numbers of metres > 0, got {rng!r}")
             if obstacle is not None and not (_is_count(obstacle) and obstacle >= 1 and rng is not None):
                 raise InvalidInputError(f"obstacle_ids must be None or integers >= 1 with a range, got {obstacle!r}")
@@ -109,9 +112,9 @@ def column_bearings_deg(width_px: int, calibration: StereoCalibration) -> np.nda
 def sector_of_columns(width_px: int, calibration: StereoCalibration, sector_deg: float) -> tuple[np.ndarray, float]:
     """The sector of each image column (``int64 (width_px,)``, from 0) and the bearing where
     sector 0 begins (degrees, a whole multiple of ``sector_deg``)."""
-    if not (isinstance(sector_deg, (int, float, np.integer, np.floating)) and math.isfinite(sector_deg)
-            and MIN_SECTOR_DEG <= sector_deg <= 180):
-        raise InvalidInputError(f"sector_deg must be a number of degrees in [{MIN_SECTOR_DEG}, 180], got {sector_deg!r}")
+    if not (is_finite_real(sector_deg) and MIN_SECTOR_DEG <= sector_deg <= 180):
+        raise InvalidInputError(f"sector_deg must be a number of degrees in [{MIN_SECTOR_DEG}, 180], "
+                                f"got {sector_deg!r}")
     bearings = column_bearings_deg(width_px, calibration)
     first = math.floor(bearings[0] / sector_deg) * sector_deg
     return np.floor((bearings - first) / sector_deg).astype(np.int64), first
@@ -164,7 +167,7 @@ def direction_scan(id_map: np.ndarray, disparity: np.ndarray, calibration: Stere
     if id_map.ndim != 2 or id_map.shape != d.shape or id_map.shape[1] == 0:
         raise InvalidInputError(f"id_map {id_map.shape} and disparity {d.shape} must be the same 2-D shape, with "
                                 f"columns")
-    if not (isinstance(percentile, (int, float, np.integer, np.floating)) and 0 <= percentile <= 100):
+    if not (is_finite_real(percentile) and 0 <= percentile <= 100):
         raise InvalidInputError(f"percentile must lie in [0, 100], got {percentile!r}")
     if not (_is_count(min_pixels) and min_pixels >= 1):
         raise InvalidInputError(f"min_pixels must be an integer >= 1, got {min_pixels!r}")
@@ -183,11 +186,6 @@ def direction_scan(id_map: np.ndarray, disparity: np.ndarray, calibration: Stere
                          obstacle_ids=tuple(int(ids[i]) if i > 0 else None for i in nearest_compact))
 
 
-MAX_BUCKETS = 4_000_000
-"""Sectors times obstacle numbers above which the ids are renumbered 1..n first (the kernel
-counts pixels per sector and number)."""
-
-
 def _compact_ids(id_map: np.ndarray, n_sectors: int) -> tuple[np.ndarray, np.ndarray]:
     """``int32 (H, W)`` numbers the kernel can take (0: none) and ``int64`` the id of each number:
     the ids themselves when they are few enough (the pipeline's 1..N), else renumbered."""
@@ -200,4 +198,5 @@ def _compact_ids(id_map: np.ndarray, n_sectors: int) -> tuple[np.ndarray, np.nda
         ids, numbers = np.concatenate([[0], ids]), numbers + 1
     return numbers, ids.astype(np.int64)
 
-__all__ = ["MAX_BUCKETS", "MIN_SECTOR_DEG", "DirectionScan", "column_bearings_deg", "direction_scan", "sector_of_columns"]
+__all__ = ["MAX_BUCKETS", "MIN_SECTOR_DEG", "DirectionScan", "column_bearings_deg", "direction_scan",
+           "sector_of_columns"]

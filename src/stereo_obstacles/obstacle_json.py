@@ -43,6 +43,7 @@ from stereo_obstacles.atomic import write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.direction_scan import DirectionScan
 from stereo_obstacles.errors import CalibrationError, InputFileError, InvalidInputError
+from stereo_obstacles.field_checks import is_finite_real
 from stereo_obstacles.json_documents import check_document, load_json_file
 from stereo_obstacles.obstacles import CorridorSummary, Obstacle, ObstacleList, RejectedGroup
 
@@ -234,8 +235,14 @@ def _scan(data: Any, calibration: StereoCalibration | None, ids: set[int], sourc
         raise InputFileError(f"{source}: scan is not an object")
     if calibration is None:
         raise InputFileError(f"{source}: a scan needs a calibration, and the document has none")
+    fields = {k: v for k, v in data.items() if k != "note"}
+    if "field_of_view_deg" not in fields and isinstance(fields.get("ranges_m"), list):
+        # the scan's first documents (same version 1) did not state the view: all of the sectors
+        first, sector = fields.get("first_bearing_deg"), fields.get("sector_deg")
+        if is_finite_real(first) and is_finite_real(sector):
+            fields["field_of_view_deg"] = [first, first + len(fields["ranges_m"]) * sector]
     try:
-        scan = _from_fields(DirectionScan, {k: v for k, v in data.items() if k != "note"}, "scan", source)
+        scan = _from_fields(DirectionScan, fields, "scan", source)
     except InvalidInputError as exc:
         raise InputFileError(f"{source}: scan: {exc}") from exc
     unknown = sorted({i for i in scan.obstacle_ids if i is not None} - ids)

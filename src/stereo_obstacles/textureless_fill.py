@@ -17,10 +17,14 @@ end_tolerance_fraction * d)``): one surface continues between them. A region is 
 
 * at least ``min_bracketed_fraction`` of its rows have a bracketed run, and
 * it stands on the ground at the depth of its outline: walking down from its lowest pixel in
-  each column (at most ``max_walk_px`` rows, through the object's own outline) to the first
-  pixel phase 1 calls ground or shadow, at least ``min_contact_fraction`` of its columns meet
-  the ground, and the ground plane's disparity there (median) agrees with the bracketing
+  each column (at most ``max_walk_px`` rows, through whatever lies below it) to the first pixel
+  phase 1 calls ground or shadow, at least ``min_contact_fraction`` of its columns meet the
+  ground, and the ground plane's disparity there (median) agrees with the bracketing
   disparities (median) within ``max(contact_tolerance_px, contact_tolerance_fraction * d)``.
+
+Of a filled region, only the bracketed runs whose nearer end agrees in the same way with the
+ground the region meets in the run's own columns (their mean) are filled: a run between the
+edges of two nearer objects, over a face that stands behind them, meets the ground behind them.
 
 The sky between two poles is textureless and labelled obstacle too, and bracketed by the poles,
 but it meets the ground at the horizon, far behind them: the contact test keeps it empty.
@@ -38,9 +42,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from stereo_obstacles._textureless_fill_kernel import bracketed_runs_kernel, empty_regions_kernel, ground_contacts_kernel
+from stereo_obstacles._textureless_fill_kernel import (bracketed_runs_kernel, empty_regions_kernel,
+                                                       ground_contacts_kernel)
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real
 from stereo_obstacles.ground_plane import GroundPlane
 from stereo_obstacles.labels import Label
 
@@ -69,9 +74,10 @@ class TexturelessFillParameters:
         check_numbers(self, (("end_tolerance_px", 0.0, 1000.0), ("end_tolerance_fraction", 0.0, 1.0),
                              ("min_bracketed_fraction", 0.0, 1.0), ("contact_tolerance_px", 0.0, 1000.0),
                              ("contact_tolerance_fraction", 0.0, 1.0), ("min_contact_fraction", 0.0, 1.0)))
-        low, high = self.edge_thresholds
-        if not (math.isfinite(low) and math.isfinite(high) and 0 <= low <= high):
-            raise InvalidInputError(f"edge_thresholds must be two grey levels, low <= high, got {self.edge_thresholds}")
+        pair = self.edge_thresholds
+        if not (isinstance(pair, tuple) and len(pair) == 2 and all(is_finite_real(v) for v in pair)
+                and 0 <= pair[0] <= pair[1]):
+            raise InvalidInputError(f"edge_thresholds must be two grey levels, low <= high, got {pair!r}")
 
 
 def _agree(a: np.ndarray | float, b: np.ndarray | float, tolerance_px: float, fraction: float) -> np.ndarray:
@@ -88,8 +94,12 @@ def textureless_candidates(labels: np.ndarray, left_rgb: np.ndarray,
     disparity, so the pipeline finds them beside the matcher; :func:`fill_textureless` keeps their
     pixels without a disparity."""
     labels = np.asarray(labels)
-    if labels.shape != np.shape(left_rgb)[:2] or labels.ndim != 2:
-        raise InvalidInputError(f"labels {labels.shape} and the left image {np.shape(left_rgb)[:2]} must have one "
+    left_rgb = np.asarray(left_rgb)
+    if left_rgb.dtype != np.uint8 or left_rgb.ndim != 3 or left_rgb.shape[2] != 3 or 0 in left_rgb.shape:
+        raise InvalidInputError(f"the left image must be uint8 RGB (H, W, 3), not empty; got {left_rgb.dtype} "
+                                f"{left_rgb.shape}")
+    if labels.shape != left_rgb.shape[:2]:
+        raise InvalidInputError(f"labels {labels.shape} and the left image {left_rgb.shape[:2]} must have one "
                                 f"height and width")
     h, w = labels.shape
     half = (max(1, w // 2), max(1, h // 2))
@@ -105,6 +115,21 @@ def textureless_candidates(labels: np.ndarray, left_rgb: np.ndarray,
     renumber = np.zeros(n, np.int32)
     renumber[large] = np.arange(1, int(large.sum()) + 1, dtype=np.int32)
     return cv2.resize(renumber[components], (w, h), interpolation=cv2.INTER_NEAREST) * obstacle
+
+
+def _mean_over_columns(contacts: np.ndarray, contact_d: np.ndarray, n_regions: int, width: int, region: np.ndarray,
+                       x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+    """``float64 (n,)``: the mean ground disparity where region ``region[i]`` meets the ground in
+    columns ``x0[i]..x1[i]`` (NaN: nowhere there); ``contacts`` rows ``(region, x, y)`` with
+    their disparities ``contact_d``."""
+    sums = np.zeros((n_regions + 1, width + 1))
+    counts = np.zeros((n_regions + 1, width + 1))
+    np.add.at(sums, (contacts[:, 0], contacts[:, 1] + 1), contact_d)
+    np.add.at(counts, (contacts[:, 0], contacts[:, 1] + 1), 1.0)
+    sums, counts = np.cumsum(sums, axis=1), np.cumsum(counts, axis=1)
+    n = counts[region, x1 + 1] - counts[region, x0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, (sums[region, x1 + 1] - sums[region, x0]) / n, np.nan)
 
 
 def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray, labels: np.ndarray,
@@ -135,6 +160,9 @@ def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.n
         ``int32 (H, W)`` ids and ``float32 (H, W)`` disparities: copies of the inputs with the
         filled pixels set (the inputs themselves when nothing is filled).
     """
+    id_map = np.asarray(id_map)
+    if id_map.size and not (np.iinfo(np.int32).min <= id_map.min() and id_map.max() <= np.iinfo(np.int32).max):
+        raise InvalidInputError(f"id_map: obstacle ids must fit in 32 bits, got {id_map.min()}..{id_map.max()}")
     ids = np.ascontiguousarray(id_map, dtype=np.int32)
     d = np.ascontiguousarray(disparity, dtype=np.float32)
     if d.shape != ids.shape or np.shape(labels) != ids.shape or np.shape(candidates) != ids.shape:
@@ -162,7 +190,12 @@ def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.n
         ends = np.concatenate([d_left[bracketed & (region == k)], d_right[bracketed & (region == k)]])
         filled[k] = bool(_agree(float(np.median(ends)), float(np.median(contact_d[meets])),
                                 params.contact_tolerance_px, params.contact_tolerance_fraction))
-    chosen = bracketed & filled[region]
+    # each run stands where its nearer end does: the ground it meets in its own columns agrees
+    # with that end (a run between the edges of two nearer objects meets the ground behind them)
+    run_contact = _mean_over_columns(contacts, contact_d, n_regions, ids.shape[1], region, x0, x1)
+    stands = _agree(np.maximum(d_left, d_right), run_contact, params.contact_tolerance_px,
+                    params.contact_tolerance_fraction)
+    chosen = bracketed & filled[region] & stands
     if not chosen.any():
         return ids, d
     lengths = (x1 - x0 + 1)[chosen]
