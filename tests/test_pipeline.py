@@ -278,14 +278,19 @@ def test_the_scan_is_measured_on_the_delivered_disparity_not_the_blind_strips(sh
 
 def test_a_dark_box_matched_along_its_outlines_blocks_the_scan_across_its_face():
     """Scene 80: a dark box 3.67 m ahead whose face is too flat to match (window standard
-    deviation 0.8 grey levels) is seen by the scan through its middle unless it is filled."""
+    deviation 0.8 grey levels) is seen by the scan through its middle unless it is filled; filled,
+    the box is as wide as it is, and the walking corridor ends at it."""
     from stereo_obstacles.synthetic import random_scene
 
     pair = render_pair(random_scene(80))
     box = next(t for t in pair.obstacles if t.obstacle_id == 1)
-    filled = detect(pair.left, pair.right, pair.calibration).obstacles.scan
+    result = detect(pair.left, pair.right, pair.calibration)
+    filled = result.obstacles.scan
     across = [k for k, b in enumerate(filled.bearings_deg()) if 6.0 < b < 13.0]        # the box's face, not its outline
     assert all(box.nearest_depth_m <= filled.ranges_m[k] <= 1.1 * box.nearest_depth_m for k in across)
+    nearest = result.obstacles.obstacles[0]                                            # widened to its face
+    assert nearest.width_m == pytest.approx(box.size_m[0], rel=0.1)                    # was 0.16 m: one outline
+    assert result.obstacles.corridor.free_distance_m <= 1.02 * box.nearest_depth_m      # was 4.12 m, the other one
     empty = detect(pair.left, pair.right, pair.calibration,
                    config=DetectionConfig(textureless_fill=None)).obstacles.scan
     assert sum(empty.ranges_m[k] is None or empty.ranges_m[k] > 2 * box.nearest_depth_m for k in across) >= 4

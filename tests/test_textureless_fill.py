@@ -9,7 +9,8 @@ import pytest
 from _obstacle_scene import CAMERA_HEIGHT_M, GROUND, RIG
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
-from stereo_obstacles.textureless_fill import TexturelessFillParameters, fill_textureless, textureless_candidates
+from stereo_obstacles.textureless_fill import (TexturelessFillParameters, fill_textureless, textureless_candidates,
+                                               widen_obstacles)
 
 H, W = RIG.height_px, RIG.width_px
 OUTLINE_PX = 3
@@ -188,3 +189,22 @@ def test_bad_input_is_refused():
     with pytest.raises(InvalidInputError, match="fit in 32 bits"):
         fill_textureless(textureless_candidates(labels, left), ids.astype(np.int64) + 2 ** 32, disparity, labels,
                          GROUND)
+
+
+def test_an_obstacle_is_widened_to_its_filled_face_and_the_corridor_follows():
+    from stereo_obstacles.obstacles import ObstacleParameters, measure_obstacles
+
+    ids, disparity, labels, left = _world(right_id=4)                  # the outlines two obstacles
+    measured = measure_obstacles(ids, disparity, RIG, GROUND, ObstacleParameters(corridor_width_m=0.2))
+    box = min(measured.obstacles, key=lambda o: o.lateral_extent_m[0] if o.distance_m < 4.5 else 99)
+    assert box.width_m < 0.1 and measured.corridor.nearest_obstacle_id is None       # thin outlines, a free middle
+    filled_ids, filled = _fill((measured.id_map, disparity, labels, left))
+    wide = widen_obstacles(measured, filled_ids, filled, RIG, 0.2)
+    widened = next(o for o in wide.obstacles if o.id == box.id)
+    true_x = [(x - RIG.cx_px) * 4.0 / RIG.focal_px for x in (120, 199)]               # the box's columns, 4 m ahead
+    assert widened.lateral_extent_m[0] <= true_x[0] + 0.05 and widened.lateral_extent_m[1] >= true_x[1] - 0.05
+    assert widened.width_m == pytest.approx(widened.lateral_extent_m[1] - widened.lateral_extent_m[0])
+    assert widened.box_px[0] <= 123 and widened.box_px[2] >= 190                     # to the other outline's rim
+    assert (widened.distance_m, widened.pixel_count, widened.centre_m) == (box.distance_m, box.pixel_count, box.centre_m)
+    assert wide.corridor.nearest_obstacle_id == box.id and wide.corridor.free_distance_m == box.distance_m
+    assert widen_obstacles(measured, measured.id_map, disparity, RIG, 0.2) == measured        # nothing filled

@@ -26,6 +26,10 @@ Beyond the paper:
   would chain distinct objects through the ground between them;
 * a group holding two colours at two depths (a pole just in front of a box) is split along
   the colours (:mod:`stereo_obstacles.colour_split`);
+* faces too flat to match (dark paint), which phase 1 calls obstacle but the matcher leaves
+  empty but for their outlines, are filled from those outlines when they stand on the ground at
+  their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
+  the obstacles' boxes and lateral extents;
 * when the pixels that look like the reference area do not lie on a plane that can be the
   ground (the reference area is covered by a wall or a large object), the ground plane is
   fitted to the matched pixels of the lower third of the image instead, the colour labels are
@@ -64,7 +68,8 @@ from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceAre
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
-from stereo_obstacles.textureless_fill import TexturelessFillParameters, fill_textureless, textureless_candidates
+from stereo_obstacles.textureless_fill import (TexturelessFillParameters, fill_textureless, textureless_candidates,
+                                               widen_obstacles)
 from stereo_obstacles.thread_pool import run_each_in_threads
 from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
 
@@ -138,9 +143,10 @@ class DetectionConfig:
     or compressed images from raising patches of far ground as obstacles (``docs/pipeline.md``,
     "Noise and compression"); groups it keeps down are listed as rejected.
     ``textureless_fill``: with a calibration, a ground plane and trusted colour labels, the
-    free range per direction is measured with the textureless faces the matcher left empty
-    filled from their outlines (:mod:`stereo_obstacles.textureless_fill`); ``None`` measures it
-    on the matched pixels only.
+    textureless faces the matcher left empty are filled from their outlines
+    (:mod:`stereo_obstacles.textureless_fill`): the free range per direction is measured with
+    them, and the obstacles' boxes and lateral extents take them in (their distances do not);
+    ``None`` uses the matched pixels only.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -551,6 +557,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         if textureless is not None and ground is not None and colour_trusted:
             scan_ids, scan_disparity = fill_textureless(textureless, scan_ids, scan_disparity, segmentation.labels,
                                                         ground, config.textureless_fill)
+            obstacles = widen_obstacles(obstacles, scan_ids, scan_disparity, calibration,
+                                        config.obstacles.corridor_width_m)
         obstacles = replace(obstacles, scan=obstacle_scan(scan_ids, scan_disparity, calibration, config.obstacles))
     if ground is not None:
         flat_groups = _without_feet(grouped[1], obstacles.id_map)

@@ -30,24 +30,27 @@ The sky between two poles is textureless and labelled obstacle too, and brackete
 but it meets the ground at the horizon, far behind them: the contact test keeps it empty.
 
 Each bracketed run of a filled region takes the disparities interpolated linearly between its
-two ends, and the id of the nearer end's obstacle. Only the scan uses the filled maps: an
-obstacle's distance, size and box are measured on its matched pixels.
+two ends, and the id of the nearer end's obstacle. The scan is measured on the filled maps, and
+:func:`widen_obstacles` widens each obstacle's box and lateral extent to its filled pixels; its
+distance, disparity, centre, pixel count and confidence stay those of its matched pixels.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
 
 from stereo_obstacles._textureless_fill_kernel import (bracketed_runs_kernel, empty_regions_kernel,
                                                        ground_contacts_kernel)
+from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real
 from stereo_obstacles.ground_plane import GroundPlane
 from stereo_obstacles.labels import Label
+from stereo_obstacles.obstacles import EXTENT_PERCENTILES, ObstacleList, corridor_summary
 
 
 @dataclass(frozen=True)
@@ -211,4 +214,39 @@ def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.n
     return ids, d
 
 
-__all__ = ["TexturelessFillParameters", "fill_textureless", "textureless_candidates"]
+def widen_obstacles(obstacle_list: ObstacleList, filled_ids: np.ndarray, filled_disparity: np.ndarray,
+                    calibration: StereoCalibration, corridor_width_m: float) -> ObstacleList:
+    """``obstacle_list`` with each obstacle that :func:`fill_textureless` gave pixels widened to
+    them: its box takes them in, its lateral extent and width reach the 1st-99th percentiles of
+    their ``x`` (metres, at the filled disparities) where those lie beyond it, its height their
+    ``y`` span where that is taller; the corridor summary follows (``corridor_width_m`` wide).
+
+    ``filled_ids`` ``int (H, W)`` and ``filled_disparity`` ``float32 (H, W)`` are the filled maps;
+    a pixel is filled where ``filled_ids`` differs from ``obstacle_list.id_map``.
+    """
+    ys, xs = np.nonzero(filled_ids != obstacle_list.id_map)
+    if ys.size == 0:
+        return obstacle_list
+    owners = filled_ids[ys, xs]
+    z = calibration.focal_baseline_px_m / (filled_disparity[ys, xs].astype(np.float64) + calibration.doffs_px)
+    lateral = (xs - calibration.cx_px) * z / calibration.focal_px
+    vertical = (ys - calibration.cy_px) * z / calibration.focal_px
+    widened = []
+    for o in obstacle_list.obstacles:
+        mine = owners == o.id
+        if not mine.any() or o.lateral_extent_m is None:
+            widened.append(o)
+            continue
+        x_lo, x_hi = np.percentile(lateral[mine], EXTENT_PERCENTILES)
+        y_lo, y_hi = np.percentile(vertical[mine], EXTENT_PERCENTILES)
+        left = min(o.lateral_extent_m[0], round(float(x_lo), 3))
+        right = max(o.lateral_extent_m[1], round(float(x_hi), 3))
+        box = (min(o.box_px[0], int(xs[mine].min())), min(o.box_px[1], int(ys[mine].min())),
+               max(o.box_px[2], int(xs[mine].max()) + 1), max(o.box_px[3], int(ys[mine].max()) + 1))
+        widened.append(replace(o, box_px=box, lateral_extent_m=(left, right), width_m=round(right - left, 3),
+                               height_m=max(o.height_m, round(float(y_hi - y_lo), 3))))
+    return replace(obstacle_list, obstacles=tuple(widened),
+                   corridor=corridor_summary(tuple(widened), corridor_width_m))
+
+
+__all__ = ["TexturelessFillParameters", "fill_textureless", "textureless_candidates", "widen_obstacles"]
