@@ -208,3 +208,27 @@ def test_an_obstacle_is_widened_to_its_filled_face_and_the_corridor_follows():
     assert (widened.distance_m, widened.pixel_count, widened.centre_m) == (box.distance_m, box.pixel_count, box.centre_m)
     assert wide.corridor.nearest_obstacle_id == box.id and wide.corridor.free_distance_m == box.distance_m
     assert widen_obstacles(measured, measured.id_map, disparity, RIG, 0.2) == measured        # nothing filled
+    other = next(o for o in measured.obstacles if o.distance_m < 4.5 and o.id != box.id)        # the right outline
+    sliver = filled_ids.copy()
+    sliver[np.flatnonzero((filled_ids[:, 180] == box.id) & (measured.id_map[:, 180] == 0))[:40], 180] = other.id
+    assert (sliver == other.id).sum() - (measured.id_map == other.id).sum() == 40               # 40 of thousands
+    pieces = {o.id: o for o in widen_obstacles(measured, sliver, filled, RIG, 0.2).obstacles}
+    assert pieces[other.id] == other and pieces[box.id].width_m == widened.width_m             # widened once
+
+
+def test_widening_takes_only_pixels_of_a_depth_and_refuses_bad_maps():
+    from dataclasses import replace as changed
+
+    from stereo_obstacles.obstacles import measure_obstacles
+
+    ids, disparity, labels, left = _world(right_id=4)
+    measured = measure_obstacles(ids, disparity, RIG, GROUND)
+    filled_ids, filled = _fill((measured.id_map, disparity, labels, left))
+    no_depth = np.where(filled_ids != measured.id_map, np.float32(-20.0), filled)               # d + doffs < 0
+    assert widen_obstacles(measured, filled_ids, no_depth, RIG, 1.0) == measured
+    infinite = changed(RIG, doffs_px=-float(RIG.focal_baseline_px_m / 4.0))                   # d + doffs = 0 at 4 m
+    assert widen_obstacles(measured, filled_ids, filled, infinite, 1.0) == measured
+    with pytest.raises(InvalidInputError, match="calibration must be"):
+        widen_obstacles(measured, filled_ids, filled, None, 1.0)
+    with pytest.raises(InvalidInputError, match="must have the id map's shape"):
+        widen_obstacles(measured, filled_ids[:, :5], filled, RIG, 1.0)

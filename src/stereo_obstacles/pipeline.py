@@ -29,7 +29,7 @@ Beyond the paper:
 * faces too flat to match (dark paint), which phase 1 calls obstacle but the matcher leaves
   empty but for their outlines, are filled from those outlines when they stand on the ground at
   their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
-  the obstacles' boxes and lateral extents;
+  the obstacles' boxes, lateral extents and widths;
 * when the pixels that look like the reference area do not lie on a plane that can be the
   ground (the reference area is covered by a wall or a large object), the ground plane is
   fitted to the matched pixels of the lower third of the image instead, the colour labels are
@@ -145,7 +145,7 @@ class DetectionConfig:
     ``textureless_fill``: with a calibration, a ground plane and trusted colour labels, the
     textureless faces the matcher left empty are filled from their outlines
     (:mod:`stereo_obstacles.textureless_fill`): the free range per direction is measured with
-    them, and the obstacles' boxes and lateral extents take them in (their distances do not);
+    them, and the obstacles' boxes, lateral extents and widths take them in (their distances do not);
     ``None`` uses the matched pixels only.
     """
 

@@ -30,9 +30,10 @@ The sky between two poles is textureless and labelled obstacle too, and brackete
 but it meets the ground at the horizon, far behind them: the contact test keeps it empty.
 
 Each bracketed run of a filled region takes the disparities interpolated linearly between its
-two ends, and the id of the nearer end's obstacle. The scan is measured on the filled maps, and
-:func:`widen_obstacles` widens each obstacle's box and lateral extent to its filled pixels; its
-distance, disparity, centre, pixel count and confidence stay those of its matched pixels.
+two ends and the id of the nearer end's obstacle. The scan is
+measured on the filled maps, and :func:`widen_obstacles` widens each obstacle's box, lateral
+extent and width to its filled pixels; its distance, disparity, centre, size in height, pixel
+count and confidence stay those of its matched pixels.
 """
 
 from __future__ import annotations
@@ -214,23 +215,60 @@ def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.n
     return ids, d
 
 
+MIN_OWNER_SHARE = 0.25
+"""An obstacle widens to the filled pixels of a connected patch only when it holds at least this
+share of them: an outline piece of an object whose face another piece fills holds a sliver."""
+
+
+def _widening_pixels(owners: np.ndarray, ys: np.ndarray, xs: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """``bool (n,)``: which filled pixels (``(ys, xs)``, obstacle ``owners``) widen their
+    obstacle: those of an obstacle holding at least :data:`MIN_OWNER_SHARE` of the filled pixels
+    of their 8-connected patch (an object found as two outline pieces is widened once; two
+    objects sharing a patch each keep their part)."""
+    mask = np.zeros(shape, np.uint8)
+    mask[ys, xs] = 1
+    _, patches = cv2.connectedComponents(mask, connectivity=8, ltype=cv2.CV_32S)
+    pairs, pair_of, counts = np.unique(np.stack([patches[ys, xs].astype(np.int64), owners.astype(np.int64)]),
+                                       axis=1, return_inverse=True, return_counts=True)
+    _, patch_of_pair = np.unique(pairs[0], return_inverse=True)
+    share = counts / np.bincount(patch_of_pair, weights=counts)[patch_of_pair]
+    return (share >= MIN_OWNER_SHARE)[np.ravel(pair_of)]
+
+
 def widen_obstacles(obstacle_list: ObstacleList, filled_ids: np.ndarray, filled_disparity: np.ndarray,
                     calibration: StereoCalibration, corridor_width_m: float) -> ObstacleList:
     """``obstacle_list`` with each obstacle that :func:`fill_textureless` gave pixels widened to
-    them: its box takes them in, its lateral extent and width reach the 1st-99th percentiles of
-    their ``x`` (metres, at the filled disparities) where those lie beyond it, its height their
-    ``y`` span where that is taller; the corridor summary follows (``corridor_width_m`` wide).
+    them: its box takes them in, and its lateral extent (and so its width) reaches the 1st-99th
+    percentiles of their ``x`` (metres, at the filled disparities; pixels of no finite, positive
+    depth left out) where those lie beyond it; the corridor summary follows
+    (``corridor_width_m`` wide). Only the pixels of an obstacle holding at least
+    :data:`MIN_OWNER_SHARE` of a connected patch of filled pixels count. Obstacles without a lateral extent (measured without a
+    calibration) and ids the list does not hold are left alone.
 
     ``filled_ids`` ``int (H, W)`` and ``filled_disparity`` ``float32 (H, W)`` are the filled maps;
     a pixel is filled where ``filled_ids`` differs from ``obstacle_list.id_map``.
+
+    Raises
+    ------
+    InvalidInputError
+        No calibration, or maps of another shape than the id map.
     """
-    ys, xs = np.nonzero(filled_ids != obstacle_list.id_map)
+    if not isinstance(calibration, StereoCalibration):
+        raise InvalidInputError(f"calibration must be a StereoCalibration, got {type(calibration).__name__}")
+    shape = np.shape(obstacle_list.id_map)
+    if np.shape(filled_ids) != shape or np.shape(filled_disparity) != shape:
+        raise InvalidInputError(f"filled_ids {np.shape(filled_ids)} and filled_disparity {np.shape(filled_disparity)} "
+                                f"must have the id map's shape {shape}")
+    ys, xs = np.nonzero(np.asarray(filled_ids) != obstacle_list.id_map)
+    shifted = np.asarray(filled_disparity)[ys, xs].astype(np.float64) + calibration.doffs_px
+    depth = np.isfinite(shifted) & (shifted > 0)
+    ys, xs, shifted = ys[depth], xs[depth], shifted[depth]
     if ys.size == 0:
         return obstacle_list
-    owners = filled_ids[ys, xs]
-    z = calibration.focal_baseline_px_m / (filled_disparity[ys, xs].astype(np.float64) + calibration.doffs_px)
-    lateral = (xs - calibration.cx_px) * z / calibration.focal_px
-    vertical = (ys - calibration.cy_px) * z / calibration.focal_px
+    owners = np.asarray(filled_ids)[ys, xs]
+    widening = _widening_pixels(owners, ys, xs, shape)
+    ys, xs, shifted, owners = ys[widening], xs[widening], shifted[widening], owners[widening]
+    lateral = (xs - calibration.cx_px) * (calibration.focal_baseline_px_m / shifted) / calibration.focal_px
     widened = []
     for o in obstacle_list.obstacles:
         mine = owners == o.id
@@ -238,15 +276,14 @@ def widen_obstacles(obstacle_list: ObstacleList, filled_ids: np.ndarray, filled_
             widened.append(o)
             continue
         x_lo, x_hi = np.percentile(lateral[mine], EXTENT_PERCENTILES)
-        y_lo, y_hi = np.percentile(vertical[mine], EXTENT_PERCENTILES)
         left = min(o.lateral_extent_m[0], round(float(x_lo), 3))
         right = max(o.lateral_extent_m[1], round(float(x_hi), 3))
         box = (min(o.box_px[0], int(xs[mine].min())), min(o.box_px[1], int(ys[mine].min())),
                max(o.box_px[2], int(xs[mine].max()) + 1), max(o.box_px[3], int(ys[mine].max()) + 1))
-        widened.append(replace(o, box_px=box, lateral_extent_m=(left, right), width_m=round(right - left, 3),
-                               height_m=max(o.height_m, round(float(y_hi - y_lo), 3))))
+        wider = (left, right) != o.lateral_extent_m
+        widened.append(replace(o, box_px=box, lateral_extent_m=(left, right),
+                               width_m=round(right - left, 3) if wider else o.width_m))
     return replace(obstacle_list, obstacles=tuple(widened),
                    corridor=corridor_summary(tuple(widened), corridor_width_m))
-
 
 __all__ = ["TexturelessFillParameters", "fill_textureless", "textureless_candidates", "widen_obstacles"]
