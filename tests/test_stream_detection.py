@@ -30,6 +30,9 @@ def test_stream_detection_record_and_pictures():
         record = json.loads(json.dumps(frame_record(detection), allow_nan=False))
         assert [o["track_id"] for o in record["obstacles"]] == [t.track_id for t in seen]
         assert [o["detection_id"] for o in record["obstacles"]] == [t.obstacle.id for t in seen]
+        smoothed = [o[key] for o in record["obstacles"] for key in ("distance_m", "closing_speed_mps")
+                    if o[key] is not None]
+        assert smoothed and all(v == round(v, 3) for v in smoothed)              # to the mm, not 4.151999999999999
         track_of = {t.obstacle.id: t.track_id for t in seen}
         scan = detection.result.obstacles.scan
         assert record["scan"]["ranges_m"] == list(scan.ranges_m) and any(scan.obstacle_ids)

@@ -428,13 +428,15 @@ def _seen_sectors(scan: DirectionScan):
             yield first, last, rng, obstacle
 
 
-def _name_obstacles(out: np.ndarray, view: _TopView, scan: DirectionScan, max_range_m: float, scale: float) -> None:
-    """Write ``#id`` over each obstacle's nearest sector, nearest first, where a name fits."""
+def _name_obstacles(out: np.ndarray, view: _TopView, scan: DirectionScan, max_range_m: float, scale: float,
+                    taken: list[tuple[int, int, int, int]]) -> None:
+    """Write ``#id`` over each obstacle's nearest sector, nearest first, where a name fits beside
+    the labels already written (``taken``: their ``(x, y, width, height)``)."""
     nearest: dict[int, tuple[float, float]] = {}
     for first, last, rng, obstacle in _seen_sectors(scan):
         if obstacle is not None and rng <= max_range_m and rng < nearest.get(obstacle, (math.inf,))[0]:
             nearest[obstacle] = (rng, (first + last) / 2)
-    drawn: list[tuple[int, int, int, int]] = []
+    drawn = list(taken)
     for obstacle, (rng, bearing) in sorted(nearest.items(), key=lambda item: item[1][0]):
         x, y = view.at(bearing, rng)
         rect = _label_rect(f"#{obstacle}", x - 10, y - _label_height(scale) - 4, scale, out.shape)
@@ -478,15 +480,16 @@ def scan_picture(scan: DirectionScan, *, max_range_m: float | None = None) -> np
         cv2.fillPoly(out, [np.array(wedge, np.int32)], FREE_RGB if rng is not None else UNSEEN_RGB)
     scale = _panel_scale(width)
     step = _nice_step(max_range_m / 4.0)
+    rings = []
     for ring in np.arange(step, max_range_m + 1e-9, step):
         cv2.circle(out, view.at(0.0, 0.0), int(round(view.px_per_m * ring)), (150, 150, 150), 1, cv2.LINE_AA)
         x, y = view.at(0.0, ring)
-        _put_label(out, f"{ring:g} m", x + 3, y + 1, (32, 32, 32), scale)
+        rings.append(_put_label(out, f"{ring:g} m", x + 3, y + 1, (32, 32, 32), scale))
     for first, last, rng, obstacle in _seen_sectors(scan):
         if rng is not None and rng <= max_range_m:
             cv2.polylines(out, [np.array(view.arc(first, last, rng), np.int32)], False,
                           obstacle_colour(obstacle) if obstacle else REJECTED_COLOUR_RGB, 3, cv2.LINE_AA)
-    _name_obstacles(out, view, scan, max_range_m, scale)
+    _name_obstacles(out, view, scan, max_range_m, scale, rings)
     legend = [f"top view, camera at the bottom centre; {scan.sector_deg:g} deg sectors of bearing",
               "light: free up to the nearest obstacle (arc in its colour)", "grey: no obstacle reported"]
     return _stack_with_panel(out, _text_panel(legend, width))

@@ -199,8 +199,9 @@ def frame_record(detection: FrameDetection) -> dict:
     """
     obstacles, missed = [], []
     for track in detection.tracks:
-        entry = {"track_id": track.track_id, "distance_m": track.distance_m,
-                 "closing_speed_mps": track.closing_speed_mps, "time_to_contact_s": track.time_to_contact_s,
+        entry = {"track_id": track.track_id, "distance_m": _rounded(track.distance_m),
+                 "closing_speed_mps": _rounded(track.closing_speed_mps),
+                 "time_to_contact_s": _rounded(track.time_to_contact_s),
                  "approaching": track.approaching, "age_frames": track.age_frames}
         if track.obstacle is None:
             missed.append({**entry, "missed_frames": track.missed_frames})
@@ -214,6 +215,11 @@ def frame_record(detection: FrameDetection) -> dict:
                       "n_seed_points": detection.n_seed_points, "density": detection.result.density,
                       "timings_s": detection.result.timings_s, "obstacles": obstacles, "missed": missed,
                       "scan": _tracked_scan(detection, _track_ids(detection))})
+
+
+def _rounded(value: float | None) -> float | None:
+    """A smoothed value as the record shows it: to the millimetre (or ms, mm/s), as detections are."""
+    return None if value is None else round(float(value), 3)
 
 
 def _track_ids(detection: FrameDetection) -> np.ndarray:
