@@ -19,8 +19,8 @@ Example document (abridged)::
      "obstacles": [{"id": 1, "distance_m": 4.0, "box_px": [300, 275, 400, 450], ...}],
      "rejected": [{"box_px": [...], "pixel_count": 2250, "reason": "flat on the ground ..."}],
      "corridor": {"width_m": 1.0, "nearest_obstacle_id": 1, "free_distance_m": 4.0},
-     "scan": {"sector_deg": 1.0, "first_bearing_deg": -30.0, "ranges_m": [null, ..., 4.06, ...],
-              "obstacle_ids": [null, ..., 1, ...], "note": "..."},
+     "scan": {"sector_deg": 1.0, "first_bearing_deg": -30.0, "field_of_view_deg": [-29.99, 29.91],
+              "ranges_m": [null, ..., 4.06, ...], "obstacle_ids": [null, ..., 1, ...], "note": "..."},
      "run": {"package_version": "0.1.0", "config": {...}, "timings_s": {...}, "inputs": {...}}}
 """
 

@@ -183,32 +183,52 @@ def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.n
     contacts, columns = ground_contacts_kernel(regions, n_regions, np.ascontiguousarray(labels, dtype=np.uint8),
                                                Label.GROUND.value, Label.SHADOW.value, params.max_walk_px)
     contact_d = ground.disparity_at(contacts[:, 1].astype(np.float64), contacts[:, 2].astype(np.float64))
-    rows = np.bincount(np.unique(region * ids.shape[0] + y) // ids.shape[0], minlength=n_regions + 1)
-    rows_bracketed = np.bincount(np.unique((region * ids.shape[0] + y)[bracketed]) // ids.shape[0],
-                                 minlength=n_regions + 1)
-    filled = np.zeros(n_regions + 1, bool)
-    for k in np.flatnonzero(rows_bracketed >= np.maximum(params.min_bracketed_fraction * rows, 1)):
-        meets = contacts[:, 0] == k
-        if np.count_nonzero(meets) < params.min_contact_fraction * columns[k]:
-            continue
-        ends = np.concatenate([d_left[bracketed & (region == k)], d_right[bracketed & (region == k)]])
-        filled[k] = bool(_agree(float(np.median(ends)), float(np.median(contact_d[meets])),
-                                params.contact_tolerance_px, params.contact_tolerance_fraction))
+    standing = _standing_regions(region * ids.shape[0] + y, bracketed, d_left, d_right, contacts, contact_d, columns,
+                                 n_regions, ids.shape[0], params)
     # each run stands where its nearer end does: the ground it meets in its own columns agrees
     # with that end (a run between the edges of two nearer objects meets the ground behind them)
     run_contact = _mean_over_columns(contacts, contact_d, n_regions, ids.shape[1], region, x0, x1)
     stands = _agree(np.maximum(d_left, d_right), run_contact, params.contact_tolerance_px,
                     params.contact_tolerance_fraction)
-    chosen = bracketed & filled[region] & stands
+    chosen = bracketed & standing[region] & stands
     if not chosen.any():
         return ids, d
-    lengths = (x1 - x0 + 1)[chosen]
+    return _paint_runs(ids, d, y[chosen], x0[chosen], x1[chosen], xl[chosen], xr[chosen], d_left[chosen],
+                       d_right[chosen])
+
+
+def _standing_regions(region_rows: np.ndarray, bracketed: np.ndarray, d_left: np.ndarray, d_right: np.ndarray,
+                      contacts: np.ndarray, contact_d: np.ndarray, columns: np.ndarray, n_regions: int, height: int,
+                      params: TexturelessFillParameters) -> np.ndarray:
+    """``bool (n_regions + 1,)``: the regions with enough bracketed rows that stand on the ground
+    at their outlines' depth (module docstring). ``region_rows`` numbers each run's region and
+    row as ``region * height + row``."""
+    rows = np.bincount(np.unique(region_rows) // height, minlength=n_regions + 1)
+    rows_bracketed = np.bincount(np.unique(region_rows[bracketed]) // height, minlength=n_regions + 1)
+    region = region_rows // height
+    standing = np.zeros(n_regions + 1, bool)
+    for k in np.flatnonzero(rows_bracketed >= np.maximum(params.min_bracketed_fraction * rows, 1)):
+        meets = contacts[:, 0] == k
+        if np.count_nonzero(meets) < params.min_contact_fraction * columns[k]:
+            continue
+        ends = np.concatenate([d_left[bracketed & (region == k)], d_right[bracketed & (region == k)]])
+        standing[k] = bool(_agree(float(np.median(ends)), float(np.median(contact_d[meets])),
+                                  params.contact_tolerance_px, params.contact_tolerance_fraction))
+    return standing
+
+
+def _paint_runs(ids: np.ndarray, d: np.ndarray, y: np.ndarray, x0: np.ndarray, x1: np.ndarray, xl: np.ndarray,
+                xr: np.ndarray, d_left: np.ndarray, d_right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Copies of ``ids`` and ``d`` with each run (row ``y``, columns ``x0..x1``, bracketed at
+    ``xl`` and ``xr`` by disparities ``d_left`` and ``d_right``) given the disparities interpolated
+    between its ends and the id of its nearer end."""
+    lengths = x1 - x0 + 1
     run = np.repeat(np.arange(lengths.size), lengths)
-    xs = x0[chosen][run] + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
-    ys = y[chosen][run]
-    left_d, right_d = d_left[chosen][run], d_right[chosen][run]
-    t = (xs - xl[chosen][run]) / (xr[chosen][run] - xl[chosen][run])
-    nearer = np.where(left_d >= right_d, xl[chosen][run], xr[chosen][run])
+    xs = x0[run] + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    ys = y[run]
+    left_d, right_d = d_left[run], d_right[run]
+    t = (xs - xl[run]) / (xr[run] - xl[run])
+    nearer = np.where(left_d >= right_d, xl[run], xr[run])
     ids, d = ids.copy(), d.copy()
     d[ys, xs] = left_d + (right_d - left_d) * t
     ids[ys, xs] = ids[ys, nearer]
