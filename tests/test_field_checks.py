@@ -58,3 +58,10 @@ def test_a_nested_field_may_be_none_when_allowed():
         check_types(_Fields(share=None), (("share", float),))
     with pytest.raises(InvalidInputError, match="size must be float or None, got int"):
         check_types(_Fields(), (("size", float),), allow_none=True)
+
+
+def test_is_whole_number_takes_python_and_numpy_integers_but_no_bool_or_float():
+    from stereo_obstacles.field_checks import is_whole_number
+
+    assert all(is_whole_number(v) for v in (0, -3, 2 ** 70, np.int32(5), np.uint8(1)))
+    assert not any(is_whole_number(v) for v in (True, np.bool_(True), 1.0, np.float32(2), "3", None))

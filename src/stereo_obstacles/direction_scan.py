@@ -30,7 +30,7 @@ import numpy as np
 from stereo_obstacles._direction_scan_kernel import sector_ranges_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import is_finite_real
+from stereo_obstacles.field_checks import is_finite_real, is_whole_number
 
 
 MIN_SECTOR_DEG = 0.01
@@ -39,10 +39,6 @@ MIN_SECTOR_DEG = 0.01
 MAX_BUCKETS = 4_000_000
 """Sectors times obstacle numbers above which the ids are renumbered 1..n first (the kernel
 counts pixels per sector and number)."""
-
-
-def _is_count(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
 @dataclass(frozen=True)
@@ -88,7 +84,7 @@ class DirectionScan:
         for rng, obstacle in zip(self.ranges_m, self.obstacle_ids):
             if rng is not None and not (is_finite_real(rng) and rng > 0):
                 raise InvalidInputError(f"ranges_m must be None or numbers of metres > 0, got {rng!r}")
-            if obstacle is not None and not (_is_count(obstacle) and obstacle >= 1 and rng is not None):
+            if obstacle is not None and not (is_whole_number(obstacle) and obstacle >= 1 and rng is not None):
                 raise InvalidInputError(f"obstacle_ids must be None or integers >= 1 with a range, got {obstacle!r}")
 
     def renumbered(self, new_ids: np.ndarray) -> DirectionScan:
@@ -169,7 +165,7 @@ def direction_scan(id_map: np.ndarray, disparity: np.ndarray, calibration: Stere
                                 f"columns")
     if not (is_finite_real(percentile) and 0 <= percentile <= 100):
         raise InvalidInputError(f"percentile must lie in [0, 100], got {percentile!r}")
-    if not (_is_count(min_pixels) and min_pixels >= 1):
+    if not (is_whole_number(min_pixels) and min_pixels >= 1):
         raise InvalidInputError(f"min_pixels must be an integer >= 1, got {min_pixels!r}")
     sector_of, first = sector_of_columns(id_map.shape[1], calibration, sector_deg)
     n_sectors = int(sector_of[-1]) + 1

@@ -22,6 +22,11 @@ def is_finite_real(value: object) -> bool:
         return False
 
 
+def is_whole_number(value: object) -> bool:
+    """True for an integer, Python's or NumPy's, other than a bool."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
 def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> None:
     """Each ``(name, low, high)``: ``owner.name`` must be a finite real number (Python's or NumPy's,
     not a bool) in ``[low, high]``.

@@ -27,13 +27,14 @@ import numpy as np
 
 from stereo_obstacles.colour import hue_difference
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import is_whole_number
 
 DEFAULT_FILTER_SIZE = 7
 """The paper's median window: 7 x 7 pixels."""
 
 
 def _check_size(size: int) -> int:
-    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1 or size % 2 == 0:
+    if not is_whole_number(size) or size < 1 or size % 2 == 0:
         raise InvalidInputError(f"size must be an odd positive integer, got {size!r}")
     return int(size)
 

@@ -27,7 +27,7 @@ import numpy as np
 from stereo_obstacles import quantiles
 from stereo_obstacles._obstacles_kernel import patch_medians_kernel
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real
+from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real, is_whole_number
 from stereo_obstacles.plane_fit import least_squares_plane, plane_at
 
 DISTANCE_PATCH_PX = 8
@@ -151,8 +151,7 @@ def _checked(xs, ys, z, percentile, min_patch_pixels, focal_baseline_px_m, slant
                                 f"{int(np.flatnonzero(bad)[0])}")
     if not (is_finite_real(percentile) and 0 <= percentile <= 100):
         raise InvalidInputError(f"percentile must be in [0, 100], got {percentile!r}")
-    if isinstance(min_patch_pixels, bool) or not isinstance(min_patch_pixels, (int, np.integer)) \
-            or min_patch_pixels < 1:
+    if not is_whole_number(min_patch_pixels) or min_patch_pixels < 1:
         raise InvalidInputError(f"min_patch_pixels must be an integer >= 1, got {min_patch_pixels!r}")
     if slanted_face is not None:
         if not isinstance(slanted_face, SlantedFaceParameters):

@@ -15,7 +15,7 @@ import numpy as np
 
 from stereo_obstacles._speckle_kernel import link_kernel, speckle_kernel
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import is_finite_real
+from stereo_obstacles.field_checks import is_finite_real, is_whole_number
 
 __all__ = ["speckle_mask"]
 
@@ -48,7 +48,7 @@ def speckle_mask(disparity: np.ndarray, *, max_size_px: int, max_difference_px: 
     >>> int(mask.sum()), bool(mask[2, 2])
     (1, True)
     """
-    if isinstance(max_size_px, bool) or not isinstance(max_size_px, (int, np.integer)) or max_size_px < 0:
+    if not is_whole_number(max_size_px) or max_size_px < 0:
         raise InvalidInputError(f"max_size_px: expected an integer >= 0, got {max_size_px!r}")
     if not (is_finite_real(max_difference_px) and max_difference_px >= 0):
         raise InvalidInputError(f"max_difference_px: expected a finite number >= 0, got {max_difference_px!r}")
