@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from _right_image_cover import matches_of_row, reference_cover
 
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
@@ -20,19 +21,8 @@ def _reference(d: np.ndarray, params: VisibilityParameters) -> np.ndarray:
     d = d.astype(float)  # the compiled test computes columns in double precision
     hidden = np.zeros((h, w), bool)
     for y in range(h):
-        xs = [x for x in range(w) if math.isfinite(d[y, x]) and abs(d[y, x]) <= 2 * w]
-        cover = [-math.inf] * w
-        for i, xa in enumerate(xs):
-            low, high, seen = xa - d[y, xa] - 0.5, xa - d[y, xa] + 0.5, d[y, xa]
-            if i + 1 < len(xs):
-                xb = xs[i + 1]
-                if xb - xa <= params.max_gap_px and abs(d[y, xb] - d[y, xa]) <= params.surface_tolerance_px:
-                    low, high = min(low, xb - d[y, xb] - 0.5), max(high, xb - d[y, xb] + 0.5)
-                    seen = min(seen, d[y, xb])
-            for r in range(w):
-                if low <= r <= high:
-                    cover[r] = max(cover[r], seen)
-        for x in xs:
+        cover = reference_cover(d[y], params.max_gap_px, params.surface_tolerance_px)
+        for x in matches_of_row(d[y]):
             r = math.floor(x - d[y, x] + 0.5)
             hidden[y, x] = 0 <= r < w and cover[r] > d[y, x] + params.min_depth_gap_px
     return hidden

@@ -29,6 +29,36 @@ def _cover(cover, low, high, seen):
             cover[r] = seen
 
 
+@njit(cache=CACHE, nogil=True, inline="always")
+def right_image_cover(row, cover, max_gap_px, surface_tolerance_px):
+    """Fill ``cover`` (float64 ``(W,)``) with the nearest disparity seen at each right-image
+    column by the matches of one left-image ``row`` (float32 ``(W,)``), ``-inf`` where none.
+
+    Every match covers the columns it projects to, together with the next match of its row when
+    the two are at most ``max_gap_px`` columns apart and within ``surface_tolerance_px`` (one
+    surface with a small hole).
+    """
+    w = row.shape[0]
+    cover[:] = -np.inf
+    previous = -1
+    for x in range(w + 1):
+        if x < w and not _matched(row[x], w):
+            continue
+        if previous >= 0:  # the previous match, alone or with this one as one surface
+            dp = np.float64(row[previous])
+            low = previous - dp - 0.5
+            high = low + 1.0
+            seen = dp
+            if x < w:
+                dx = np.float64(row[x])
+                if x - previous <= max_gap_px and abs(dx - dp) <= surface_tolerance_px:
+                    low = min(low, x - dx - 0.5)
+                    high = max(high, x - dx + 0.5)
+                    seen = min(seen, dx)
+            _cover(cover, low, high, seen)
+        previous = x
+
+
 @njit(cache=CACHE, nogil=True)
 def hidden_in_right_kernel(disparity, max_gap_px, surface_tolerance_px, min_depth_gap_px):
     """bool ``(H, W)``: matches whose right-image column shows a surface more than
@@ -40,24 +70,7 @@ def hidden_in_right_kernel(disparity, max_gap_px, surface_tolerance_px, min_dept
     hidden = np.zeros((h, w), np.bool_)
     cover = np.empty(w, np.float64)  # nearest disparity seen at each right-image column
     for y in range(h):
-        cover[:] = -np.inf
-        previous = -1
-        for x in range(w + 1):
-            if x < w and not _matched(disparity[y, x], w):
-                continue
-            if previous >= 0:  # the previous match, alone or with this one as one surface
-                dp = np.float64(disparity[y, previous])
-                low = previous - dp - 0.5
-                high = low + 1.0
-                seen = dp
-                if x < w:
-                    dx = np.float64(disparity[y, x])
-                    if x - previous <= max_gap_px and abs(dx - dp) <= surface_tolerance_px:
-                        low = min(low, x - dx - 0.5)
-                        high = max(high, x - dx + 0.5)
-                        seen = min(seen, dx)
-                _cover(cover, low, high, seen)
-            previous = x
+        right_image_cover(disparity[y], cover, max_gap_px, surface_tolerance_px)
         for x in range(w):
             d = np.float64(disparity[y, x])
             if _matched(d, w):

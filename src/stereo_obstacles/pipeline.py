@@ -21,6 +21,10 @@ Beyond the paper:
 * matches the right camera cannot see (half-occluded background beside the left edge of a
   near object, matched anyway to the near object's texture) are removed first
   (:mod:`stereo_obstacles.visibility`): they put phantom surfaces between two depths;
+* a group made mostly of ground-coloured matches in the strip of ground beside a near object's
+  left edge that the right camera cannot see is rejected (:mod:`stereo_obstacles.hidden_ground`):
+  such matches put a phantom between the two depths when the near object's first columns went
+  unmatched;
 * candidates standing above the ground plane are grouped into obstacles, and the flat ones
   separately, only to report them as rejected (markings, puddles): grouping them together
   would chain distinct objects through the ground between them;
@@ -61,6 +65,7 @@ from stereo_obstacles.labels import Label
 from stereo_obstacles.matching import MIN_SIZE, disparity_range, warn_if_range_cut_off
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
+from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, measure_obstacles,
                                        obstacle_scan, standing_pixels)
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
@@ -147,6 +152,10 @@ class DetectionConfig:
     (:mod:`stereo_obstacles.textureless_fill`): the free range per direction is measured with
     them, and the obstacles' boxes, lateral extents and widths take them in (their distances do not);
     ``None`` uses the matched pixels only.
+    ``hidden_ground``: with a calibration, a ground plane and trusted colour labels, a group of
+    obstacle pixels made mostly of ground-coloured matches that, were they ground, the right
+    camera could not see behind a nearer object's left edge is rejected, with its reason
+    (:mod:`stereo_obstacles.hidden_ground`); ``None`` keeps such groups.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -163,6 +172,7 @@ class DetectionConfig:
     standing_significance: float | None = 3.0
     standing_max_sigma_px: float = 0.75
     textureless_fill: TexturelessFillParameters | None = field(default_factory=TexturelessFillParameters)
+    hidden_ground: HiddenGroundParameters | None = field(default_factory=HiddenGroundParameters)
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
@@ -547,6 +557,10 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
                       replace(config.grouping, split_tolerance_px=0.0)))
     grouped = run_each_in_threads(calls)
     groups, measured = grouped[0], disparity
+    hidden_rejected: tuple[RejectedGroup, ...] = ()
+    if config.hidden_ground is not None and ground is not None and calibration is not None and colour_trusted:
+        groups, hidden_rejected = reject_hidden_ground(groups, disparity, segmentation.labels, ground,
+                                                       config.hidden_ground)
     if config.blind_strip is not None:
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
                                                       config.blind_strip)
@@ -565,7 +579,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles, with_scan=False)
         # groups high enough but not clearly above the plane in disparity (far, or noisy matches)
         unclear = tuple(RejectedGroup(o.box_px, o.pixel_count, _not_clearly_raised(config)) for o in flat.obstacles)
-        obstacles = replace(obstacles, rejected=obstacles.rejected + flat.rejected + unclear)
+        obstacles = replace(obstacles, rejected=hidden_rejected + obstacles.rejected + flat.rejected + unclear)
     timings["obstacles"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - start
     return DetectionResult(segmentation=segmentation, disparity=disparity, match_stats=matched.stats,
