@@ -12,7 +12,12 @@ import numpy as np
 from numba import njit
 
 CACHE = os.environ.get("STEREO_OBSTACLES_NUMBA_CACHE", "1") != "0"
-"""Cache compiled kernels on disk (set ``STEREO_OBSTACLES_NUMBA_CACHE=0`` to opt out)."""
+"""Cache compiled kernels on disk (set ``STEREO_OBSTACLES_NUMBA_CACHE=0`` to opt out).
+
+Numba checks a cached kernel against its own file only: after editing a compiled helper that
+kernels of other files inline (``_visibility_kernel.right_image_cover``, this file's similarity),
+run with the cache off or delete the ``__pycache__`` folders, or those kernels keep the old code.
+An installation writes every file anew, so it is not affected."""
 
 FASTMATH = {"reassoc", "contract"}
 """LLVM fast-math flags of the kernels: reassociation lets the 25 window products be summed

@@ -14,9 +14,9 @@ of their own: a strip of shadow 10 x 48 px beside a box 1.54 m away, reported at
 The test asks what the ground hypothesis predicts. A raised match at ``(x, y)`` with disparity
 ``d`` is *hidden ground* when
 
-* it lies left of an occluding edge within reach: two matches of its row at most
-  ``max_edge_gap_px`` columns apart whose disparity rises by more than ``min_jump_px`` from left
-  to right, the pixel at or left of the far side;
+* it lies left of an occluding edge within reach: two neighbouring matches of its row (no match
+  between them) at most ``max_edge_gap_px`` columns apart whose disparity rises by more than
+  ``min_jump_px`` from left to right, the pixel at or left of the far side;
 * were it ground, at the plane's disparity ``g = a x + b y + c > 0`` (below the horizon), the
   right camera would see it at column ``x - g``, and that column lies behind the edge's near
   side and is covered by a matched surface more than ``min_jump_px`` nearer than ``d``.
@@ -41,6 +41,7 @@ import numpy as np
 from stereo_obstacles._hidden_ground_kernel import hidden_ground_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.float_maps import check_float_map
 from stereo_obstacles.ground_plane import GroundPlane
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacles import RejectedGroup
@@ -58,8 +59,9 @@ class HiddenGroundParameters:
     Attributes
     ----------
     min_jump_px : float
-        An occluding edge rises by more than this many pixels of disparity between two matches,
-        and the surface that hides the ground is more than this much nearer than the match.
+        An occluding edge rises by more than this many pixels of disparity between two
+        neighbouring matches of a row, and the surface that hides the ground is more than this
+        much nearer than the match.
     max_edge_gap_px : int
         Largest number of columns between the two matches of an edge (a near object's leftmost
         columns often go unmatched).
@@ -83,7 +85,8 @@ def hidden_ground(disparity: np.ndarray, mask: np.ndarray, ground: GroundPlane,
     Parameters
     ----------
     disparity
-        ``float (H, W)`` left disparity in pixels, NaN (or inf) where unmatched.
+        ``float (H, W)`` left disparity in pixels, NaN (or inf) where unmatched; compared in
+        ``float32``, as the visibility test compares it.
     mask
         ``bool (H, W)``: the matches to test (the pipeline's raised ground-coloured pixels).
     ground
@@ -107,11 +110,11 @@ def hidden_ground(disparity: np.ndarray, mask: np.ndarray, ground: GroundPlane,
     >>> np.flatnonzero(hidden_ground(d, d == 30.0, plane)[0]).tolist()
     [40, 41, 42, 43]
     """
-    d = np.asarray(disparity)
+    d = check_float_map(disparity, "disparity")
     m = np.asarray(mask)
-    if d.ndim != 2 or m.shape != d.shape or m.dtype != np.bool_:
-        raise InvalidInputError(f"disparity must be a 2-D map and mask a bool map of its shape, "
-                                f"got {d.shape} and {m.dtype} {m.shape}")
+    if m.shape != d.shape or m.dtype != np.bool_:
+        raise InvalidInputError(f"mask must be a bool map of the disparity's shape {d.shape}, got {m.dtype} {m.shape}")
+    _check_kinds(ground, params)
     with np.errstate(over="ignore"):  # float64 beyond float32's range becomes inf: unmatched
         d32 = np.ascontiguousarray(d, dtype=np.float32)
     return hidden_ground_kernel(d32, np.ascontiguousarray(m), float(ground.a), float(ground.b), float(ground.c),
@@ -127,7 +130,7 @@ def reject_hidden_ground(groups: np.ndarray, disparity: np.ndarray, labels: np.n
     Parameters
     ----------
     groups
-        ``int (H, W)`` group number per pixel, 0 for none.
+        ``int (H, W)`` group number per pixel, 0 (or negative) for none.
     disparity
         ``float (H, W)`` disparity in pixels, NaN where unmatched (a group's matched pixels are
         its pixels with a finite disparity).
@@ -148,23 +151,41 @@ def reject_hidden_ground(groups: np.ndarray, disparity: np.ndarray, labels: np.n
         (``groups`` itself when none is), and one :class:`RejectedGroup` per rejected group.
     """
     g = np.asarray(groups)
-    if g.ndim != 2 or g.shape != np.shape(disparity) or g.shape != np.shape(labels):
-        raise InvalidInputError(f"groups {g.shape}, disparity {np.shape(disparity)} and labels "
-                                f"{np.shape(labels)} must be the same 2-D shape")
-    ground_coloured = (g > 0) & (np.asarray(labels) != Label.OBSTACLE.value)
-    hidden = hidden_ground(disparity, ground_coloured, ground, params)
-    matched = (g > 0) & np.isfinite(disparity)
-    size = int(g.max(initial=0)) + 1
-    n_matched = np.bincount(g[matched], minlength=size)
-    n_hidden = np.bincount(g[matched & hidden], minlength=size)
-    rejected_ids = np.flatnonzero((n_hidden > 0) & (n_hidden >= params.min_hidden_share * n_matched))
+    lab = np.asarray(labels)
+    d = check_float_map(disparity, "disparity")
+    if g.ndim != 2 or g.shape != d.shape or g.shape != lab.shape:
+        raise InvalidInputError(f"groups {g.shape}, disparity {d.shape} and labels {lab.shape} "
+                                f"must be the same 2-D shape")
+    if not (np.issubdtype(g.dtype, np.integer) or g.dtype == np.bool_) or lab.dtype != np.uint8:
+        raise InvalidInputError(f"groups must hold integers and labels be uint8, got {g.dtype} and {lab.dtype}")
+    _check_kinds(ground, params)
+    grouped = g > 0
+    hidden = hidden_ground(d, grouped & (lab != Label.OBSTACLE.value), ground, params)
+    matched = grouped & np.isfinite(d)
+    numbers = g[matched]
+    if int(numbers.max(initial=0)) < g.size:   # dense enough to count by number
+        ids, index = np.arange(int(numbers.max(initial=0)) + 1), numbers
+    else:  # compacted, so that sparse or huge numbers cost no more than dense ones
+        ids, index = np.unique(numbers, return_inverse=True)
+    n_matched = np.bincount(index, minlength=ids.size)
+    n_hidden = np.bincount(index, weights=hidden[matched], minlength=ids.size).astype(np.int64)
+    rejected_ids = ids[(n_hidden > 0) & (n_hidden >= params.min_hidden_share * n_matched)]
     if rejected_ids.size == 0:
         return g, ()
     rejected = []
     for group in rejected_ids:
         ys, xs = np.nonzero(g == group)
         box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
+        k = int(np.searchsorted(ids, group))
         rejected.append(RejectedGroup(box, int(xs.size), (
             f"ground beside a nearer object's left edge that the right camera cannot see "
-            f"({n_hidden[group]} of {n_matched[group]} matched pixels): matches there are no evidence of an obstacle")))
+            f"({n_hidden[k]} of {n_matched[k]} matched pixels): matches there are no evidence of an obstacle")))
     return np.where(np.isin(g, rejected_ids), 0, g), tuple(rejected)
+
+
+def _check_kinds(ground: object, params: object) -> None:
+    """One clear line for a ground plane or parameters of the wrong kind."""
+    if not isinstance(ground, GroundPlane):
+        raise InvalidInputError(f"ground must be a GroundPlane, got {type(ground).__name__}")
+    if not isinstance(params, HiddenGroundParameters):
+        raise InvalidInputError(f"params must be HiddenGroundParameters, got {type(params).__name__}")
