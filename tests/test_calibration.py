@@ -158,6 +158,26 @@ def test_opencv_xml_written_by_opencv_is_read(tmp_path):
     assert (c.focal_px, c.cx_px, c.cy_px, c.baseline_m, c.doffs_px) == pytest.approx((600, 310, 200, 0.1, 0))
 
 
+@pytest.mark.parametrize("image_size", [np.array([[640, 480]], np.int32), [640, 480]])
+def test_opencv_yaml_with_its_image_size_as_a_matrix_or_a_list_is_read(tmp_path, image_size):
+    # a matrix is what calibrate and Python's FileStorage.write of an array write; stereo_calib.cpp a list
+    import cv2
+    path = str(tmp_path / "rig.yml")
+    storage = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
+    storage.write("P1", np.array([[600.0, 0, 310, 0], [0, 600, 200, 0], [0, 0, 1, 0]]))
+    storage.write("P2", np.array([[600.0, 0, 310, -600 * 0.1], [0, 600, 200, 0], [0, 0, 1, 0]]))
+    if isinstance(image_size, list):
+        storage.startWriteStruct("imageSize", cv2.FileNode_SEQ)
+        for value in image_size:
+            storage.write("", value)
+        storage.endWriteStruct()
+    else:
+        storage.write("imageSize", image_size)
+    storage.release()
+    c = read_calibration(path)
+    assert (c.width_px, c.height_px, c.focal_px, c.baseline_m) == pytest.approx((640, 480, 600, 0.1))
+
+
 def test_unknown_length_unit_is_refused(tmp_path):
     with pytest.raises(CalibrationError, match="length_unit"):
         read_calibration(tmp_path / "x", length_unit="inch")

@@ -231,6 +231,17 @@ def open_opencv_storage(path: str | os.PathLike[str]):
         raise CalibrationError(f"{path}: OpenCV cannot parse this file: {reason}") from exc
 
 
+def opencv_image_size(node) -> list[float]:
+    """The numbers of an OpenCV ``FileStorage`` ``imageSize`` node: a sequence ``[w, h]`` (as
+    OpenCV's ``stereo_calib.cpp`` writes it) or a matrix (``!!opencv-matrix``, as ``calibrate``
+    and Python's ``FileStorage.write`` of an array write it); ``[]`` for an empty node."""
+    if node.empty():
+        return []
+    if node.isMap():
+        return np.asarray(node.mat(), dtype=np.float64).ravel().tolist()
+    return [node.at(i).real() for i in range(node.size())]
+
+
 def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:
     import cv2
 
@@ -240,8 +251,7 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
         if not storage.isOpened():
             raise CalibrationError(f"{source}: OpenCV cannot open this file as YAML/XML")
         left, right = storage.getNode("P1").mat(), storage.getNode("P2").mat()
-        size_node = storage.getNode("imageSize")
-        size = [int(size_node.at(i).real()) for i in range(size_node.size())] if not size_node.empty() else []
+        size = [int(n) for n in opencv_image_size(storage.getNode("imageSize"))]
     except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
         raise CalibrationError(f"{source}: malformed OpenCV calibration: {' '.join(exc.msg.split())}") from exc
     finally:

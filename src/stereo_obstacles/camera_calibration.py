@@ -223,18 +223,16 @@ def camera_pair_from_opencv_storage(storage, source: str, length_unit: str | Non
     ``length_unit`` (``"m"``, ``"cm"``, ``"mm"``) is the unit of the file's translation; ``None``
     takes metres and refuses a baseline above ``IMPLAUSIBLE_BASELINE_M`` with a hint to give it.
     """
-    from stereo_obstacles.calibration_files import unit_scale
+    from stereo_obstacles.calibration_files import opencv_image_size, unit_scale
 
     names = ("cameraMatrix1", "cameraMatrix2", "R", "T")
     nodes = {name: storage.getNode(name) for name in (*names, "distCoeffs1", "distCoeffs2", "imageSize")}
     if any(nodes[name].empty() for name in names):
         return None
     mats = {name: node.mat() for name, node in nodes.items() if not node.empty() and node.isMap()}
-    size_node = nodes["imageSize"]
-    if size_node.empty():
+    if nodes["imageSize"].empty():
         raise CalibrationError(f"{source} has no imageSize; the rectification needs the image size")
-    size = (mats["imageSize"].ravel().tolist() if "imageSize" in mats
-            else [size_node.at(i).real() for i in range(size_node.size())])
+    size = opencv_image_size(nodes["imageSize"])
     if len(size) != 2:
         raise CalibrationError(f"{source}: imageSize must hold 2 numbers, got {size}")
     if any(name not in mats for name in names):
