@@ -184,6 +184,12 @@ def test_matches_piling_up_at_the_largest_disparity_searched_are_warned_about(ca
         share = warn_if_range_cut_off(d, 64, limit_m=6.01)
     assert share == pytest.approx(20 / 9500) and share > CUT_OFF_FRACTION
     assert "lie at the largest disparity searched, 64 px: surfaces nearer than 6.01 m are cut off" in caplog.text
+    assert "raise the maximum disparity (--max-disparity) or leave it unset" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):
+        warn_if_range_cut_off(d, 64, default_limit=True)     # no maximum was given: it cannot be left unset
+    assert "the default limit is a third of the image width: give a larger --max-disparity" in caplog.text
+    assert "leave it unset" not in caplog.text
     caplog.clear()
     d[1, 10:20] = 63.4                               # below the half pixel: 10 left, 0.11 %
     with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):
@@ -203,11 +209,16 @@ def test_a_disparity_command_with_a_range_too_short_says_so(tmp_path, caplog):
     with caplog.at_level("WARNING"):
         assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "d.npy"),
                      "--max-disparity", "8"]) == 0
-    assert "lie at the largest disparity searched, 8 px" in caplog.text
+    assert "lie at the largest disparity searched, 8 px" in caplog.text and "raise the maximum" in caplog.text
     caplog.clear()
     with caplog.at_level("WARNING"):
         assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "d.npy")]) == 0
     assert "largest disparity searched" not in caplog.text
+    write_image(tmp_path / "l.png", np.ascontiguousarray(pair.left[:, 30:60]))    # 30 px wide: 10 px by default
+    write_image(tmp_path / "r.png", np.ascontiguousarray(pair.right[:, 30:60]))
+    with caplog.at_level("WARNING"):
+        assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "d.npy")]) == 0
+    assert "largest disparity searched, 10 px" in caplog.text and "the default limit is a third" in caplog.text
 
 
 def test_float_images_of_0_to_1_match_like_their_8_bit_originals():

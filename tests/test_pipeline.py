@@ -178,6 +178,12 @@ def test_a_disparity_range_too_short_for_the_scene_is_warned_about_in_metres(def
     limit_m = default_pair.calibration.focal_baseline_px_m / 12
     assert f"lie at the largest disparity searched, 12 px: surfaces nearer than {limit_m:.2f} m" in caplog.text
     assert min(o.distance_m for o in result.obstacles.obstacles) >= limit_m * 0.97    # what the warning is about
+    assert "raise the maximum disparity" in caplog.text
+    caplog.clear()
+    strip = [np.ascontiguousarray(image[:, 60:120]) for image in (default_pair.left, default_pair.right)]
+    with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):   # 60 px wide: 20 px by default
+        detect(*strip)
+    assert "largest disparity searched, 20 px" in caplog.text and "the default limit is a third" in caplog.text
 
 
 def test_inputs_the_pipeline_cannot_use_are_refused_before_any_work():

@@ -319,7 +319,8 @@ def _run_task(job: BatchJob) -> dict:
         return {"obstacles": len(result.obstacles.obstacles), "density": result.density,
                 "nearest_distance_m": nearest.distance_m if nearest is not None else None, "inputs": inputs}
     result = match(left, right, **job.config.matching.to_kwargs())
-    warn_if_range_cut_off(result.disparity, result.stats.d_max)
+    warn_if_range_cut_off(result.disparity, result.stats.d_max,
+                          default_limit=job.config.matching.max_disparity is None)
     with staged_directory(job.out_dir) as stage:
         write_pfm(stage / "disparity.pfm", result.disparity)
         write_image(stage / "disparity_picture.png", colorize_disparity(result.disparity, 0, result.stats.d_max))

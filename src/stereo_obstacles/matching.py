@@ -228,12 +228,14 @@ CUT_OFF_FRACTION = 0.002
 OpenCV's aloe with ``max_disparity=64``."""
 
 
-def warn_if_range_cut_off(disparity: np.ndarray, d_max: int, limit_m: float | None = None) -> float:
+def warn_if_range_cut_off(disparity: np.ndarray, d_max: int, limit_m: float | None = None, *,
+                          default_limit: bool = False) -> float:
     """Warn when many matches of ``disparity`` (pixels, NaN unmatched) lie within half a pixel of
     ``d_max``, the largest disparity searched: surfaces nearer than that were matched at the limit
     and read farther than they are. Returns their share of the matches.
 
     ``limit_m``: the depth ``d_max`` stands for (metres), named in the warning when given.
+    ``default_limit``: ``d_max`` is the default (a third of the width), not a maximum the user gave.
     """
     with np.errstate(invalid="ignore"):
         n_at_limit = int(np.count_nonzero((disparity >= d_max - 0.5) & (disparity < np.inf)))   # NaN: false
@@ -242,9 +244,11 @@ def warn_if_range_cut_off(disparity: np.ndarray, d_max: int, limit_m: float | No
     share = n_at_limit / int(np.count_nonzero(np.isfinite(disparity)))
     if share > CUT_OFF_FRACTION:
         than = f" than {limit_m:.2f} m" if limit_m is not None else " than that"
+        advice = ("the default limit is a third of the image width: give a larger --max-disparity" if default_limit
+                  else "raise the maximum disparity (--max-disparity) or leave it unset")
         logger.warning("%.1f %% of the matches (%d px) lie at the largest disparity searched, %d px: surfaces "
-                       "nearer%s are cut off there and read farther than they are; raise the maximum disparity "
-                       "(--max-disparity) or leave it unset", 100 * share, n_at_limit, d_max, than)
+                       "nearer%s are cut off there and read farther than they are; %s", 100 * share, n_at_limit,
+                       d_max, than, advice)
     return share
 
 

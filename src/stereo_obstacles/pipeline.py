@@ -537,7 +537,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
 
     d_max = disparity_range(left.shape[1], 0, config.matching.max_disparity)[1]
     warn_if_range_cut_off(disparity, d_max, None if calibration is None
-                          else calibration.focal_baseline_px_m / (d_max + calibration.doffs_px))
+                          else calibration.focal_baseline_px_m / (d_max + calibration.doffs_px),
+                          default_limit=config.matching.max_disparity is None)
     t = time.perf_counter()
     # the disparity uncertainty beside the ground plane: it does not need the plane, only whether
     # there is one (without one it is not used)

@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
                    variant=args.variant, rng_seed=args.rng_seed, bands=args.bands,
                    shifted_windows=args.shifted_windows, speckle_size=args.speckle_size,
                    speckle_range=args.speckle_range)
-    warn_if_range_cut_off(result.disparity, result.stats.d_max)
+    warn_if_range_cut_off(result.disparity, result.stats.d_max, default_limit=args.max_disparity is None)
     write_disparity(args.output, result.disparity)
     if args.picture:
         write_image(args.picture, colorize_disparity(result.disparity, 0, result.stats.d_max))
