@@ -70,6 +70,7 @@ def test_index_html_shows_every_picture_obstacle_rejection_timing_and_the_versio
     links = set(re.findall(r'<a href="([^"]+)"', page))
     assert links == {"obstacles.json", "disparity.pfm", "depth.npy", "labels.png", "points.ply"}
     assert "://" not in page  # self-contained: no external resources
+    assert "labels as raw uint8 values (0 unknown, 1 ground, 2 shadow, 3 obstacle)" in page   # no truth-only classes
     rows = re.findall(r"<tr><td[^>]*>(\d+)</td><td>([\d.]+)</td>", page)
     assert rows == [(str(o.id), f"{o.distance_m:.2f}") for o in DETECTION.calibrated.obstacles]  # nearest first
     assert DETECTION.calibrated.rejected[0].reason in page

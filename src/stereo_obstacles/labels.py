@@ -27,6 +27,10 @@ class Label(IntEnum):
     SKY = 5
 
 
+SEGMENTATION_LABELS = (Label.UNKNOWN, Label.GROUND, Label.SHADOW, Label.OBSTACLE)
+"""The classes phase 1 gives a pixel (``MARKING`` and ``SKY`` are the ground truth's only)."""
+
+
 LABEL_COLOURS_RGB: dict[Label, tuple[int, int, int]] = {
     Label.UNKNOWN: (0, 0, 0),
     Label.GROUND: (60, 170, 60),

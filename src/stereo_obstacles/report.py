@@ -39,7 +39,7 @@ from stereo_obstacles.depth import points_from_depth
 from stereo_obstacles.errors import InvalidInputError, OutputError
 from stereo_obstacles.json_documents import is_document_of
 from stereo_obstacles.fileio import to_uint8, write_depth, write_image, write_labels, write_pfm
-from stereo_obstacles.labels import Label
+from stereo_obstacles.labels import SEGMENTATION_LABELS
 from stereo_obstacles.obstacle_json import (OBSTACLES_FORMAT, UNITS_NOTE_UNCALIBRATED, obstacles_to_dict,
                                             write_obstacles_json)
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
@@ -62,7 +62,8 @@ DATA_DESCRIPTIONS = {
     "obstacles.json": "obstacles, units, camera frame and calibration (JSON)",
     "disparity.pfm": "disparity in pixels (PFM, +inf = none)",
     "depth.npy": "depth in metres (NumPy float32, NaN = unknown)",
-    "labels.png": "labels as raw uint8 values (" + ", ".join(f"{v.value} {v.name.lower()}" for v in Label) + ")",
+    "labels.png": "phase-1 labels as raw uint8 values (" + ", ".join(f"{v.value} {v.name.lower()}"
+                                                                      for v in SEGMENTATION_LABELS) + ")",
     "points.ply": "coloured point cloud, metres, left camera frame (binary PLY)",
 }
 
