@@ -169,6 +169,20 @@ def test_rectify_uncalibrated(synthetic_files, tmp_path, capsys):
     assert "inliers:" in capsys.readouterr().out
 
 
+def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_other_images(synthetic_files, tmp_path):
+    out = tmp_path / "r"
+    pair = [str(synthetic_files / "left.png"), str(synthetic_files / "right.png")]
+    assert main(["rectify", *pair, "--calib", str(synthetic_files / "rig.json"), "--out", str(out)]) == 0
+    assert (out / "calibration.json").exists()
+    assert main(["rectify", *pair, "--uncalibrated", "--out", str(out)]) == 0
+    assert not (out / "calibration.json").exists()        # it described the calibrated run's images
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "calibration.json").write_text("my rig")       # no earlier run of rectify there: the user's, kept
+    assert main(["rectify", *pair, "--uncalibrated", "--out", str(mine)]) == 0
+    assert (mine / "calibration.json").read_text() == "my rig"
+
+
 def test_rectify_refuses_a_rectified_calibration(synthetic_files, tmp_path, capsys):
     calib = tmp_path / "calib.txt"
     calib.write_text("cam0=[277 0 160; 0 277 120; 0 0 1]\ncam1=[277 0 160; 0 277 120; 0 0 1]\ndoffs=0\nbaseline=120\n")

@@ -20,7 +20,7 @@ def test_scene_command_writes_every_file_and_says_where(tmp_path, capsys):
     out = tmp_path / "scene"
     assert main(["scene", "--out", str(out), "--size", "96x72"]) == 0
     assert str(out) in capsys.readouterr().out
-    assert sorted(p.name for p in out.iterdir()) == sorted(SCENE_FILES)
+    assert sorted(p.name for p in out.iterdir()) == sorted(set(SCENE_FILES) - {"camera_pair.json"})   # rectified
     expected = render_pair(default_scene(96, 72))
     np.testing.assert_array_equal(read_image(out / "left.png", mode="color"), expected.left)
     np.testing.assert_array_equal(read_image(out / "right.png", mode="color"), expected.right)
@@ -180,3 +180,80 @@ def test_a_sequence_into_a_link_to_a_single_scene_replaces_the_scene(tmp_path):
     assert main(["scene", "--out", str(tmp_path / "link"), "--size", "48x36", "--frames", "2"]) == 0
     assert sorted(p.name for p in (tmp_path / "real").iterdir()) == ["frame_0000", "frame_0001"]
     assert list_frames(tmp_path / "link") == ("frame_0000", "frame_0001")
+
+
+def test_a_single_scene_is_refused_over_files_that_are_not_a_scenes(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "left.png").write_bytes(b"my picture")
+    (out / "notes.txt").write_text("mine")
+    rendered = []
+    import stereo_obstacles.synthetic as synthetic
+
+    monkeypatch.setattr(synthetic, "render_pair", lambda *a, **k: rendered.append(1))
+    assert main(["scene", "--out", str(out), "--size", "48x36"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds left.png but no scene of this tool" in err
+    assert rendered == [] and (out / "left.png").read_bytes() == b"my picture"
+    assert sorted(p.name for p in out.iterdir()) == ["left.png", "notes.txt"]
+
+
+def test_a_scene_over_a_detection_report_is_refused_and_over_a_scene_replaces_it(tmp_path, capsys):
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "obstacles.json").write_text(json.dumps({"format": "stereo-obstacles/obstacles", "version": 1}))
+    (out / "index.html").write_text("<html>a report</html>")
+    assert main(["scene", "--out", str(out), "--size", "48x36"]) == 1
+    assert "holds obstacles.json but no scene of this tool" in capsys.readouterr().err
+    scene = tmp_path / "scene"
+    assert main(["scene", "--out", str(scene), "--size", "48x36", "--seed", "3"]) == 0
+    assert main(["scene", "--out", str(scene), "--size", "48x36", "--seed", "4"]) == 0
+    assert json.loads((scene / "scene.json").read_text())["seed"] == 4
+
+
+def test_demo_refuses_a_scene_folder_of_the_users_files(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "demo"
+    (out / "scene").mkdir(parents=True)
+    (out / "scene" / "left.png").write_bytes(b"my picture")
+    rendered = []
+    import stereo_obstacles.synthetic as synthetic
+
+    monkeypatch.setattr(synthetic, "render_pair", lambda *a, **k: rendered.append(1))
+    assert main(["demo", "--out", str(out), "--size", "64x48"]) == 1
+    assert "holds left.png but no scene of this tool" in capsys.readouterr().err and rendered == []
+    assert (out / "scene" / "left.png").read_bytes() == b"my picture" and not (out / "index.html").exists()
+
+
+def test_write_scene_folder_keeps_a_users_files(tmp_path):
+    from stereo_obstacles.errors import OutputError
+    from stereo_obstacles.synthetic import write_scene_folder
+
+    (tmp_path / "calibration.json").write_text("my rig")
+    with pytest.raises(OutputError, match="holds calibration.json but no scene of this tool"):
+        write_scene_folder(tmp_path, render_pair(default_scene(48, 36)))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["calibration.json"]
+
+
+def test_a_scene_with_a_mis_mounted_right_camera_comes_with_its_true_calibration(tmp_path, capsys):
+    from stereo_obstacles.camera_calibration import read_camera_pair_json
+
+    out = tmp_path / "tilted"
+    assert main(["scene", "--out", str(out), "--size", "160x120", "--right-rotation-deg", "0.5", "1", "0.5"]) == 0
+    assert "rectify the pair with --calib" in capsys.readouterr().out
+    rig = read_camera_pair_json(out / "camera_pair.json")
+    truth = json.loads((out / "scene.json").read_text())
+    assert "camera_pair.json" in truth["files"] and (rig.width_px, rig.height_px) == (160, 120)
+    true_pose = truth["right_camera"]
+    for ours, theirs in ((rig.rotation, "R"), (rig.translation_m, "T"), (rig.camera_matrix_left, "K_left"),
+                         (rig.camera_matrix_right, "K_right")):
+        assert np.allclose(ours, true_pose[theirs], atol=1e-5)
+    rectified = tmp_path / "rectified"
+    assert main(["rectify", str(out / "left.png"), str(out / "right.png"), "--calib", str(out / "camera_pair.json"),
+                 "--out", str(rectified)]) == 0
+    report = json.loads((rectified / "rectification.json").read_text())
+    assert report["features_before"]["vertical_offset"]["median_px"] > 1.0
+    assert report["features_after"]["vertical_offset"]["median_px"] < 0.5
+    # rendered again without the error into the same folder: the pair is rectified, the file goes
+    assert main(["scene", "--out", str(out), "--size", "160x120"]) == 0
+    assert not (out / "camera_pair.json").exists()
+    assert "camera_pair.json" not in json.loads((out / "scene.json").read_text())["files"]

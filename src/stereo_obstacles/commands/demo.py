@@ -53,11 +53,13 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.pipeline import warm_up
     from stereo_obstacles.report import check_report_folder, format_obstacle_table
     from stereo_obstacles.synthetic import default_scene, random_scene, render_pair, write_scene_folder
+    from stereo_obstacles.synthetic.scene_files import check_scene_folder
 
     width, height = image_size(args.size)
     config = config_from_args(args)  # every option is checked before anything is written
     check_output_folder(args.out)
     check_report_folder(args.out)
+    check_scene_folder(Path(args.out) / "scene")
     if args.seed < 0:
         raise InvalidInputError(f"--seed must be >= 0, got {args.seed}")
     scene = default_scene(width, height) if args.seed == 0 else random_scene(args.seed, width_px=width,

@@ -40,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
     """Rectify, measure, write the set of files atomically, print the report."""
     import json
     import logging
+    from pathlib import Path
 
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_folder, staged_directory
@@ -80,7 +81,10 @@ def run(args: argparse.Namespace) -> int:
     report["features_before"] = before.to_dict()
     report["features_after"] = after.to_dict()
     refuse_swapped(after)       # rectified with the calibration, the features say the images were exchanged
-    with staged_directory(args.out) as stage:
+    # an earlier calibrated run's calibration.json would describe images this run replaces
+    earlier_run = (Path(args.out) / "rectification.json").is_file()
+    stale = ("calibration.json",) if rectified_calibration is None and earlier_run else ()
+    with staged_directory(args.out, stale=stale) as stage:
         write_image(stage / "left.png", new_left)
         write_image(stage / "right.png", new_right)
         if rectified_calibration is not None:

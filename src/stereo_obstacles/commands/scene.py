@@ -33,9 +33,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="brightness offset of the right image, grey levels")
     parser.add_argument("--right-rotation-deg", type=float, nargs=3, default=(0.0, 0.0, 0.0),
                         metavar=("RX", "RY", "RZ"),
-                        help="rotation of the right camera about its X, Y, Z axes, degrees (unrectified pair)")
+                        help="rotation of the right camera about its X, Y, Z axes, degrees (an unrectified pair; "
+                             "its true calibration is written to camera_pair.json, for rectify --calib)")
     parser.add_argument("--right-offset-px", type=float, default=0.0, metavar="PX",
-                        help="vertical shift of the right image, pixels")
+                        help="vertical shift of the right image, pixels (camera_pair.json, as above)")
     parser.add_argument("--jpeg-quality", type=jpeg_quality, default=None, metavar="Q",
                         help="deliver both images JPEG-compressed at quality Q, 1..100 (as a webcam in MJPG "
                              "mode; written as PNG after the round trip)")
@@ -53,16 +54,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def _is_scene_folder(folder) -> bool:
-    """Whether ``folder`` holds a scene this command wrote: a ``scene.json`` of the scene format."""
-    from pathlib import Path
-
-    from stereo_obstacles.json_documents import is_document_of
-    from stereo_obstacles.synthetic.scene_files import SCENE_FORMAT
-
-    return is_document_of(Path(folder) / "scene.json", SCENE_FORMAT)
-
-
 def _check_frame_folders(folder, names) -> None:
     """Raise :class:`~stereo_obstacles.errors.OutputError` when a frame folder about to be
     written already exists as something this command did not write (a link, a file, another
@@ -70,10 +61,11 @@ def _check_frame_folders(folder, names) -> None:
     from pathlib import Path
 
     from stereo_obstacles.errors import OutputError
+    from stereo_obstacles.synthetic.scene_files import holds_a_scene
 
     for name in names:
         frame = Path(folder) / name
-        if frame.is_symlink() or (frame.exists() and not (frame.is_dir() and (_is_scene_folder(frame)
+        if frame.is_symlink() or (frame.exists() and not (frame.is_dir() and (holds_a_scene(frame)
                                                                                or not any(frame.iterdir())))):
             raise OutputError(f"{frame} exists and is not a frame this command wrote; choose another --out")
 
@@ -85,10 +77,10 @@ def _remove_frames(folder, keep) -> None:
     from pathlib import Path
 
     from stereo_obstacles.errors import OutputError
-    from stereo_obstacles.synthetic.scene_files import SCENE_FILES
+    from stereo_obstacles.synthetic.scene_files import SCENE_FILES, holds_a_scene
 
     for frame in Path(folder).glob("frame_*"):
-        if frame.name in keep or frame.is_symlink() or not _is_scene_folder(frame):
+        if frame.name in keep or frame.is_symlink() or not holds_a_scene(frame):
             continue
         try:
             for name in ("scene.json",) + SCENE_FILES:     # scene.json first: a frame half removed is no frame
@@ -110,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.synthetic import (Lighting, RenderOptions, RightCameraError, default_scene,
                                             random_scene, render_pair, render_sequence, write_scene_folder)
-    from stereo_obstacles.synthetic.scene_files import SCENE_FILES
+    from stereo_obstacles.synthetic.scene_files import SCENE_FILES, check_scene_folder, holds_a_scene
 
     from stereo_obstacles.commands._arguments import image_size
 
@@ -139,14 +131,18 @@ def run(args: argparse.Namespace) -> int:
     if args.frames == 1:
         if args.speed is not None:
             raise InvalidInputError("--speed moves the rig between frames: give --frames N (N >= 2) too")
+        check_scene_folder(out)                         # before the render
         write_scene_folder(out, render_pair(scene, options))
         _remove_frames(out, keep=())                    # a sequence written there before
         print(f"wrote scene (seed {scene.seed}, {width}x{height}) to {out}")
+        if not options.right_error.is_zero:
+            print(f"the right camera is off its rectified pose: rectify the pair with --calib {out / 'camera_pair.json'} "
+                  f"(stereo-obstacles rectify) before detecting")
         return 0
     names = [f"frame_{k:04d}" for k in range(args.frames)]
     _check_frame_folders(out, names)
     frames = render_sequence(scene, args.frames, DEFAULT_SPEED_M if args.speed is None else args.speed, options)
-    single_scene = SCENE_FILES if _is_scene_folder(out) else ()    # a single scene written there before goes
+    single_scene = SCENE_FILES if holds_a_scene(out) else ()    # a single scene written there before goes
     with staged_directory(out, stale=single_scene) as stage:
         for name, pair in zip(names, frames):
             write_scene_folder(stage / name, pair)

@@ -12,7 +12,12 @@
 ``shadow.png``            255 where a surface faces the sun but lies in a cast shadow
 ``nonocc.png``            255 where the left pixel is also visible in the rectified right view
 ``obstacles.json``        every obstacle: position, size, distances, visible pixels
-``calibration.json``      the rectified calibration (:mod:`stereo_obstacles.calibration`)
+``calibration.json``      the rectified calibration (:mod:`stereo_obstacles.calibration`): the
+                          nominal rig's, which the right image follows only without a
+                          right camera error
+``camera_pair.json``      only with a right camera error: the true calibration of the pair
+                          before rectification (:mod:`stereo_obstacles.camera_calibration`),
+                          for ``stereo-obstacles rectify --calib``
 ``scene.json``            seed, generation parameters, render options, the right camera's
                           true pose, package version
 ========================  ==============================================================
@@ -32,7 +37,10 @@ import numpy as np
 from stereo_obstacles import __version__
 from stereo_obstacles.atomic import staged_directory, write_text_atomic
 from stereo_obstacles.calibration import write_calibration_json
+from stereo_obstacles.camera_calibration import CameraPairCalibration, write_camera_pair_json
+from stereo_obstacles.errors import OutputError
 from stereo_obstacles.fileio import write_depth, write_disparity, write_image, write_labels
+from stereo_obstacles.json_documents import is_document_of
 from stereo_obstacles.labels import Label, colorize_labels
 from stereo_obstacles.synthetic.render import SyntheticPair
 
@@ -41,8 +49,10 @@ SCENE_FORMAT = "stereo-obstacles/synthetic-scene"
 FORMAT_VERSION = 1
 
 SCENE_FILES = ("left.png", "right.png", "disparity.pfm", "depth.npy", "labels.png", "labels_preview.png",
-               "instances.png", "shadow.png", "nonocc.png", "obstacles.json", "calibration.json", "scene.json")
-"""Every file :func:`write_scene_folder` writes."""
+               "instances.png", "shadow.png", "nonocc.png", "obstacles.json", "calibration.json", "camera_pair.json",
+               "scene.json")
+"""Every file :func:`write_scene_folder` may write (``camera_pair.json`` only for a pair with a right
+camera error)."""
 
 
 def _rounded(value: object) -> object:
@@ -106,8 +116,24 @@ def scene_document(pair: SyntheticPair) -> dict:
         "label_notes": "SHADOW is ground in cast shadow; a painted marking is MARKING lit or shadowed; "
                        "shadow.png marks cast shadow on any surface",
         "scene": pair.scene.to_dict(),
-        "files": list(SCENE_FILES),
+        "files": scene_file_names(pair),
     }
+
+
+def holds_a_scene(folder: str | os.PathLike[str]) -> bool:
+    """Whether ``folder`` holds a scene this tool wrote: a ``scene.json`` of its format."""
+    return is_document_of(Path(folder) / "scene.json", SCENE_FORMAT)
+
+
+def check_scene_folder(folder: str | os.PathLike[str]) -> None:
+    """Raise :class:`~stereo_obstacles.errors.OutputError` when a scene written into ``folder``
+    would replace files that are not an earlier scene's: without a ``scene.json`` of this tool
+    there, any file of the names a scene writes (:data:`SCENE_FILES`: a detection report's
+    ``obstacles.json`` and ``labels.png``, a user's own ``left.png``)."""
+    theirs = [] if holds_a_scene(folder) else [name for name in SCENE_FILES if (Path(folder) / name).exists()]
+    if theirs:
+        raise OutputError(f"{folder} holds {', '.join(theirs)} but no scene of this tool (no scene.json of it): a "
+                          f"scene would replace them; write it elsewhere, or delete them")
 
 
 def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> list[Path]:
@@ -116,9 +142,14 @@ def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> 
     Raises
     ------
     OutputError
-        The folder cannot be created or written; nothing is left half-written.
+        The folder cannot be created or written, or holds files of those names that are not an
+        earlier scene's (:func:`check_scene_folder`); nothing is left half-written.
     """
-    with staged_directory(out_dir, last=("obstacles.json", "scene.json")) as stage:
+    check_scene_folder(out_dir)
+    names = scene_file_names(pair)
+    unrectified = "camera_pair.json" in names
+    with staged_directory(out_dir, last=("obstacles.json", "scene.json"),
+                          stale=tuple(name for name in SCENE_FILES if name not in names)) as stage:
         write_image(stage / "left.png", pair.left)
         write_image(stage / "right.png", pair.right)
         write_disparity(stage / "disparity.pfm", pair.disparity)
@@ -130,5 +161,27 @@ def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> 
         write_labels(stage / "nonocc.png", pair.nonocc.astype(np.uint8) * 255)
         write_text_atomic(stage / "obstacles.json", _json(obstacles_document(pair)))
         write_calibration_json(stage / "calibration.json", pair.calibration)
+        if unrectified:
+            write_camera_pair_json(stage / "camera_pair.json", true_camera_pair(pair))
         write_text_atomic(stage / "scene.json", _json(scene_document(pair)))
-    return [Path(out_dir) / name for name in SCENE_FILES]
+    return [Path(out_dir) / name for name in names]
+
+
+def scene_file_names(pair: SyntheticPair) -> list[str]:
+    """The :data:`SCENE_FILES` written for ``pair``: ``camera_pair.json`` only when its right
+    camera is off the rectified pose."""
+    return [name for name in SCENE_FILES if name != "camera_pair.json" or not pair.options.right_error.is_zero]
+
+
+def true_camera_pair(pair: SyntheticPair) -> CameraPairCalibration:
+    """The calibration of ``pair``'s two cameras as rendered, before any rectification: the left
+    camera the rectified rig's, the right one with its true matrix, rotation and translation,
+    both without lens distortion."""
+    c = pair.calibration
+    left = np.array([[c.focal_px, 0.0, c.cx_px], [0.0, c.focal_px, c.cy_px], [0.0, 0.0, 1.0]])
+    height, width = pair.left.shape[:2]
+    return CameraPairCalibration(camera_matrix_left=left, distortion_left=np.zeros(5),
+                                 camera_matrix_right=np.asarray(pair.right_intrinsics, dtype=np.float64),
+                                 distortion_right=np.zeros(5), rotation=np.asarray(pair.right_rotation, np.float64),
+                                 translation_m=np.asarray(pair.right_translation_m, np.float64),
+                                 width_px=width, height_px=height)
