@@ -178,6 +178,25 @@ def test_opencv_yaml_with_its_image_size_as_a_matrix_or_a_list_is_read(tmp_path,
     assert (c.width_px, c.height_px, c.focal_px, c.baseline_m) == pytest.approx((640, 480, 600, 0.1))
 
 
+@pytest.mark.parametrize("image_size", ["!!opencv-matrix\n   rows: 0\n   cols: 0\n   dt: i\n   data: []",
+                                        "[ .nan, 120 ]", "160", "abc", "{width: 640, height: 480}", "[ [160], [120] ]",
+                                        "[ 640, 480, 3 ]", "[ 160.7, 120 ]", "[ a, b ]", "[ -640, 480 ]"])
+def test_an_image_size_that_is_not_two_positive_whole_numbers_is_one_clear_error(tmp_path, image_size):
+    from stereo_obstacles.camera_calibration import read_camera_calibration
+
+    matrix = "!!opencv-matrix\n   rows: {}\n   cols: {}\n   dt: d\n   data: [ {} ]\n"
+    rectified = (f"P1: {matrix.format(3, 4, '600, 0, 310, 0, 0, 600, 200, 0, 0, 0, 1, 0')}"
+                 f"P2: {matrix.format(3, 4, '600, 0, 310, -60, 0, 600, 200, 0, 0, 0, 1, 0')}")
+    pair = (f"cameraMatrix1: {matrix.format(3, 3, '600, 0, 310, 0, 600, 200, 0, 0, 1')}"
+            f"cameraMatrix2: {matrix.format(3, 3, '600, 0, 310, 0, 600, 200, 0, 0, 1')}"
+            f"R: {matrix.format(3, 3, '1, 0, 0, 0, 1, 0, 0, 0, 1')}T: {matrix.format(3, 1, '-0.1, 0, 0')}")
+    for body, reader in ((rectified, read_calibration), (pair, read_camera_calibration)):
+        path = tmp_path / "rig.yml"
+        path.write_text(f"%YAML:1.0\n---\n{body}imageSize: {image_size}\n")
+        with pytest.raises(CalibrationError, match="imageSize must hold 2 positive whole numbers"):
+            reader(path)
+
+
 def test_unknown_length_unit_is_refused(tmp_path):
     with pytest.raises(CalibrationError, match="length_unit"):
         read_calibration(tmp_path / "x", length_unit="inch")

@@ -16,6 +16,7 @@ Supported, detected from the content:
 from __future__ import annotations
 
 import logging
+import math
 import os
 import re
 from pathlib import Path
@@ -231,15 +232,29 @@ def open_opencv_storage(path: str | os.PathLike[str]):
         raise CalibrationError(f"{path}: OpenCV cannot parse this file: {reason}") from exc
 
 
-def opencv_image_size(node) -> list[float]:
-    """The numbers of an OpenCV ``FileStorage`` ``imageSize`` node: a sequence ``[w, h]`` (as
-    OpenCV's ``stereo_calib.cpp`` writes it) or a matrix (``!!opencv-matrix``, as ``calibrate``
-    and Python's ``FileStorage.write`` of an array write it); ``[]`` for an empty node."""
+def opencv_image_size(node, source: str) -> tuple[int, int] | None:
+    """The ``(width, height)`` of an OpenCV ``FileStorage`` ``imageSize`` node, ``None`` when the
+    file has none: a sequence ``[w, h]`` (as OpenCV's ``stereo_calib.cpp`` writes it) or a matrix
+    (``!!opencv-matrix``, as ``calibrate`` and Python's ``FileStorage.write`` of an array write it).
+
+    Raises
+    ------
+    CalibrationError
+        Anything else than two positive whole numbers (``source`` names the file).
+    """
     if node.empty():
-        return []
-    if node.isMap():
-        return np.asarray(node.mat(), dtype=np.float64).ravel().tolist()
-    return [node.at(i).real() for i in range(node.size())]
+        return None
+    values: list = []
+    if node.isMap() and not node.getNode("rows").empty():      # an opencv-matrix, not any map
+        matrix = node.mat()
+        values = [] if matrix is None else np.asarray(matrix, dtype=np.float64).ravel().tolist()
+    elif node.isSeq():
+        items = [node.at(i) for i in range(node.size())]
+        values = [item.real() if item.isReal() or item.isInt() else None for item in items]
+    if len(values) != 2 or not all(v is not None and math.isfinite(v) and v >= 1 and v == int(v) for v in values):
+        shown = values if values else "not a list or matrix of numbers"
+        raise CalibrationError(f"{source}: imageSize must hold 2 positive whole numbers (width, height), got {shown}")
+    return int(values[0]), int(values[1])
 
 
 def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:
@@ -251,7 +266,7 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
         if not storage.isOpened():
             raise CalibrationError(f"{source}: OpenCV cannot open this file as YAML/XML")
         left, right = storage.getNode("P1").mat(), storage.getNode("P2").mat()
-        size = [int(n) for n in opencv_image_size(storage.getNode("imageSize"))]
+        size = opencv_image_size(storage.getNode("imageSize"), source)
     except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
         raise CalibrationError(f"{source}: malformed OpenCV calibration: {' '.join(exc.msg.split())}") from exc
     finally:
@@ -270,7 +285,7 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
         raise CalibrationError(f"{source} describes a vertical stereo rig; only horizontal rigs are supported")
     baseline_in_file = -float(right[0, 3]) / focal
     scale = unit_scale(length_unit, baseline_in_file, source)
-    width, height = (size[0], size[1]) if len(size) == 2 else (None, None)
+    width, height = size if size is not None else (None, None)
     return StereoCalibration(focal_px=focal, cx_px=float(left[0, 2]), cy_px=float(left[1, 2]),
                              baseline_m=abs(baseline_in_file) * scale, width_px=width, height_px=height,
                              doffs_px=float(right[0, 2] - left[0, 2]))

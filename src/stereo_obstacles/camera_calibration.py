@@ -226,15 +226,13 @@ def camera_pair_from_opencv_storage(storage, source: str, length_unit: str | Non
     from stereo_obstacles.calibration_files import opencv_image_size, unit_scale
 
     names = ("cameraMatrix1", "cameraMatrix2", "R", "T")
-    nodes = {name: storage.getNode(name) for name in (*names, "distCoeffs1", "distCoeffs2", "imageSize")}
+    nodes = {name: storage.getNode(name) for name in (*names, "distCoeffs1", "distCoeffs2")}
     if any(nodes[name].empty() for name in names):
         return None
     mats = {name: node.mat() for name, node in nodes.items() if not node.empty() and node.isMap()}
-    if nodes["imageSize"].empty():
+    size = opencv_image_size(storage.getNode("imageSize"), source)
+    if size is None:
         raise CalibrationError(f"{source} has no imageSize; the rectification needs the image size")
-    size = opencv_image_size(nodes["imageSize"])
-    if len(size) != 2:
-        raise CalibrationError(f"{source}: imageSize must hold 2 numbers, got {size}")
     if any(name not in mats for name in names):
         raise CalibrationError(f"{source}: {', '.join(names)} must be opencv-matrix entries")
     translation = np.asarray(mats["T"], dtype=np.float64).ravel()
