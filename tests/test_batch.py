@@ -6,6 +6,7 @@ import json
 import shutil
 
 import cv2
+import numpy as np
 import pytest
 
 from _stream_frames import N_FRAMES, frames
@@ -420,3 +421,16 @@ def test_pair_names_differing_only_in_case_are_refused(tmp_path):
     _write_pair(tmp_path, "teddy_left.png", "teddy_right.png")
     with pytest.raises(InputFileError, match="share the output name"):
         find_pairs(tmp_path)
+
+
+def test_a_pair_too_narrow_for_the_default_disparity_range_is_warned_about_as_such(tmp_path, caplog):
+    from stereo_obstacles.synthetic import default_scene, render_pair
+
+    pair = render_pair(default_scene(320, 240))                            # its nearest box at about 10 px
+    for side, image in (("left", pair.left), ("right", pair.right)):       # 30 px wide: the default range is 10 px
+        cv2.imwrite(str(tmp_path / f"n_{side}.png"), cv2.cvtColor(np.ascontiguousarray(image[:, 30:60]),
+                                                                  cv2.COLOR_RGB2BGR))
+    with caplog.at_level("WARNING"):
+        assert main(["batch", str(tmp_path), "--out", str(tmp_path / "out"), "--workers", "1",
+                     "--task", "disparity"]) == 0
+    assert "largest disparity searched, 10 px" in caplog.text and "the default limit is a third" in caplog.text

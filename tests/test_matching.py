@@ -184,6 +184,11 @@ def test_matches_piling_up_at_the_largest_disparity_searched_are_warned_about(ca
         share = warn_if_range_cut_off(d, 64, limit_m=6.01)
     assert share == pytest.approx(20 / 9500) and share > CUT_OFF_FRACTION
     assert "lie at the largest disparity searched, 64 px: surfaces nearer than 6.01 m are cut off" in caplog.text
+    # the advice: a maximum of 64 px on a map 100 px wide already searches beyond the default 33 px
+    assert caplog.text.rstrip().endswith("raise the maximum disparity (--max-disparity)")
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):
+        warn_if_range_cut_off(np.where(d > 63, np.float32(19.7), d), 20)   # below the default: unset searches more
     assert "raise the maximum disparity (--max-disparity) or leave it unset" in caplog.text
     caplog.clear()
     with caplog.at_level("WARNING", logger="stereo_obstacles.matching"):

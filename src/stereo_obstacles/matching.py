@@ -244,8 +244,12 @@ def warn_if_range_cut_off(disparity: np.ndarray, d_max: int, limit_m: float | No
     share = n_at_limit / int(np.count_nonzero(np.isfinite(disparity)))
     if share > CUT_OFF_FRACTION:
         than = f" than {limit_m:.2f} m" if limit_m is not None else " than that"
-        advice = ("the default limit is a third of the image width: give a larger --max-disparity" if default_limit
-                  else "raise the maximum disparity (--max-disparity) or leave it unset")
+        if default_limit:
+            advice = "the default limit is a third of the image width: give a larger --max-disparity"
+        elif d_max < disparity_range(disparity.shape[-1])[1]:            # the default would search further
+            advice = "raise the maximum disparity (--max-disparity) or leave it unset"
+        else:
+            advice = "raise the maximum disparity (--max-disparity)"
         logger.warning("%.1f %% of the matches (%d px) lie at the largest disparity searched, %d px: surfaces "
                        "nearer%s are cut off there and read farther than they are; %s", 100 * share, n_at_limit,
                        d_max, than, advice)
