@@ -179,8 +179,19 @@ def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_oth
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "calibration.json").write_text("my rig")       # no earlier run of rectify there: the user's, kept
+    (mine / "rectification.json").write_text('{"mine": 1}')   # nor is a file of that name of another kind one
     assert main(["rectify", *pair, "--uncalibrated", "--out", str(mine)]) == 0
     assert (mine / "calibration.json").read_text() == "my rig"
+
+
+def test_rectify_refuses_to_write_into_a_rendered_scene(synthetic_files, tmp_path, capsys):
+    scene = tmp_path / "scene"
+    assert main(["scene", "--out", str(scene), "--size", "64x48"]) == 0
+    before = {p.name: p.read_bytes() for p in scene.iterdir()}
+    assert main(["rectify", str(synthetic_files / "left.png"), str(synthetic_files / "right.png"), "--uncalibrated",
+                 "--out", str(scene)]) == 1
+    assert "holds a rendered scene" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in scene.iterdir()} == before
 
 
 def test_rectify_refuses_a_rectified_calibration(synthetic_files, tmp_path, capsys):

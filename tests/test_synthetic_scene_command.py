@@ -232,6 +232,8 @@ def test_write_scene_folder_keeps_a_users_files(tmp_path):
     with pytest.raises(OutputError, match="holds calibration.json but no scene of this tool"):
         write_scene_folder(tmp_path, render_pair(default_scene(48, 36)))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["calibration.json"]
+    written = write_scene_folder(tmp_path / "new", render_pair(default_scene(48, 36)))   # what it says it wrote
+    assert sorted(written) == sorted((tmp_path / "new").iterdir())
 
 
 def test_a_scene_with_a_mis_mounted_right_camera_comes_with_its_true_calibration(tmp_path, capsys):
@@ -257,3 +259,11 @@ def test_a_scene_with_a_mis_mounted_right_camera_comes_with_its_true_calibration
     assert main(["scene", "--out", str(out), "--size", "160x120"]) == 0
     assert not (out / "camera_pair.json").exists()
     assert "camera_pair.json" not in json.loads((out / "scene.json").read_text())["files"]
+
+
+def test_a_rectified_sequence_over_a_mis_mounted_one_leaves_no_calibration_of_the_old_frames(tmp_path, capsys):
+    out = tmp_path / "walk"
+    assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "2", "--right-offset-px", "2"]) == 0
+    assert "frame_*" in capsys.readouterr().out and (out / "frame_0001" / "camera_pair.json").exists()
+    assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "2"]) == 0
+    assert not list(out.glob("frame_*/camera_pair.json"))

@@ -7,6 +7,9 @@ import argparse
 from stereo_obstacles.commands._arguments import output_path
 from stereo_obstacles.commands._calibration_options import CALIB_UNIT_HELP
 
+REPORT_FORMAT = "stereo-obstacles/rectification"
+"""The ``format`` of ``rectification.json``: how a later run knows the folder holds its output."""
+
 OUTPUT_FILES = ("left.png", "right.png", "calibration.json", "rectification.json")
 """What ``rectify`` writes into its folder: the rectified pair, the rectified calibration
 (calibrated case) and the quality report."""
@@ -46,17 +49,22 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_folder, staged_directory
     from stereo_obstacles.calibration import write_calibration_json
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
-    from stereo_obstacles.errors import CalibrationError, ImageMismatchError
+    from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
     from stereo_obstacles.fileio import read_image, write_image
+    from stereo_obstacles.json_documents import is_document_of
     from stereo_obstacles.rectification_check import check_rectification, refuse_swapped
+    from stereo_obstacles.synthetic.scene_files import holds_a_scene
 
     check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))
+    if holds_a_scene(args.out):
+        raise OutputError(f"{args.out} holds a rendered scene: its left.png, right.png and calibration.json go with "
+                          f"its ground truth; write the rectified pair elsewhere")
     left = read_image(args.left)
     right = read_image(args.right)
     if left.shape != right.shape:
         raise ImageMismatchError(f"{args.left} is {left.shape[1]}x{left.shape[0]} but {args.right} is "
                                  f"{right.shape[1]}x{right.shape[0]}; a stereo pair needs one size")
-    report = {"version": __version__, "left": str(args.left), "right": str(args.right)}
+    report = {"format": REPORT_FORMAT, "version": __version__, "left": str(args.left), "right": str(args.right)}
     rectified_calibration = None
     if args.uncalibrated:
         from stereo_obstacles.uncalibrated_rectification import rectify_uncalibrated
@@ -82,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     report["features_after"] = after.to_dict()
     refuse_swapped(after)       # rectified with the calibration, the features say the images were exchanged
     # an earlier calibrated run's calibration.json would describe images this run replaces
-    earlier_run = (Path(args.out) / "rectification.json").is_file()
+    earlier_run = is_document_of(Path(args.out) / "rectification.json", REPORT_FORMAT)
     stale = ("calibration.json",) if rectified_calibration is None and earlier_run else ()
     with staged_directory(args.out, stale=stale) as stage:
         write_image(stage / "left.png", new_left)

@@ -93,6 +93,13 @@ def _remove_frames(folder, keep) -> None:
             raise OutputError(f"cannot remove the earlier frame {frame}: {exc.strerror or exc}") from exc
 
 
+def _rectification_hint(options, calibration_file) -> None:
+    """Say how to rectify a render whose right camera is off its rectified pose."""
+    if not options.right_error.is_zero:
+        print(f"the right camera is off its rectified pose: rectify the pair with --calib {calibration_file} "
+              f"(stereo-obstacles rectify) before detecting")
+
+
 def run(args: argparse.Namespace) -> int:
     """Render the scene and write its folder."""
     from dataclasses import replace
@@ -102,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.synthetic import (Lighting, RenderOptions, RightCameraError, default_scene,
                                             random_scene, render_pair, render_sequence, write_scene_folder)
-    from stereo_obstacles.synthetic.scene_files import SCENE_FILES, check_scene_folder, holds_a_scene
+    from stereo_obstacles.synthetic.scene_files import SCENE_FILES, check_scene_folder, holds_a_scene, scene_file_names
 
     from stereo_obstacles.commands._arguments import image_size
 
@@ -135,17 +142,18 @@ def run(args: argparse.Namespace) -> int:
         write_scene_folder(out, render_pair(scene, options))
         _remove_frames(out, keep=())                    # a sequence written there before
         print(f"wrote scene (seed {scene.seed}, {width}x{height}) to {out}")
-        if not options.right_error.is_zero:
-            print(f"the right camera is off its rectified pose: rectify the pair with --calib {out / 'camera_pair.json'} "
-                  f"(stereo-obstacles rectify) before detecting")
+        _rectification_hint(options, out / "camera_pair.json")
         return 0
     names = [f"frame_{k:04d}" for k in range(args.frames)]
     _check_frame_folders(out, names)
     frames = render_sequence(scene, args.frames, DEFAULT_SPEED_M if args.speed is None else args.speed, options)
-    single_scene = SCENE_FILES if holds_a_scene(out) else ()    # a single scene written there before goes
-    with staged_directory(out, stale=single_scene) as stage:
+    stale = SCENE_FILES if holds_a_scene(out) else ()          # a single scene written there before goes,
+    stale += tuple(f"{name}/{file}" for name in names            # and what this render does not write
+                   for file in SCENE_FILES if file not in scene_file_names(options))
+    with staged_directory(out, stale=stale) as stage:
         for name, pair in zip(names, frames):
             write_scene_folder(stage / name, pair)
     _remove_frames(out, keep=names)                              # and the frames of a longer sequence
     print(f"wrote {args.frames} frames (seed {scene.seed}, {width}x{height}) to {out}/frame_*")
+    _rectification_hint(options, out / "frame_*" / "camera_pair.json")
     return 0

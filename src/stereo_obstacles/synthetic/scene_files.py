@@ -42,7 +42,7 @@ from stereo_obstacles.errors import OutputError
 from stereo_obstacles.fileio import write_depth, write_disparity, write_image, write_labels
 from stereo_obstacles.json_documents import is_document_of
 from stereo_obstacles.labels import Label, colorize_labels
-from stereo_obstacles.synthetic.render import SyntheticPair
+from stereo_obstacles.synthetic.render import RenderOptions, SyntheticPair
 
 OBSTACLES_FORMAT = "stereo-obstacles/synthetic-obstacles"
 SCENE_FORMAT = "stereo-obstacles/synthetic-scene"
@@ -116,7 +116,7 @@ def scene_document(pair: SyntheticPair) -> dict:
         "label_notes": "SHADOW is ground in cast shadow; a painted marking is MARKING lit or shadowed; "
                        "shadow.png marks cast shadow on any surface",
         "scene": pair.scene.to_dict(),
-        "files": scene_file_names(pair),
+        "files": scene_file_names(pair.options),
     }
 
 
@@ -146,7 +146,7 @@ def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> 
         earlier scene's (:func:`check_scene_folder`); nothing is left half-written.
     """
     check_scene_folder(out_dir)
-    names = scene_file_names(pair)
+    names = scene_file_names(pair.options)
     unrectified = "camera_pair.json" in names
     with staged_directory(out_dir, last=("obstacles.json", "scene.json"),
                           stale=tuple(name for name in SCENE_FILES if name not in names)) as stage:
@@ -167,10 +167,10 @@ def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> 
     return [Path(out_dir) / name for name in names]
 
 
-def scene_file_names(pair: SyntheticPair) -> list[str]:
-    """The :data:`SCENE_FILES` written for ``pair``: ``camera_pair.json`` only when its right
-    camera is off the rectified pose."""
-    return [name for name in SCENE_FILES if name != "camera_pair.json" or not pair.options.right_error.is_zero]
+def scene_file_names(options: RenderOptions) -> list[str]:
+    """The :data:`SCENE_FILES` written for a pair rendered with ``options``: ``camera_pair.json``
+    only when the right camera is off the rectified pose."""
+    return [name for name in SCENE_FILES if name != "camera_pair.json" or not options.right_error.is_zero]
 
 
 def true_camera_pair(pair: SyntheticPair) -> CameraPairCalibration:
