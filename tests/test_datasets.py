@@ -224,8 +224,11 @@ def test_kitti2015_layout_frames_gt_mask_and_calibration(tmp_path):
     np.testing.assert_allclose(pair.gt_disparity, 20.5)
     assert not pair.nonocc[:, :10].any() and pair.nonocc[:, 10:].all()
     assert pair.calibration.baseline_m == pytest.approx(385 / 720)
+    assert (pair.left_file, pair.right_file, pair.calibration_file) == (
+        tmp_path / "image_2" / "000001_10.png", tmp_path / "image_3" / "000001_10.png",
+        tmp_path / "calib_cam_to_cam" / "000001.txt")
     bare = load_pair(tmp_path, frame="000000_10")
-    assert bare.gt_disparity is None and bare.calibration is None
+    assert bare.gt_disparity is None and bare.calibration is None and bare.calibration_file is None
     with pytest.raises(InvalidInputError, match="pass frame"):
         load_pair(tmp_path)
     with pytest.raises(InputFileError, match="000009_10"):

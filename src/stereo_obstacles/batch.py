@@ -278,7 +278,10 @@ def _load(job: BatchJob):
     if pair.folder is not None:
         stereo = load_pair(pair.folder, frame=pair.frame)
         left, right, calibration = stereo.left, stereo.right, stereo.calibration
-        inputs = {"folder": pair.folder, "frame": pair.frame, "layout": stereo.layout}
+        inputs = {"folder": pair.folder, "frame": pair.frame, "layout": stereo.layout, "left": str(stereo.left_file),
+                  "right": str(stereo.right_file)}
+        if stereo.calibration_file is not None:
+            inputs["calibration"] = str(stereo.calibration_file)
     else:
         mode = "color" if job.task == "detect" else "any"     # the matcher takes grey pairs too
         left, right = read_image(pair.left, mode=mode), read_image(pair.right, mode=mode)

@@ -94,6 +94,10 @@ class StereoPair:
         The folder the pair was read from.
     layout : str
         The recognised layout (see the module docstring).
+    left_file, right_file : pathlib.Path or None
+        The image files read (``None`` for a pair made in memory).
+    calibration_file : pathlib.Path or None
+        The file ``calibration`` was read from, ``None`` without one.
     """
 
     name: str
@@ -104,6 +108,9 @@ class StereoPair:
     calibration: StereoCalibration | None
     source: Path
     layout: str
+    left_file: Path | None = None
+    right_file: Path | None = None
+    calibration_file: Path | None = None
 
     def __post_init__(self) -> None:
         for label in ("left", "right"):
@@ -221,9 +228,8 @@ def _load_synthetic(root: Path, gt_scale: float | None) -> StereoPair | None:
     if not ((root / "left.png").is_file() and (root / "right.png").is_file()):
         return None
     gt = _optional(root / "disparity.pfm", read_pfm)
-    calibration = _optional(root / "calibration.json", read_calibration_json)
     return _make_pair(root, root.name, "synthetic", root / "left.png", root / "right.png", gt,
-                      _optional(root / "nonocc.png", _read_mask), calibration)
+                      _optional(root / "nonocc.png", _read_mask), root / "calibration.json", read_calibration_json)
 
 
 def _load_middlebury2014(root: Path, gt_scale: float | None) -> StereoPair | None:
@@ -235,9 +241,8 @@ def _load_middlebury2014(root: Path, gt_scale: float | None) -> StereoPair | Non
     if nonocc is None and gt is not None:
         right_gt = _optional(_first_existing(root, ("disp1GT.pfm", "disp1.pfm")), read_pfm)
         nonocc = _lr_check_mask(gt, right_gt) if right_gt is not None else None
-    calibration = _optional(root / "calib.txt", read_calibration)
     return _make_pair(root, root.name, "middlebury2014", root / "im0.png", root / "im1.png", gt,
-                      nonocc, calibration)
+                      nonocc, root / "calib.txt")
 
 
 def _load_middlebury2005(root: Path, gt_scale: float | None) -> StereoPair | None:
@@ -319,9 +324,8 @@ def _load_kitti_pair(root: Path, gt_scale: float | None) -> StereoPair | None:
         gt = read_kitti_disparity((occ or gts)[0])
         if occ and noc:
             nonocc = np.isfinite(read_kitti_disparity(noc[0]))
-    calibration = _optional(_first_existing(root, ("Calib.txt", "calib.txt",
-                                                   "calib_cam_to_cam.txt")), read_calibration)
-    return _make_pair(root, root.name, "kitti-pair", lefts[0], right, gt, nonocc, calibration)
+    return _make_pair(root, root.name, "kitti-pair", lefts[0], right, gt, nonocc,
+                      _first_existing(root, ("Calib.txt", "calib.txt", "calib_cam_to_cam.txt")))
 
 
 def _load_kitti2015(root: Path, frame: str) -> StereoPair:
@@ -336,8 +340,7 @@ def _load_kitti2015(root: Path, frame: str) -> StereoPair:
     calib_file = _first_existing(root, (f"calib_cam_to_cam/{sequence}.txt", f"calib/{sequence}.txt",
                                         "calib_cam_to_cam.txt"))
     return _make_pair(root, f"{root.name}/{frame}", "kitti2015", left,
-                      root / "image_3" / f"{frame}.png", gt, nonocc,
-                      _optional(calib_file, read_calibration))
+                      root / "image_3" / f"{frame}.png", gt, nonocc, calib_file)
 
 
 # --- helpers ---------------------------------------------------------------------------------
@@ -353,7 +356,12 @@ def _check_folder(folder: PathLike) -> Path:
 
 def _make_pair(root: Path, name: str, layout: str, left_file: Path, right_file: Path,
                gt: np.ndarray | None, nonocc: np.ndarray | None,
-               calibration: StereoCalibration | None) -> StereoPair:
+               calibration_file: Path | None, read_calibration_file=read_calibration) -> StereoPair:
+    """The pair of ``left_file`` and ``right_file``, with the calibration in ``calibration_file``
+    (read by ``read_calibration_file``) when that file exists."""
+    if calibration_file is not None and not calibration_file.is_file():
+        calibration_file = None
+    calibration = read_calibration_file(calibration_file) if calibration_file is not None else None
     left = _read_rgb(left_file)
     right = _read_rgb(right_file)
     h, w = left.shape[:2]
@@ -369,7 +377,8 @@ def _make_pair(root: Path, name: str, layout: str, left_file: Path, right_file: 
             logger.warning("%s: %s", root, doubt)
         calibration = replace(calibration, width_px=w, height_px=h)
     return StereoPair(name=name, left=left, right=right, gt_disparity=gt, nonocc=nonocc,
-                      calibration=calibration, source=root, layout=layout)
+                      calibration=calibration, source=root, layout=layout, left_file=left_file,
+                      right_file=right_file, calibration_file=calibration_file)
 
 
 def _read_rgb(path: Path) -> np.ndarray:
