@@ -22,8 +22,9 @@ def hidden_ground_kernel(disparity, mask, a, b, c, min_jump_px, max_edge_gap_px,
     than ``min_jump_px`` nearer than the match (see :func:`stereo_obstacles.hidden_ground.hidden_ground`).
 
     ``disparity`` float32 ``(H, W)``, unmatched where not finite or above ``2 W``; ``mask`` bool
-    ``(H, W)``. An occluding edge lies between two matches of a row at most ``max_edge_gap_px``
-    columns apart whose disparity rises by more than ``min_jump_px`` from left to right; the
+    ``(H, W)``. An occluding edge lies between two neighbouring matches of a row at most
+    ``max_edge_gap_px`` columns apart whose disparity rises by more than ``min_jump_px`` from left
+    to right; the
     right-image cover is built as the visibility test builds it (``surface_gap_px``,
     ``surface_tolerance_px``).
     """
