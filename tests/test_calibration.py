@@ -158,7 +158,7 @@ def test_opencv_xml_written_by_opencv_is_read(tmp_path):
     assert (c.focal_px, c.cx_px, c.cy_px, c.baseline_m, c.doffs_px) == pytest.approx((600, 310, 200, 0.1, 0))
 
 
-@pytest.mark.parametrize("image_size", [np.array([[640, 480]], np.int32), [640, 480]])
+@pytest.mark.parametrize("image_size", [np.array([[640, 480]], np.int32), np.array((640, 480)), [640, 480]])
 def test_opencv_yaml_with_its_image_size_as_a_matrix_or_a_list_is_read(tmp_path, image_size):
     # a matrix is what calibrate and Python's FileStorage.write of an array write; stereo_calib.cpp a list
     import cv2

@@ -235,7 +235,8 @@ def open_opencv_storage(path: str | os.PathLike[str]):
 def opencv_image_size(node, source: str) -> tuple[int, int] | None:
     """The ``(width, height)`` of an OpenCV ``FileStorage`` ``imageSize`` node, ``None`` when the
     file has none: a sequence ``[w, h]`` (as OpenCV's ``stereo_calib.cpp`` writes it) or a matrix
-    (``!!opencv-matrix``, as ``calibrate`` and Python's ``FileStorage.write`` of an array write it).
+    (``!!opencv-matrix``, as ``calibrate`` writes it, or ``!!opencv-nd-matrix``, as Python's
+    ``FileStorage.write`` of a 1-D array writes it).
 
     Raises
     ------
@@ -245,8 +246,8 @@ def opencv_image_size(node, source: str) -> tuple[int, int] | None:
     if node.empty():
         return None
     values: list = []
-    if node.isMap() and not node.getNode("rows").empty():      # an opencv-matrix, not any map
-        matrix = node.mat()
+    if node.isMap() and not node.getNode("dt").empty() and not node.getNode("data").empty():
+        matrix = node.mat()                      # an opencv-matrix or opencv-nd-matrix, not any map
         values = [] if matrix is None else np.asarray(matrix, dtype=np.float64).ravel().tolist()
     elif node.isSeq():
         items = [node.at(i) for i in range(node.size())]
