@@ -206,8 +206,9 @@ def test_detect_task_writes_the_detect_outputs_with_the_folder_calibration(tmp_p
     document = json.loads((out / "scene" / "obstacles.json").read_text())
     assert document["units"] == "metres"
     scene = tmp_path / "in" / "scene"                                    # which files were read, as detect says
-    assert {k: document["run"]["inputs"][k] for k in ("left", "right", "calibration")} == {
-        "left": str(scene / "left.png"), "right": str(scene / "right.png"), "calibration": str(scene / "calibration.json")}
+    assert {k: document["run"]["inputs"][k] for k in ("left", "right", "calibration", "rectification")} == {
+        "left": str(scene / "left.png"), "right": str(scene / "right.png"), "calibration": str(scene / "calibration.json"),
+        "rectification": None}
     assert done["nearest_distance_m"] == pytest.approx(frames()[0].obstacles[0].distance_m, rel=0.15)
 
 

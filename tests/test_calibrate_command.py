@@ -176,6 +176,12 @@ def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_oth
     assert (out / "calibration.json").exists()
     assert main(["rectify", *pair, "--uncalibrated", "--out", str(out)]) == 0
     assert not (out / "calibration.json").exists()        # it described the calibrated run's images
+    assert main(["rectify", *pair, "--calib", str(synthetic_files / "rig.json"), "--out", str(out)]) == 0
+    report = json.loads((out / "rectification.json").read_text())
+    del report["format"]                                  # as versions before the format mark wrote it
+    (out / "rectification.json").write_text(json.dumps(report))
+    assert main(["rectify", *pair, "--uncalibrated", "--out", str(out)]) == 0
+    assert not (out / "calibration.json").exists()
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "calibration.json").write_text("my rig")       # no earlier run of rectify there: the user's, kept

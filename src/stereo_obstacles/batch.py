@@ -279,9 +279,8 @@ def _load(job: BatchJob):
         stereo = load_pair(pair.folder, frame=pair.frame)
         left, right, calibration = stereo.left, stereo.right, stereo.calibration
         inputs = {"folder": pair.folder, "frame": pair.frame, "layout": stereo.layout, "left": str(stereo.left_file),
-                  "right": str(stereo.right_file)}
-        if stereo.calibration_file is not None:
-            inputs["calibration"] = str(stereo.calibration_file)
+                  "right": str(stereo.right_file),
+                  "calibration": None if stereo.calibration_file is None else str(stereo.calibration_file)}
     else:
         mode = "color" if job.task == "detect" else "any"     # the matcher takes grey pairs too
         left, right = read_image(pair.left, mode=mode), read_image(pair.right, mode=mode)
@@ -289,7 +288,8 @@ def _load(job: BatchJob):
                                                                            and left.shape != right.shape):
             raise ImageMismatchError(f"{pair.left} is {_describe(left)} but {pair.right} is {_describe(right)}")
         calibration = None
-        inputs = {"left": pair.left, "right": pair.right}
+        inputs = {"left": pair.left, "right": pair.right, "calibration": None}
+    inputs["rectification"] = None                       # the keys detect records, filled as it fills them
     if job.calib_file is not None:
         inputs["calibration"] = job.calib_file
         calibration, rectification = rig_for_images(job.calibration, left.shape[1], left.shape[0])

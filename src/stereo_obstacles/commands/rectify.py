@@ -39,6 +39,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
+def _is_rectify_report(path) -> bool:
+    """Whether ``path`` is a ``rectification.json`` this command wrote: of its format, or of the
+    shape it had before it carried one (a ``rectification`` beside ``features_after``)."""
+    import json
+
+    from stereo_obstacles.json_documents import is_document_of
+
+    if is_document_of(path, REPORT_FORMAT):
+        return True
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(data, dict) and {"version", "rectification", "features_before", "features_after"} <= data.keys()
+
+
 def run(args: argparse.Namespace) -> int:
     """Rectify, measure, write the set of files atomically, print the report."""
     import json
@@ -51,7 +67,6 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
     from stereo_obstacles.fileio import read_image, write_image
-    from stereo_obstacles.json_documents import is_document_of
     from stereo_obstacles.rectification_check import check_rectification, refuse_swapped
     from stereo_obstacles.synthetic.scene_files import holds_a_scene
 
@@ -90,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     report["features_after"] = after.to_dict()
     refuse_swapped(after)       # rectified with the calibration, the features say the images were exchanged
     # an earlier calibrated run's calibration.json would describe images this run replaces
-    earlier_run = is_document_of(Path(args.out) / "rectification.json", REPORT_FORMAT)
+    earlier_run = _is_rectify_report(Path(args.out) / "rectification.json")
     stale = ("calibration.json",) if rectified_calibration is None and earlier_run else ()
     with staged_directory(args.out, stale=stale) as stage:
         write_image(stage / "left.png", new_left)
