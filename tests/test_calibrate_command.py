@@ -169,7 +169,8 @@ def test_rectify_uncalibrated(synthetic_files, tmp_path, capsys):
     assert "inliers:" in capsys.readouterr().out
 
 
-def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_other_images(synthetic_files, tmp_path):
+def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_other_images(synthetic_files, tmp_path,
+                                                                                        capsys):
     out = tmp_path / "r"
     pair = [str(synthetic_files / "left.png"), str(synthetic_files / "right.png")]
     assert main(["rectify", *pair, "--calib", str(synthetic_files / "rig.json"), "--out", str(out)]) == 0
@@ -184,10 +185,13 @@ def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_oth
     assert not (out / "calibration.json").exists()
     mine = tmp_path / "mine"
     mine.mkdir()
-    (mine / "calibration.json").write_text("my rig")       # no earlier run of rectify there: the user's, kept
+    (mine / "calibration.json").write_text("my rig")       # no earlier run of rectify there: the user's
     (mine / "rectification.json").write_text('{"mine": 1}')   # nor is a file of that name of another kind one
-    assert main(["rectify", *pair, "--uncalibrated", "--out", str(mine)]) == 0
-    assert (mine / "calibration.json").read_text() == "my rig"
+    (mine / "left.png").write_bytes(b"my picture")
+    assert main(["rectify", *pair, "--uncalibrated", "--out", str(mine)]) == 1
+    assert "holds left.png, calibration.json, rectification.json but no rectification of this tool" in \
+        capsys.readouterr().err
+    assert [(mine / n).read_bytes() for n in ("calibration.json", "left.png")] == [b"my rig", b"my picture"]
 
 
 def test_rectify_refuses_to_write_into_a_rendered_scene(synthetic_files, tmp_path, capsys):

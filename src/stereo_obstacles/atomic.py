@@ -100,6 +100,17 @@ def check_output_folder(path: str | os.PathLike[str], names: Iterable[str] = (),
         _refuse_inputs(folder / name, inputs)
 
 
+def refuse_foreign_files(folder: str | os.PathLike[str], names: Iterable[str], *, ours: bool, what: str,
+                         marker: str) -> None:
+    """Raise :class:`OutputError` when ``folder`` holds files of the ``names`` a run writes but
+    not a ``what`` of this tool (``ours`` false; ``marker`` says how one is recognised): a run
+    would replace a user's own files of those names."""
+    theirs = [] if ours else [name for name in names if (Path(folder) / name).exists()]
+    if theirs:
+        raise OutputError(f"{folder} holds {', '.join(theirs)} but no {what} of this tool (no {marker} of it): a "
+                          f"{what} would replace them; write it elsewhere, or delete them")
+
+
 def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:
     """Create an empty private temporary file in ``path``'s folder (created if needed).
 

@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from stereo_obstacles import __version__
-    from stereo_obstacles.atomic import check_output_folder, staged_directory
+    from stereo_obstacles.atomic import check_output_folder, refuse_foreign_files, staged_directory
     from stereo_obstacles.calibration import write_calibration_json
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
@@ -74,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
     if holds_a_scene(args.out):
         raise OutputError(f"{args.out} holds a rendered scene: its left.png, right.png and calibration.json go with "
                           f"its ground truth; write the rectified pair elsewhere")
+    earlier_run = _is_rectify_report(Path(args.out) / "rectification.json")
+    refuse_foreign_files(args.out, OUTPUT_FILES, ours=earlier_run, what="rectification", marker="rectification.json")
     left = read_image(args.left)
     right = read_image(args.right)
     if left.shape != right.shape:
@@ -105,7 +107,6 @@ def run(args: argparse.Namespace) -> int:
     report["features_after"] = after.to_dict()
     refuse_swapped(after)       # rectified with the calibration, the features say the images were exchanged
     # an earlier calibrated run's calibration.json would describe images this run replaces
-    earlier_run = _is_rectify_report(Path(args.out) / "rectification.json")
     stale = ("calibration.json",) if rectified_calibration is None and earlier_run else ()
     with staged_directory(args.out, stale=stale) as stage:
         write_image(stage / "left.png", new_left)

@@ -35,10 +35,9 @@ from pathlib import Path
 import numpy as np
 
 from stereo_obstacles import __version__
-from stereo_obstacles.atomic import staged_directory, write_text_atomic
+from stereo_obstacles.atomic import refuse_foreign_files, staged_directory, write_text_atomic
 from stereo_obstacles.calibration import write_calibration_json
 from stereo_obstacles.camera_calibration import CameraPairCalibration, write_camera_pair_json
-from stereo_obstacles.errors import OutputError
 from stereo_obstacles.fileio import write_depth, write_disparity, write_image, write_labels
 from stereo_obstacles.json_documents import is_document_of
 from stereo_obstacles.labels import Label, colorize_labels
@@ -130,10 +129,7 @@ def check_scene_folder(folder: str | os.PathLike[str]) -> None:
     would replace files that are not an earlier scene's: without a ``scene.json`` of this tool
     there, any file of the names a scene writes (:data:`SCENE_FILES`: a detection report's
     ``obstacles.json`` and ``labels.png``, a user's own ``left.png``)."""
-    theirs = [] if holds_a_scene(folder) else [name for name in SCENE_FILES if (Path(folder) / name).exists()]
-    if theirs:
-        raise OutputError(f"{folder} holds {', '.join(theirs)} but no scene of this tool (no scene.json of it): a "
-                          f"scene would replace them; write it elsewhere, or delete them")
+    refuse_foreign_files(folder, SCENE_FILES, ours=holds_a_scene(folder), what="scene", marker="scene.json")
 
 
 def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> list[Path]:
