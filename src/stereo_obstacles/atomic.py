@@ -101,14 +101,14 @@ def check_output_folder(path: str | os.PathLike[str], names: Iterable[str] = (),
 
 
 def refuse_foreign_files(folder: str | os.PathLike[str], names: Iterable[str], *, ours: bool, what: str,
-                         marker: str) -> None:
+                         missing: str) -> None:
     """Raise :class:`OutputError` when ``folder`` holds files of the ``names`` a run writes but
-    not a ``what`` of this tool (``ours`` false; ``marker`` says how one is recognised): a run
-    would replace a user's own files of those names."""
+    not a ``what`` of this tool (``ours`` false; ``missing`` says what is not there, such as
+    ``"no scene.json of it"``): a run would replace a user's own files of those names."""
     theirs = [] if ours else [name for name in names if (Path(folder) / name).exists()]
     if theirs:
-        raise OutputError(f"{folder} holds {', '.join(theirs)} but no {what} of this tool (no {marker} of it): a "
-                          f"{what} would replace them; write it elsewhere, or delete them")
+        raise OutputError(f"{folder} holds {', '.join(theirs)} but no {what} of this tool ({missing}): a {what} "
+                          f"would replace them; write it elsewhere, or delete them")
 
 
 def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:

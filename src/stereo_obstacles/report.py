@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from stereo_obstacles import __version__
-from stereo_obstacles.atomic import staged_directory, write_text_atomic
+from stereo_obstacles.atomic import refuse_foreign_files, staged_directory, write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import points_from_depth
 from stereo_obstacles.errors import InvalidInputError, OutputError
@@ -263,11 +263,8 @@ def check_report_folder(folder) -> None:
     if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
-    theirs = [name for name in OUTPUT_FILES if (folder / name).exists()] if not holds_a_report(folder) else []
-    if theirs:
-        raise OutputError(f"{folder} holds {', '.join(theirs)} but no report of this tool (no obstacles.json of "
-                          f"it; a report killed while moving in leaves that too): a report would replace them; write "
-                          f"it elsewhere, or delete them")
+    refuse_foreign_files(folder, OUTPUT_FILES, ours=holds_a_report(folder), what="report",
+                         missing="no obstacles.json of it; a report killed while moving in leaves that too")
 
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")

@@ -44,15 +44,12 @@ def _is_rectify_report(path) -> bool:
     shape it had before it carried one (a ``rectification`` beside ``features_after``)."""
     import json
 
-    from stereo_obstacles.json_documents import is_document_of
-
-    if is_document_of(path, REPORT_FORMAT):
-        return True
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, ValueError):
         return False
-    return isinstance(data, dict) and {"version", "rectification", "features_before", "features_after"} <= data.keys()
+    return isinstance(data, dict) and (data.get("format") == REPORT_FORMAT or {
+        "version", "rectification", "features_before", "features_after"} <= data.keys())
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
         raise OutputError(f"{args.out} holds a rendered scene: its left.png, right.png and calibration.json go with "
                           f"its ground truth; write the rectified pair elsewhere")
     earlier_run = _is_rectify_report(Path(args.out) / "rectification.json")
-    refuse_foreign_files(args.out, OUTPUT_FILES, ours=earlier_run, what="rectification", marker="rectification.json")
+    refuse_foreign_files(args.out, OUTPUT_FILES, ours=earlier_run, what="rectification",
+                         missing="no rectification.json of it")
     left = read_image(args.left)
     right = read_image(args.right)
     if left.shape != right.shape:

@@ -129,7 +129,8 @@ def check_scene_folder(folder: str | os.PathLike[str]) -> None:
     would replace files that are not an earlier scene's: without a ``scene.json`` of this tool
     there, any file of the names a scene writes (:data:`SCENE_FILES`: a detection report's
     ``obstacles.json`` and ``labels.png``, a user's own ``left.png``)."""
-    refuse_foreign_files(folder, SCENE_FILES, ours=holds_a_scene(folder), what="scene", marker="scene.json")
+    refuse_foreign_files(folder, SCENE_FILES, ours=holds_a_scene(folder), what="scene",
+                         missing="no scene.json of it")
 
 
 def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> list[Path]:
@@ -173,10 +174,8 @@ def true_camera_pair(pair: SyntheticPair) -> CameraPairCalibration:
     """The calibration of ``pair``'s two cameras as rendered, before any rectification: the left
     camera the rectified rig's, the right one with its true matrix, rotation and translation,
     both without lens distortion."""
-    c = pair.calibration
-    left = np.array([[c.focal_px, 0.0, c.cx_px], [0.0, c.focal_px, c.cy_px], [0.0, 0.0, 1.0]])
     height, width = pair.left.shape[:2]
-    return CameraPairCalibration(camera_matrix_left=left, distortion_left=np.zeros(5),
+    return CameraPairCalibration(camera_matrix_left=pair.scene.rig.intrinsic_matrix(), distortion_left=np.zeros(5),
                                  camera_matrix_right=np.asarray(pair.right_intrinsics, dtype=np.float64),
                                  distortion_right=np.zeros(5), rotation=np.asarray(pair.right_rotation, np.float64),
                                  translation_m=np.asarray(pair.right_translation_m, np.float64),
