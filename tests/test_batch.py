@@ -222,6 +222,25 @@ def test_a_dataset_folder_given_itself_is_one_pair_with_its_own_calibration(tmp_
     assert [(p.name, p.folder) for p in find_pairs(kitti)] == [("kitti2015_000005", str(kitti))]
 
 
+def test_calib_replaces_a_dataset_folders_own_calibration_that_does_not_parse(tmp_path, capsys):
+    # the folder's calib.txt was read before --calib replaced it, and failed the pair
+    folder = tmp_path / "in" / "rig"
+    folder.mkdir(parents=True)
+    _write_pair(folder, "im0.png", "im1.png")
+    (folder / "calib.txt").write_text("cam0=[garbage\n")
+    write_scene_folder(tmp_path / "scene", frames()[0])
+    calib = str(tmp_path / "scene" / "calibration.json")
+    for given, name in ((tmp_path / "in", "rig"), (folder, "rig")):   # a folder of datasets, or the dataset itself
+        out = tmp_path / f"out_{given.name}"
+        assert main(["batch", str(given), "--out", str(out), "--workers", "1", "--calib", calib]) == 0
+        document = json.loads((out / name / "obstacles.json").read_text())
+        assert document["units"] == "metres" and document["run"]["inputs"]["calibration"] == calib
+        capsys.readouterr()
+        # without --calib the pair fails with the file's fault (the dataset itself was "no stereo pairs found")
+        assert main(["batch", str(given), "--out", str(tmp_path / f"plain_{given.name}"), "--workers", "1"]) == 1
+        assert "rig: failed: CalibrationError: " in capsys.readouterr().err
+
+
 def test_a_dataset_folder_named_dot_or_beside_sub_folders_keeps_its_name_and_them(tmp_path, monkeypatch):
     write_scene_folder(tmp_path / "scene", frames()[0])
     write_scene_folder(tmp_path / "scene" / "more", frames()[1])

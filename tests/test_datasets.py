@@ -197,6 +197,18 @@ def test_middlebury2014_calibration_for_another_size_is_an_error(tmp_path):
         load_pair(tmp_path)
 
 
+@pytest.mark.parametrize("text", ["cam0=[garbage\n", "cam0=[500 0 30; 0 500 22; 0 0 1]\ncam1=[500 0 30; 0 500 22; "
+                                  "0 0 1]\ndoffs=0\nbaseline=100\nwidth=128\nheight=96\n"])
+def test_a_caller_with_its_own_calibration_is_not_failed_by_the_folders(tmp_path, text):
+    _images(tmp_path, "im0.png", "im1.png", (64, 48))
+    (tmp_path / "calib.txt").write_text(text)                          # broken, or for other images
+    with pytest.raises(CalibrationError):
+        load_pair(tmp_path)
+    pair = load_pair(tmp_path, with_calibration=False)
+    assert pair.layout == "middlebury2014" and pair.left.shape == (48, 64, 3)
+    assert pair.calibration is None and pair.calibration_file == tmp_path / "calib.txt"
+
+
 def _kitti_calib_text():
     return ("calib_time: 09-Jan-2012 13:57:47\n"
             "P_rect_02: 7.2e+02 0 6.0e+02 4.5e+01 0 7.2e+02 1.7e+02 0 0 0 1 0\n"

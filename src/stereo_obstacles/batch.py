@@ -214,7 +214,8 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
 
 def _own_frames(root: Path) -> tuple[str | None, ...]:
     """The frames of ``root`` when it is itself a dataset folder: a KITTI 2015 folder, or one
-    pair with its calibration that :func:`stereo_obstacles.datasets.load_pair` reads (not
+    pair with a calibration file that :func:`stereo_obstacles.datasets.load_pair` recognises (read
+    when the pair is run, unless ``--calib`` replaces it; not
     several name-paired files; one pair without a calibration stays a file pair); else ``()``.
     A folder of ``frame_*`` scene folders is not one: each of those is a pair."""
     from stereo_obstacles.datasets import list_frames, load_pair
@@ -226,19 +227,20 @@ def _own_frames(root: Path) -> tuple[str | None, ...]:
         return ()
     try:
         with _collected_warnings():               # said when the pair is run, not also when it is found
-            return (None,) if load_pair(root).calibration is not None else ()
+            return (None,) if load_pair(root, with_calibration=False).calibration_file is not None else ()
     except StereoObstaclesError:
         return ()
 
 
 def _is_a_dataset(folder: Path) -> bool:
-    """Whether :func:`stereo_obstacles.datasets.load_pair` reads ``folder`` (it reads the images)."""
+    """Whether :func:`stereo_obstacles.datasets.load_pair` reads ``folder`` (it reads the images; a
+    calibration that does not parse fails the pair when it is run, with its reason)."""
     from stereo_obstacles.datasets import load_pair
     from stereo_obstacles.errors import StereoObstaclesError
 
     try:
         with _collected_warnings():               # said when the pair is run, not also when it is found
-            load_pair(folder)
+            load_pair(folder, with_calibration=False)
     except StereoObstaclesError:
         return False
     return True
@@ -276,7 +278,7 @@ def _load(job: BatchJob):
 
     pair = job.pair
     if pair.folder is not None:
-        stereo = load_pair(pair.folder, frame=pair.frame)
+        stereo = load_pair(pair.folder, frame=pair.frame, with_calibration=job.calib_file is None)
         left, right, calibration = stereo.left, stereo.right, stereo.calibration
         inputs = {"folder": pair.folder, "frame": pair.frame, "layout": stereo.layout, "left": str(stereo.left_file),
                   "right": str(stereo.right_file),

@@ -97,7 +97,8 @@ class StereoPair:
     left_file, right_file : pathlib.Path or None
         The image files read (``None`` for a pair made in memory).
     calibration_file : pathlib.Path or None
-        The file ``calibration`` was read from, ``None`` without one.
+        The layout's calibration file, which ``calibration`` was read from (unless
+        :func:`load_pair` was told not to read it); ``None`` without one.
     """
 
     name: str
@@ -170,7 +171,7 @@ def _scene_frames(root: Path) -> tuple[str, ...]:
 
 
 def load_pair(folder: PathLike, *, frame: str | None = None,
-              gt_scale: float | None = None) -> StereoPair:
+              gt_scale: float | None = None, with_calibration: bool = True) -> StereoPair:
     """Read the stereo pair in ``folder``, recognising its layout (see the module docstring).
 
     Parameters
@@ -181,6 +182,10 @@ def load_pair(folder: PathLike, *, frame: str | None = None,
         Frame name in a multi-frame layout (see :func:`list_frames`); required there.
     gt_scale
         Override the divisor of 8-bit ground truth (``disparity = value / gt_scale``).
+    with_calibration
+        ``False``: the layout's calibration file is not read (``calibration`` stays ``None``,
+        ``calibration_file`` still names it), for a caller that brings its own calibration; a
+        broken or mismatched file in the folder then does not fail the pair.
 
     Returns
     -------
@@ -194,9 +199,15 @@ def load_pair(folder: PathLike, *, frame: str | None = None,
     ImageMismatchError
         Images, ground truth or mask differ in size.
     CalibrationError
-        The calibration does not parse or is for another image size.
+        The calibration does not parse or is for another image size (``with_calibration``).
     """
-    root = _check_folder(folder)
+    pair = _recognised_pair(_check_folder(folder), frame, gt_scale)
+    return _with_calibration(pair) if with_calibration else pair
+
+
+def _recognised_pair(root: Path, frame: str | None, gt_scale: float | None) -> StereoPair:
+    """The pair of ``root`` in the first layout that recognises it, its calibration not yet read
+    (``calibration_file`` names the layout's file when it exists)."""
     if gt_scale is not None and (isinstance(gt_scale, bool) or not isinstance(gt_scale, numbers.Real)
                                  or not math.isfinite(gt_scale) or gt_scale <= 0):
         raise InvalidInputError(f"gt_scale must be a finite number > 0, got {gt_scale!r}")
@@ -206,7 +217,7 @@ def load_pair(folder: PathLike, *, frame: str | None = None,
                                     f"(one of list_frames(folder))")
         return _load_kitti2015(root, frame)
     if frame is not None and frame in _scene_frames(root):
-        return load_pair(root / frame, gt_scale=gt_scale)
+        return _recognised_pair(_check_folder(root / frame), None, gt_scale)
     if frame is not None:
         raise InvalidInputError(f"{root} holds a single pair; frame={frame!r} does not apply")
     for loader in (_load_synthetic, _load_middlebury2014, _load_middlebury2005,
@@ -229,7 +240,7 @@ def _load_synthetic(root: Path, gt_scale: float | None) -> StereoPair | None:
         return None
     gt = _optional(root / "disparity.pfm", read_pfm)
     return _make_pair(root, root.name, "synthetic", root / "left.png", root / "right.png", gt,
-                      _optional(root / "nonocc.png", _read_mask), root / "calibration.json", read_calibration_json)
+                      _optional(root / "nonocc.png", _read_mask), root / "calibration.json")
 
 
 def _load_middlebury2014(root: Path, gt_scale: float | None) -> StereoPair | None:
@@ -355,13 +366,11 @@ def _check_folder(folder: PathLike) -> Path:
 
 
 def _make_pair(root: Path, name: str, layout: str, left_file: Path, right_file: Path,
-               gt: np.ndarray | None, nonocc: np.ndarray | None,
-               calibration_file: Path | None, read_calibration_file=read_calibration) -> StereoPair:
-    """The pair of ``left_file`` and ``right_file``, with the calibration in ``calibration_file``
-    (read by ``read_calibration_file``) when that file exists."""
+               gt: np.ndarray | None, nonocc: np.ndarray | None, calibration_file: Path | None) -> StereoPair:
+    """The pair of ``left_file`` and ``right_file``, without calibration; ``calibration_file`` is
+    kept when that file exists (:func:`_with_calibration` reads it)."""
     if calibration_file is not None and not calibration_file.is_file():
         calibration_file = None
-    calibration = read_calibration_file(calibration_file) if calibration_file is not None else None
     left = _read_rgb(left_file)
     right = _read_rgb(right_file)
     h, w = left.shape[:2]
@@ -371,14 +380,26 @@ def _make_pair(root: Path, name: str, layout: str, left_file: Path, right_file: 
                                      f"the images are {w}x{h}")
     if nonocc is not None and gt is not None:
         nonocc = nonocc & np.isfinite(gt)
-    if calibration is not None and calibration.width_px is None:
+    return StereoPair(name=name, left=left, right=right, gt_disparity=gt, nonocc=nonocc,
+                      calibration=None, source=root, layout=layout, left_file=left_file,
+                      right_file=right_file, calibration_file=calibration_file)
+
+
+def _with_calibration(pair: StereoPair) -> StereoPair:
+    """``pair`` with the calibration read from its ``calibration_file`` (a scene's own JSON, any
+    format :func:`~stereo_obstacles.calibration_files.read_calibration` knows elsewhere), the image
+    size filled in when the file does not give it."""
+    if pair.calibration_file is None:
+        return pair
+    reader = read_calibration_json if pair.layout == "synthetic" else read_calibration
+    calibration = reader(pair.calibration_file)
+    if calibration.width_px is None:
+        h, w = pair.left.shape[:2]
         doubt = calibration.off_centre_doubt(w, h)          # before the images' size is filled in
         if doubt is not None:
-            logger.warning("%s: %s", root, doubt)
+            logger.warning("%s: %s", pair.source, doubt)
         calibration = replace(calibration, width_px=w, height_px=h)
-    return StereoPair(name=name, left=left, right=right, gt_disparity=gt, nonocc=nonocc,
-                      calibration=calibration, source=root, layout=layout, left_file=left_file,
-                      right_file=right_file, calibration_file=calibration_file)
+    return replace(pair, calibration=calibration)
 
 
 def _read_rgb(path: Path) -> np.ndarray:
