@@ -11,7 +11,7 @@ from stereo_obstacles.detection_evaluation import compare_with_truth
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.matching import match
 from stereo_obstacles.pipeline import DetectionConfig, detect
-from stereo_obstacles.scaled_matching import check_scale, match_at_scale, scaled_size
+from stereo_obstacles.scaled_matching import check_scale, match_at_scale, scaled_size, warn_if_scale_raised
 from stereo_obstacles.synthetic import default_scene, render_pair
 
 
@@ -80,6 +80,25 @@ def test_matching_scale_option(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path / "d"), "--matching-scale", "0"]) == 1
     assert "matching scale must be in (0, 1], got 0.0" in capsys.readouterr().err
     assert not (tmp_path / "d").exists()
+
+
+def test_a_scale_raised_for_the_image_size_is_warned_of(caplog):
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        assert warn_if_scale_raised(480, 640, 0.25) == 0.25
+        assert caplog.text == ""
+        assert warn_if_scale_raised(480, 640, 0.1) == 0.25
+    assert "matching scale 0.1 is raised to 0.25 for these 640x480 images: the reduced copy keeps at least 120" \
+        in caplog.text
+
+
+def test_detect_warns_of_a_raised_scale_it_was_given_not_of_the_raised_default(pair, caplog):
+    # a --matching-scale below the smallest working size was raised silently; the report records the value given
+    with caplog.at_level("WARNING", logger="stereo_obstacles.scaled_matching"):
+        detect(pair.left, pair.right, pair.calibration)               # 320x240: the default 0.5 is raised to 0.5
+        detect(pair.left[:200], pair.right[:200])                     # the default 0.5 raised to 0.6, as documented
+        assert caplog.text == ""
+        detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(matching_scale=0.3))
+    assert "matching scale 0.3 is raised to 0.5 for these 320x240 images" in caplog.text
 
 
 def test_the_disparity_range_is_scaled_for_the_reduced_pair(pair):

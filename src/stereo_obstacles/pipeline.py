@@ -70,7 +70,7 @@ from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, Reject
                                        obstacle_scan, standing_pixels)
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
-from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size
+from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size, warn_if_scale_raised
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
 from stereo_obstacles.textureless_fill import (TexturelessFillParameters, fill_textureless, textureless_candidates,
@@ -104,6 +104,10 @@ class MatchingOptions:
         return {k: v for k, v in asdict(self).items() if v is not None}
 
 
+DEFAULT_MATCHING_SCALE = 0.5
+""":attr:`DetectionConfig.matching_scale` unless given: found as many obstacles as 1, at about
+half the matching time (``docs/pipeline.md``, "Matching scale")."""
+
 PIPELINE_MATCHING = {"speckle_size": 0}
 """The obstacle pipeline's own defaults for :func:`~stereo_obstacles.matching.match` options
 that :class:`MatchingOptions` leaves unset: no speckle removal. With it, the half-size match
@@ -132,7 +136,9 @@ class DetectionConfig:
     (:mod:`stereo_obstacles.scaled_matching`). The default 0.5 found as many obstacles as 1 with
     the same distance errors and no false alarm, at about half the matching time
     (``docs/pipeline.md``, "Matching scale"); 1 grows at full size. Segmentation and obstacles
-    are always at full size.
+    are always at full size. Images with a side under 240 pixels are matched at a larger scale
+    (:func:`stereo_obstacles.scaled_matching.effective_scale`); for a scale other than the
+    default, with a warning.
     ``visibility``: matches the right camera cannot see (half-occluded pixels beside the left
     edge of a near object, matched anyway) are removed from the disparity before anything uses
     it (:mod:`stereo_obstacles.visibility`); ``None`` keeps them.
@@ -165,7 +171,7 @@ class DetectionConfig:
     obstacles: ObstacleParameters = field(default_factory=ObstacleParameters)
     geometric_min_height_m: float = 0.15
     check_rectification: bool = True
-    matching_scale: float = 0.5
+    matching_scale: float = DEFAULT_MATCHING_SCALE
     geometric_min_excess_px: float = 0.5
     blind_strip: BlindStripParameters | None = field(default_factory=BlindStripParameters)
     visibility: VisibilityParameters | None = field(default_factory=VisibilityParameters)
@@ -464,6 +470,8 @@ def _match_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, s
     its time written to ``timings["matching"]`` (seconds)."""
     t = time.perf_counter()
     if disparity_estimate is None:
+        if config.matching_scale != DEFAULT_MATCHING_SCALE:   # the default is raised as documented, unsaid
+            warn_if_scale_raised(left.shape[0], left.shape[1], config.matching_scale)
         disparity, matched = match_at_scale(left, right, config.matching_scale, seed_points=seed_points,
                                             **pipeline_match_kwargs(config.matching))
     else:

@@ -15,6 +15,7 @@ size loses for good is thin structures and the pixels next to unmatched areas (m
 from __future__ import annotations
 
 import inspect
+import logging
 import math
 import time
 
@@ -28,7 +29,9 @@ from stereo_obstacles.shifted_windows import shifted_window_check
 from stereo_obstacles.similarity import grey_pair, prepare_similarity
 
 __all__ = ["MIN_REDUCED_SIDE", "check_scale", "effective_scale", "match_at_scale", "refine_at_full_size",
-           "scaled_size"]
+           "scaled_size", "warn_if_scale_raised"]
+
+logger = logging.getLogger(__name__)
 
 MIN_REDUCED_SIDE = 120
 """A pair is never shrunk below this many rows or columns: smaller images are matched at a larger
@@ -54,6 +57,16 @@ def effective_scale(height: int, width: int, scale: float) -> float:
     (0.5, 0.6, 1.0)
     """
     return min(1.0, max(check_scale(scale), MIN_REDUCED_SIDE / min(height, width)))
+
+
+def warn_if_scale_raised(height: int, width: int, scale: float) -> float:
+    """Log a warning when images of ``height`` x ``width`` pixels are matched at a larger scale than
+    ``scale`` (:func:`effective_scale`); return the scale they are matched at."""
+    used = effective_scale(height, width, scale)
+    if used != scale:
+        logger.warning("matching scale %g is raised to %.3g for these %dx%d images: the reduced copy keeps at "
+                       "least %d pixels a side", scale, used, width, height, MIN_REDUCED_SIDE)
+    return used
 
 
 def scaled_size(width: int, height: int, scale: float) -> tuple[int, int]:
