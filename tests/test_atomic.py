@@ -3,11 +3,6 @@
 from __future__ import annotations
 
 import os
-import socket
-import subprocess
-import sys
-import textwrap
-from pathlib import Path
 
 import pytest
 
@@ -105,45 +100,3 @@ def test_checks_leave_nothing_behind(tmp_path):
     check_output_folder(tmp_path / "report" / "deeper")
     assert list(tmp_path.iterdir()) == []
 
-
-def _killed_while_writing(out: Path) -> None:
-    """Run a process that stages a folder and a file for ``out`` and kill it (SIGKILL) mid-way."""
-    script = textwrap.dedent("""
-        import sys, time
-        from pathlib import Path
-        from stereo_obstacles.atomic import staged_directory, temporary_beside
-        with staged_directory(sys.argv[1]) as stage:
-            (stage / "obstacles.json").write_text("{}")
-            temporary_beside(Path(sys.argv[1] + ".json"))
-            print("staged", flush=True)
-            time.sleep(60)
-        """)
-    process = subprocess.Popen([sys.executable, "-c", script, str(out)], stdout=subprocess.PIPE, text=True)
-    try:
-        assert process.stdout.readline() == "staged\n"
-    finally:
-        process.kill()
-        process.wait(timeout=60)
-        process.stdout.close()
-
-
-@pytest.mark.skipif(os.name != "posix", reason="whether a process still runs is asked with POSIX signal 0")
-def test_temporaries_of_a_killed_run_are_removed_by_the_next_write_of_the_name(tmp_path):
-    out = tmp_path / "report"
-    _killed_while_writing(out)
-    stage_left, file_left = sorted(p.name for p in tmp_path.iterdir())
-    assert stage_left.startswith(".report.") and stage_left.endswith(".partial")
-    assert file_left.startswith(".report.json.") and file_left.endswith(".part.json")
-    host = socket.gethostname()
-    dead = stage_left.split(".")[2].split("@")[0]                          # the killed process's id
-    kept = [f".report.{os.getpid()}@{host}.abcd1234.partial",             # a run writing there now
-            f".report.{dead}@{host}x.abcd1234.partial",                     # another host's
-            ".report.abcd1234.partial",                                     # an earlier version's: no id
-            ".report.json.notours.part.json", ".reportx.1.partial"]          # not a temporary of the name
-    for name in kept:
-        (tmp_path / name).mkdir()
-    with staged_directory(out) as stage:
-        (stage / "obstacles.json").write_text("{}")
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(kept + [file_left, "report"])
-    write_text_atomic(tmp_path / "report.json", "{}")
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(kept + ["report", "report.json"])

@@ -4,26 +4,21 @@ A file is written to a temporary name in its destination folder and renamed over
 name only once it is whole, so an interrupted run never leaves a truncated file that looks
 finished. A set of files that belong together (a scene, a detection report) is staged in a
 hidden temporary folder beside the destination and moved in only when every file is written.
-
-The temporary names carry the writing process's id and host (``.NAME.PID@HOST.xxxxxxxx.part``,
-``.partial`` for folders). A run killed outright (SIGKILL, the out-of-memory killer) cannot remove
-its own; the next write of the same name removes those whose process no longer runs on this host.
-One of a process still running (a second run writing there now), of another host, or of an
-earlier version (no id in the name) is left alone.
+Those of a run killed outright are removed by the next write of the same name
+(:mod:`stereo_obstacles.temporaries`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-import re
 import shutil
-import socket
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from stereo_obstacles.errors import OutputError
+from stereo_obstacles.temporaries import create_temporary_file, create_temporary_folder, release
 
 
 def _current_umask() -> int:
@@ -119,68 +114,33 @@ def refuse_foreign_files(folder: str | os.PathLike[str], names: Iterable[str], *
                           f"would replace them; write it elsewhere, or delete them")
 
 
-def _owner_tag() -> str:
-    """``PID@HOST`` of this process, written into its temporary names."""
-    return f"{os.getpid()}@{socket.gethostname()}"
-
-
-def _process_is_gone(pid: int) -> bool:
-    """Whether no process ``pid`` runs on this machine (``False`` when it cannot be told)."""
-    if os.name != "posix":                            # signal 0 is a plain probe only on POSIX
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return True
-    except OSError:                                   # another user's process, or no permission to ask
-        return False
-    return False
-
-
-def _remove_dead_temporaries(folder: Path, name: str, ending: str) -> None:
-    """Remove the temporaries of ``name`` in ``folder`` (names ending in ``ending``, ``.part`` or
-    ``.partial``) left by processes of this host that no longer run. Errors are ignored: a
-    leftover is untidy, not wrong."""
-    pattern = re.compile(rf"\.{re.escape(name)}\.(\d+)@(.+)\.[a-z0-9_]+{re.escape(ending)}", flags=re.ASCII)
-    host = socket.gethostname()
-    try:
-        entries = list(folder.iterdir())
-    except OSError:
-        return
-    for entry in entries:
-        found = pattern.fullmatch(entry.name)
-        if found is None or found.group(2) != host or not _process_is_gone(int(found.group(1))):
-            continue
-        if entry.is_dir() and not entry.is_symlink():
-            shutil.rmtree(entry, ignore_errors=True)
-        else:
-            with contextlib.suppress(OSError):
-                entry.unlink()
-
-
 def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:
     """Create an empty private temporary file in ``path``'s folder (created if needed).
 
     Its name is hidden and ends in ``.part`` plus ``suffix`` (default: ``path``'s own), so
     writers that choose the format by extension (OpenCV) still see it. For writers that
     cannot use :func:`atomic_path` because the file stays open across calls; finish with
-    :func:`move_into_place`. Temporaries of ``path`` left by killed runs are removed first.
+    :func:`move_into_place`, or :func:`discard_temporary`. Temporaries of ``path`` left by
+    killed runs are removed first.
     """
     prepare_parent(path)
-    ending = ".part" + (path.suffix if suffix is None else suffix)
-    _remove_dead_temporaries(path.parent, path.name, ending)
     try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.{_owner_tag()}.", suffix=ending, dir=path.parent)
+        return create_temporary_file(path, ".part" + (path.suffix if suffix is None else suffix))
     except OSError as exc:
         raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from exc
-    os.close(fd)
-    return Path(tmp_name)
 
 
 def move_into_place(tmp: Path, final: Path) -> None:
     """Give ``tmp`` the permissions a plain ``open`` would and rename it over ``final``."""
+    release(tmp)
     _give_default_permissions(tmp, folder=False)
     os.replace(tmp, final)
+
+
+def discard_temporary(tmp: Path) -> None:
+    """Remove the temporary ``tmp`` of :func:`temporary_beside` (if it is still there)."""
+    release(tmp)
+    tmp.unlink(missing_ok=True)
 
 
 @contextlib.contextmanager
@@ -195,12 +155,12 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         yield tmp
         move_into_place(tmp, final)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        discard_temporary(tmp)
         if isinstance(exc, OutputError):
             raise
         raise OutputError(f"cannot write {final}: {exc.strerror or exc}") from exc
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        discard_temporary(tmp)
         raise
 
 
@@ -238,9 +198,8 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     final = Path(out_dir)
     check_output_folder(final)
     prepare_parent(final)
-    _remove_dead_temporaries(final.parent, final.name, ".partial")
     try:
-        stage = Path(tempfile.mkdtemp(prefix=f".{final.name}.{_owner_tag()}.", suffix=".partial", dir=final.parent))
+        stage = create_temporary_folder(final)
     except OSError as exc:
         raise OutputError(f"cannot write to folder {final.parent}: {exc.strerror or exc}") from exc
     try:
@@ -261,4 +220,5 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
             raise
         raise OutputError(f"cannot write to {final}: {exc.strerror or exc}") from exc
     finally:
+        release(stage)
         shutil.rmtree(stage, ignore_errors=True)
