@@ -208,3 +208,14 @@ def test_evaluate_detection_command_degrades_the_images_as_asked(tmp_path, capsy
             cli.main(["evaluate-detection", *bad])
         assert exit_info.value.code == 2
         assert "expected" in capsys.readouterr().err
+
+
+def test_evaluate_detection_says_a_warning_of_every_scene_once(capsys, caplog):
+    from stereo_obstacles import cli
+
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        assert cli.main(["evaluate-detection", "--scenes", "2", "--size", "320x240", "--supersample", "1",
+                         "--matching-scale", "0.3"]) == 0
+    said = [r.getMessage() for r in caplog.records if "matching scale 0.3 is raised to 0.5" in r.getMessage()]
+    assert len(said) == 1                                                    # was once per scene
+    assert "repeats of the warnings above not shown" in capsys.readouterr().err

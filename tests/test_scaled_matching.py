@@ -84,9 +84,9 @@ def test_matching_scale_option(tmp_path, capsys):
 
 def test_a_scale_raised_for_the_image_size_is_warned_of(caplog):
     with caplog.at_level("WARNING", logger="stereo_obstacles"):
-        assert warn_if_scale_raised(480, 640, 0.25) == 0.25
+        warn_if_scale_raised(480, 640, 0.25)
         assert caplog.text == ""
-        assert warn_if_scale_raised(480, 640, 0.1) == 0.25
+        warn_if_scale_raised(480, 640, 0.1)
     assert "matching scale 0.1 is raised to 0.25 for these 640x480 images: the reduced copy keeps at least 120" \
         in caplog.text
 
@@ -94,7 +94,7 @@ def test_a_scale_raised_for_the_image_size_is_warned_of(caplog):
 def test_detect_warns_of_a_raised_scale_it_was_given_not_of_the_raised_default(pair, caplog):
     # a --matching-scale below the smallest working size was raised silently; the report records the value given
     with caplog.at_level("WARNING", logger="stereo_obstacles.scaled_matching"):
-        detect(pair.left, pair.right, pair.calibration)               # 320x240: the default 0.5 is raised to 0.5
+        detect(pair.left, pair.right, pair.calibration)               # 320x240: the default 0.5 is kept
         detect(pair.left[:200], pair.right[:200])                     # the default 0.5 raised to 0.6, as documented
         assert caplog.text == ""
         detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(matching_scale=0.3))

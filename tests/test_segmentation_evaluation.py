@@ -131,6 +131,18 @@ def test_evaluate_segmentation_dataset_option_and_its_old_name(shared_dataset, c
     assert capsys.readouterr().out == new
 
 
+@pytest.mark.shared_data
+def test_a_kitti_frame_is_scored_beside_a_calibration_that_does_not_parse(shared_dataset, tmp_path, capsys):
+    # the labels come from the ground-truth disparity alone; the broken file failed the run (review, session 23)
+    kitti = shared_dataset("kitti2015_000046")
+    folder = tmp_path / "kitti"
+    folder.mkdir()
+    for name in ("000046_10_left.png", "000046_10_right.png", "000046_10_disp_occ_0.png"):
+        (folder / name).symlink_to(kitti / name)
+    (folder / "Calib.txt").write_text("P_rect_02: garbage\n")
+    assert main(["evaluate-segmentation", "--scenes", "0", "--dataset", str(folder)]) == 0, capsys.readouterr().err
+
+
 def test_segment_command_colour_model_option(tmp_path):
     rng = np.random.default_rng(0)
     image = np.clip(rng.normal((90, 140, 60), 3.0, (60, 80, 3)), 0, 255).astype(np.uint8)

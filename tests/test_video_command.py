@@ -112,24 +112,6 @@ def test_options_that_cannot_work_are_refused_before_any_frame(tmp_path, capsys,
     assert message in captured.err and "Traceback" not in captured.err and "frame 0" not in captured.out
 
 
-def test_the_once_per_warning_filter_passes_other_levels_and_new_warnings():
-    import logging
-
-    from stereo_obstacles.commands.video import _OncePerMessage
-
-    once = _OncePerMessage()
-
-    def record(level, msg, *args):
-        return logging.LogRecord("stereo_obstacles.x", level, __file__, 1, msg, args, None)
-
-    assert once.filter(record(logging.WARNING, "range cut off at %d px", 64))
-    assert not once.filter(record(logging.WARNING, "range cut off at %d px", 32))      # same warning, new numbers
-    assert once.filter(record(logging.WARNING, "another warning"))
-    assert once.filter(record(logging.INFO, "GCS: %d seeds", 10)) and once.filter(record(logging.INFO, "GCS: %d seeds", 9))
-    assert once.filter(record(logging.ERROR, "x")) and once.filter(record(logging.ERROR, "x"))
-    assert once.repeats == 1
-
-
 def test_a_swapped_stream_is_refused_on_its_first_frame_before_any_output(tmp_path, capsys, caplog):
     left_dir, right_dir = write_sequences(tmp_path / "in")
     jsonl, out_video = tmp_path / "frames.jsonl", tmp_path / "annotated.mp4"

@@ -3,7 +3,8 @@
 :func:`find_pairs` lists the pairs under a folder:
 
 * the folder itself, when it is one dataset: a KITTI 2015 folder (a pair per frame), or one
-  pair with its calibration that :func:`stereo_obstacles.datasets.load_pair` reads;
+  pair with a calibration file that :func:`stereo_obstacles.datasets.load_pair` recognises
+  (read when the pair is run, unless ``--calib`` replaces it);
 * every sub-folder that :func:`stereo_obstacles.datasets.load_pair` reads (a KITTI 2015
   folder gives one pair per frame); a sub-folder it cannot read becomes a failed pair, unless
   it holds no images at all, or is a report of this tool holding no pair (left out with a

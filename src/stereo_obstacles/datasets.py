@@ -89,7 +89,8 @@ class StereoPair:
     nonocc : numpy.ndarray or None
         ``bool (H, W)``, true where a pixel is visible in both views and has ground truth.
     calibration : StereoCalibration or None
-        Calibration of the pair, when the layout has one.
+        Calibration of the pair, when the layout has one and it was read (``load_pair``'s
+        ``with_calibration``).
     source : pathlib.Path
         The folder the pair was read from.
     layout : str

@@ -59,14 +59,13 @@ def effective_scale(height: int, width: int, scale: float) -> float:
     return min(1.0, max(check_scale(scale), MIN_REDUCED_SIDE / min(height, width)))
 
 
-def warn_if_scale_raised(height: int, width: int, scale: float) -> float:
+def warn_if_scale_raised(height: int, width: int, scale: float) -> None:
     """Log a warning when images of ``height`` x ``width`` pixels are matched at a larger scale than
-    ``scale`` (:func:`effective_scale`); return the scale they are matched at."""
+    ``scale`` (:func:`effective_scale`)."""
     used = effective_scale(height, width, scale)
     if used != scale:
         logger.warning("matching scale %g is raised to %.3g for these %dx%d images: the reduced copy keeps at "
                        "least %d pixels a side", scale, used, width, height, MIN_REDUCED_SIDE)
-    return used
 
 
 def scaled_size(width: int, height: int, scale: float) -> tuple[int, int]:

@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
               for frame in list_frames(folder)[:args.max_frames]]
     results = []
     for folder, frame in frames:
-        pair = load_pair(folder, frame=frame)
+        pair = load_pair(folder, frame=frame, with_calibration=False)     # the matchers need none
         log.info("evaluating %s (%s, %dx%d)", pair.name, pair.layout, pair.left.shape[1],
                  pair.left.shape[0])
         results.extend(evaluate_pair(pair, methods, repeat=args.repeat))

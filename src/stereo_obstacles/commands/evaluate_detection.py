@@ -75,9 +75,11 @@ def run(args: argparse.Namespace) -> int:
     """Evaluate and print the figures."""
     import json
     import logging
+    import sys
 
     from stereo_obstacles.atomic import check_output_file, write_text_atomic
     from stereo_obstacles.commands._arguments import image_size
+    from stereo_obstacles.commands._repeated_warnings import each_warning_once, repeats_note
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.detection_evaluation import (EVALUATION_SUPERSAMPLE, LARGE_ERROR_PCT,
                                                        evaluate_synthetic_scene, summarise)
@@ -99,14 +101,16 @@ def run(args: argparse.Namespace) -> int:
     supersample = EVALUATION_SUPERSAMPLE if args.supersample is None else args.supersample
     imaging = RenderOptions(supersample=supersample, noise_sigma=args.noise, jpeg_quality=args.jpeg_quality)
     warm_up()
-    evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config,
-                                            render_options=imaging, min_height_m=args.min_height)
-                   for seed in range(args.first_seed, args.first_seed + args.scenes)]
+    with each_warning_once(not args.verbose) as repeats:   # the same condition in scene after scene
+        evaluations = [evaluate_synthetic_scene(seed, width_px=width, height_px=height, config=config,
+                                                render_options=imaging, min_height_m=args.min_height)
+                       for seed in range(args.first_seed, args.first_seed + args.scenes)]
+        datasets = [_dataset_figures(pair, config) for pair in pairs]
     summary = summarise(evaluations, min_height_m=args.min_height, max_distance_m=args.max_distance)
     report = {"machine": machine_info(), "config": config.to_dict(),
               "synthetic": {**summary.to_dict(), "supersample": supersample, "noise_sigma": args.noise,
                             "jpeg_quality": args.jpeg_quality},
-              "datasets": [_dataset_figures(pair, config) for pair in pairs]}
+              "datasets": datasets}
     s = summary
     if s.n_scenes:
         degraded = "".join([f", noise {args.noise:g}" if args.noise else "",
@@ -142,6 +146,8 @@ def run(args: argparse.Namespace) -> int:
               f"{_pct(m['median_relative_error_pct'])}, {_frac(m['within_5pct'])} within 5 % ({m['compared_px']} px); "
               f"over obstacle pixels: median {_pct(o['median_relative_error_pct'])}, "
               f"{_frac(o['within_5pct'])} within 5 % ({o['compared_px']} px)")
+    if repeats():
+        print(repeats_note(repeats()), file=sys.stderr)
     if args.json:
         write_text_atomic(args.json, json.dumps(report, indent=2) + "\n")
         print(f"wrote {args.json}")

@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidInputError("nothing to evaluate: --scenes 0 and no --dataset")
     if args.json:
         check_output_file(args.json, input_folders=folders)
-    pairs = [load_pair(folder) for folder in folders]     # a bad folder fails before the scenes are run
+    pairs = [load_pair(folder, with_calibration=False) for folder in folders]   # a bad folder fails first; no calibration is used
     for folder, pair in zip(folders, pairs):
         if not pair.is_kitti:
             raise InvalidInputError(f"{folder} is a {pair.layout} folder; the labels are derived from the road plane "

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import logging
 
 from stereo_obstacles.commands._arguments import output_path
 from stereo_obstacles.commands._calibration_options import add_calibration_options
@@ -96,7 +95,7 @@ class _VideoOut:
 
         import cv2
 
-        from stereo_obstacles.atomic import temporary_beside
+        from stereo_obstacles.atomic import discard_temporary, temporary_beside
         from stereo_obstacles.errors import OutputError
 
         self.final = Path(path)
@@ -105,7 +104,7 @@ class _VideoOut:
         even = (size[0] + self.padding[1], size[1] + self.padding[0])
         self.writer = cv2.VideoWriter(str(self.tmp), cv2.VideoWriter_fourcc(*"mp4v"), fps, even)
         if not self.writer.isOpened():
-            self.tmp.unlink(missing_ok=True)
+            discard_temporary(self.tmp)
             raise OutputError(f"cannot write video {self.final} (OpenCV has no mp4v writer for it)")
         self.frames = 0
 
@@ -120,34 +119,13 @@ class _VideoOut:
 
     def close(self) -> None:
         """Finish the file; keep it when it holds at least one frame."""
-        from stereo_obstacles.atomic import move_into_place
+        from stereo_obstacles.atomic import discard_temporary, move_into_place
 
         self.writer.release()
         if self.frames:
             move_into_place(self.tmp, self.final)
         else:
-            self.tmp.unlink(missing_ok=True)
-
-
-class _OncePerMessage:
-    """A logging filter that lets each warning through once: the same condition (a varied
-    reference area, a cut-off disparity range) would otherwise be logged for every frame.
-    Warnings are told apart by their format string, so changing numbers do not repeat them;
-    other levels (info, errors) pass. Not used with ``-v``."""
-
-    def __init__(self) -> None:
-        self.seen: set[tuple[str, str]] = set()
-        self.repeats = 0
-
-    def filter(self, record) -> bool:
-        if record.levelno != logging.WARNING:
-            return True
-        key = (record.name, str(record.msg))
-        if key in self.seen:
-            self.repeats += 1
-            return False
-        self.seen.add(key)
-        return True
+            discard_temporary(self.tmp)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -164,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_file, check_output_folder
     from stereo_obstacles.commands._calibration_options import calibration_and_rectification
     from stereo_obstacles.commands._compile_notice import announce_compilation
+    from stereo_obstacles.commands._repeated_warnings import each_warning_once, repeats_note
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
     from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt
@@ -199,12 +178,8 @@ def run(args: argparse.Namespace) -> int:
     exit_code = EXIT_INTERRUPTED           # when stopped by a Ctrl-C between frames
     count = 0
     start = time.monotonic()
-    filters = []                # one per handler: each handler sees every record
     with ExitStack() as stack:
-        for handler in logging.getLogger().handlers if not args.verbose else ():
-            filters.append(_OncePerMessage())
-            handler.addFilter(filters[-1])
-            stack.callback(handler.removeFilter, filters[-1])
+        repeats = stack.enter_context(each_warning_once(not args.verbose))
         source = stack.enter_context(open_source(args.source, kind=args.kind, fps=args.fps))
         frames = iter(source)
         first = next(frames, None)
@@ -284,8 +259,8 @@ def run(args: argparse.Namespace) -> int:
         if jsonl is not None:
             jsonl.write({"type": "end", "frames": count, "interrupted": interrupted, "seconds": round(elapsed, 3),
                          "frames_per_second": round(count / elapsed, 3) if elapsed > 0 else None})
-    hidden = max((f.repeats for f in filters), default=0)
-    repeats = f"; {hidden} repeats of the warnings above not shown" if hidden else ""
     print(f"{'interrupted after' if interrupted else 'processed'} {count} frame{'s' if count != 1 else ''} "
-          f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s){repeats}", file=sys.stderr)
+          f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s)"
+          f"{'; ' + repeats_note(repeats()) if repeats() else ''}",
+          file=sys.stderr)
     return exit_code if interrupted else 0
