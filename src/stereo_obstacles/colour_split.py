@@ -11,9 +11,10 @@ clusters are two surfaces at two depths:
 
 - the cluster centres lie at least ``min_chroma_distance`` apart in the chroma ``(a*, b*)`` of
   CIE L*a*b* (lightness is left out: the lit and the shaded faces of one box differ in it);
-- each part holds an object's pixel count and is not a rim around the other (at most
-  ``MAX_RIM_FRACTION`` of its pixels within ``RIM_PX`` of it: the halo of sky or ground the
-  matching spreads around an object);
+- each part holds an object's pixel count, and the farther one is not a rim around the nearer
+  (at most ``MAX_RIM_FRACTION`` of its pixels within ``RIM_PX`` of it: the halo of sky or
+  ground the matching spreads around an object lies behind it; a thin part in front is an
+  object, a pole before a box);
 - their median disparities differ by more than the *gap*, ``max(min_gap_px, min_gap_rel * d)``;
 - each part lies on one plane in disparity (``min_plane_fraction`` of its pixels on its robust
   plane: :func:`~stereo_obstacles.part_boundaries.on_plane_fraction`): a colour boundary
@@ -53,8 +54,8 @@ from stereo_obstacles.quantiles import median
 __all__ = ["ColourCue", "ColourSplitParameters", "colour_cue", "split_groups_by_colour"]
 
 RIM_PX = 4.0
-"""A part is a rim when more than ``MAX_RIM_FRACTION`` of its pixels lie within this distance
-(pixels, at least one square of a large group's) of the other part."""
+"""The farther part is a rim when more than ``MAX_RIM_FRACTION`` of its pixels lie within this
+distance (pixels, at least one square of a large group's) of the nearer part."""
 MAX_RIM_FRACTION = 0.5
 STEP_PERCENTILE = 10.0
 """Percentile of the planes' difference along the boundary that must exceed the gap: a low one,
@@ -274,10 +275,10 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, min_obj
         return None
     second = cluster == 1
     to_other = distance_to_other(canvas, second)
-    for members in (~second, second):
-        rim = members & (to_other <= max(RIM_PX, canvas.block))                    # next square at least
-        if canvas.pixels(rim) > MAX_RIM_FRACTION * canvas.pixels(members):
-            return None
+    farther = second if median(d[second]) < median(d[~second]) else ~second
+    rim = farther & (to_other <= max(RIM_PX, canvas.block))                         # next square at least
+    if canvas.pixels(rim) > MAX_RIM_FRACTION * canvas.pixels(farther):
+        return None
     planes = planes_away_from_boundary(canvas, d, second, to_other)
     if planes is None:
         return None
