@@ -27,7 +27,8 @@ def test_each_warning_once_filters_the_root_handlers_within_the_block_only():
     seen = []
     handler.emit = seen.append
     root.addHandler(handler)
-    log = logging.getLogger("stereo_obstacles.x")
+    log = logging.getLogger("test_repeated_warnings")                  # a level of its own: other tests set theirs
+    log.setLevel(logging.WARNING)
     try:
         with each_warning_once() as repeats:
             for value in (1, 2, 3):
