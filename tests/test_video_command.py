@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from io import StringIO
 
@@ -101,9 +102,31 @@ def test_odd_sized_frames_give_a_video_padded_by_one_black_row(tmp_path):
     assert frame[-1].max() < 40 < frame[-2].max()                   # the added row is black, the last image row is not
 
 
+def test_an_output_naming_an_image_a_pattern_matches_is_refused(tmp_path, capsys):
+    # with folders the same mistake was refused; with glob patterns the image was replaced, exit 0 (review)
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    image = left_dir / "0002.png"
+    before = image.read_bytes()
+    assert main(["video", str(left_dir / "*.png"), str(right_dir / "*.png"), "--jsonl", str(image),
+                 "--max-frames", "1"]) == 1
+    assert "is also an input or another output of this run" in capsys.readouterr().err
+    assert image.read_bytes() == before
+
+
+def test_a_video_writer_opencv_refuses_costs_no_earlier_jsonl_file(tmp_path, capsys):
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    jsonl = tmp_path / "keep.jsonl"
+    jsonl.write_text('{"type": "header"}\n{"type": "frame"}\n')
+    assert main(["video", str(left_dir), str(right_dir), "--jsonl", str(jsonl), "--video-out",
+                 str(tmp_path / "o.xyz")]) == 1
+    assert "cannot write video" in capsys.readouterr().err
+    assert jsonl.read_text() == '{"type": "header"}\n{"type": "frame"}\n'       # was emptied to a new header
+
+
 @pytest.mark.parametrize("option, message", [(["--forward-speed", "0.5"], "--forward-speed needs a calibration"),
                                              (["--video-out", "{tmp}"], "is a folder; expected a file name"),
-                                             (["--jsonl", "{tmp}"], "is a folder; expected a file name")])
+                                             (["--jsonl", "{tmp}"], "is a folder; expected a file name"),
+                                             (["--video-out", "{tmp}/v.png"], "names an image; give a video file")])
 def test_options_that_cannot_work_are_refused_before_any_frame(tmp_path, capsys, option, message):
     left_dir, right_dir = write_sequences(tmp_path / "in")
     option = [o.format(tmp=tmp_path) for o in option]
@@ -184,6 +207,24 @@ def test_json_lines_reader_reports_a_torn_line(tmp_path):
     path.write_text('{"a": 1}\n{"a": \n')
     with pytest.raises(InputFileError, match="line 2 is not valid JSON"):
         read_json_lines(path)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_json_lines_go_to_a_named_pipe_and_to_dev_null(tmp_path):
+    # fsync of a pipe or a device fails (EINVAL): a robot reading the frames through a FIFO got an error
+    fifo = tmp_path / "frames"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()))
+    reader.start()
+    with JsonLinesWriter(fifo) as out:
+        out.write({"frame": 0})
+        out.write({"frame": 1})
+    reader.join(timeout=30)
+    assert got == ['{"frame":0}\n{"frame":1}\n']
+    with JsonLinesWriter(os.devnull) as out:
+        out.write({"frame": 0})
+    assert out.lines == 1
 
 
 def test_progress_draws_only_when_enabled():

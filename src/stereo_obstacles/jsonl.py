@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 from pathlib import Path
 
 from stereo_obstacles.atomic import prepare_parent
@@ -38,10 +39,11 @@ class JsonLinesWriter:
 
     def __init__(self, path: str | os.PathLike[str], *, sync: bool = True) -> None:
         self.path = Path(path)
-        self.sync = sync
         prepare_parent(self.path)
         try:
             self._fd: int | None = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
+            # a pipe another process reads (or /dev/null) has nothing to make durable: fsync fails there
+            self.sync = sync and stat.S_ISREG(os.fstat(self._fd).st_mode)
         except OSError as exc:
             raise OutputError(f"cannot write {self.path}: {exc.strerror or exc}") from exc
         self.lines = 0

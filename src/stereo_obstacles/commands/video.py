@@ -128,6 +128,14 @@ class _VideoOut:
             discard_temporary(self.tmp)
 
 
+def _pattern_matches(sources) -> tuple[str, ...]:
+    """The files the glob patterns among ``sources`` name: an output must not replace one of those
+    images (folders are refused as a whole by the output checks)."""
+    import glob
+
+    return tuple(match for source in sources if glob.has_magic(source) for match in glob.glob(source))
+
+
 def run(args: argparse.Namespace) -> int:
     """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C, 143 on
     SIGTERM."""
@@ -153,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.report import write_detection_outputs
     from stereo_obstacles.stream_detection import (IN_FLIGHT, annotate_frame, detect_stream, frame_record,
                                                    header_record)
-    from stereo_obstacles.streams import open_source
+    from stereo_obstacles.streams import IMAGE_EXTENSIONS, open_source
     from stereo_obstacles.temporal_seeds import TemporalSeedParameters
     from stereo_obstacles.tracking import TrackingParameters
 
@@ -164,7 +172,10 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidInputError(f"--in-flight must be >= 1, got {in_flight}")
     refine_frames = TemporalSeedParameters().refine_frames if args.refine_frames is None else args.refine_frames
     config = config_from_args(args)
-    written = tuple(args.source) + ((args.calib,) if args.calib else ())
+    if args.video_out and Path(args.video_out).suffix.lower() in IMAGE_EXTENSIONS:
+        raise InvalidInputError(f"--video-out {args.video_out} names an image; give a video file name such as "
+                                f"annotated.mp4")
+    written = tuple(args.source) + _pattern_matches(args.source) + ((args.calib,) if args.calib else ())
     for target in (args.video_out, None if args.jsonl == "-" else args.jsonl):
         if target:
             check_output_file(target, inputs=written, input_folders=args.source)   # nor the other output
@@ -203,16 +214,16 @@ def run(args: argparse.Namespace) -> int:
                                            forward_m_per_frame=args.forward_speed,
                                            refine_frames=refine_frames)
                     if args.temporal_seeds else None)
+        video = None
+        if args.video_out:              # first: a writer OpenCV refuses must not cost an earlier --jsonl file
+            video = _VideoOut(args.video_out, source.fps, (width, height))
+            stack.callback(video.close)
         jsonl = None
         if args.jsonl:
             jsonl = stack.enter_context(JsonLinesWriter("/dev/stdout" if args.jsonl == "-" else args.jsonl,
                                                         sync=args.jsonl != "-"))
             jsonl.write(header_record(source=source.description, calibration=calibration, config=config,
                                       temporal=temporal, tracking=tracking, rectification=rectified_by))
-        video = None
-        if args.video_out:
-            video = _VideoOut(args.video_out, source.fps, (width, height))
-            stack.callback(video.close)
         total = None if source.is_live else source.total_frames
         if total is not None and args.max_frames is not None:
             total = min(total, args.max_frames)
