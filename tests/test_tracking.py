@@ -97,7 +97,7 @@ def test_a_missed_track_predicted_past_the_camera_has_time_to_contact_zero():
         tracker.update([seen(0.0, 1.0 - 0.15 * k)], k * DT)        # 0.25 m away, closing at 1.5 m/s
     missed = tracker.update([], 8 * DT)[0]                           # predicted 0.35 m past it
     assert missed.obstacle is None and missed.approaching
-    assert missed.distance_m < 0 and missed.time_to_contact_s == 0.0
+    assert missed.distance_m == 0.0 and missed.time_to_contact_s == 0.0     # at contact, not -0.35 m
 
 
 def test_far_jump_elsewhere_in_the_image_starts_a_new_track():
@@ -112,6 +112,19 @@ def test_merged_detection_keeps_the_id_through_box_overlap():
     a = tracker.update([seen(0.0, 5.0, box=(100, 100, 140, 200))], 0.0)[0].track_id
     merged = seen(1.5, 5.0, box=(100, 100, 220, 200))       # centre 1.5 m away, box still overlapping
     assert tracker.update([merged], DT)[0].track_id == a
+
+
+def test_overlapping_boxes_far_apart_in_distance_are_not_one_track():
+    # a cut between two scenes: a tree's box at 28.9 m over a car's at 6.5 m made one track closing at
+    # 670 m/s, its distance -4.7 m the next frame (user-level review, session 23)
+    tracker = ObstacleTracker()
+    tree = tracker.update([seen(0.0, 28.9, box=(100, 50, 160, 200))], 0.0)[0]
+    car = tracker.update([seen(0.0, 6.5, box=(100, 60, 170, 200))], DT)
+    assert [t.track_id for t in car if t.obstacle is not None] != [tree.track_id]
+    assert all(t.distance_m >= 0 and abs(t.closing_speed_mps) < 1 for t in car)
+    tracker = ObstacleTracker()                                 # a step within 30 % of the distance: kept
+    first = tracker.update([seen(0.0, 5.0, box=(100, 100, 140, 200))], 0.0)[0]
+    assert tracker.update([seen(0.8, 6.2, box=(100, 100, 150, 200))], DT)[0].track_id == first.track_id
 
 
 def test_without_calibration_boxes_carry_the_ids():

@@ -10,8 +10,11 @@ tracks:
   an intersection over union of at least ``min_iou``; its cost is the smaller of
   ``jump / max_centre_jump_m`` and ``1 - IoU``. Either cue alone is fragile: the centre of
   an object that the detector merges with its neighbour in one frame jumps by a metre, while
-  its box still overlaps. Unmatched obstacles start new tracks; a track not seen for more
-  than ``max_missed_frames`` frames ends.
+  its box still overlaps. A pair by boxes also needs the obstacle's distance within
+  ``max_distance_change`` of the track's predicted one (as a fraction of it; at least
+  ``max_centre_jump_m``): a box over a far tree and one over a near car overlap too, and one
+  such pair made a track close at 670 m/s. Unmatched obstacles start new tracks; a track not
+  seen for more than ``max_missed_frames`` frames ends.
 * **smoothing** — an alpha-beta filter (a steady-state 1-D constant-velocity Kalman filter)
   on the distance: ``predicted = z + v dt``, ``z = predicted + alpha r``, ``v = v + beta r / dt``
   with the residual ``r = measured - predicted``; the velocity starts from the difference of
@@ -49,6 +52,9 @@ class TrackingParameters:
         centre for the two to be associated.
     min_iou : float
         Smallest box overlap (intersection over union, in (0, 1]) for an association by boxes.
+    max_distance_change : float
+        Largest change of distance, as a fraction of the track's predicted distance (at least
+        ``max_centre_jump_m``), for an association by boxes.
     alpha, beta : float
         Gains of the alpha-beta filter on distance (0 < alpha <= 1, 0 <= beta <= 2).
     max_missed_frames : int
@@ -63,6 +69,7 @@ class TrackingParameters:
 
     max_centre_jump_m: float = 1.0
     min_iou: float = 0.2
+    max_distance_change: float = 0.3
     alpha: float = 0.5
     beta: float = 0.1
     max_missed_frames: int = 3
@@ -72,6 +79,7 @@ class TrackingParameters:
     def __post_init__(self) -> None:
         check_positive(self, ("max_centre_jump_m", "min_iou", "alpha"))
         check_numbers(self, (("min_iou", 0.0, 1.0), ("alpha", 0.0, 1.0), ("beta", 0.0, 2.0),
+                             ("max_distance_change", 0.0, math.inf),
                              ("min_closing_speed_mps", 0.0, math.inf)))
         check_integers(self, (("max_missed_frames", 0, math.inf), ("min_age_frames", 0, math.inf)))
 
@@ -87,7 +95,8 @@ class Track:
     obstacle : Obstacle or None
         This frame's detection, ``None`` when the track was missed in this frame.
     distance_m : float or None
-        Smoothed distance in metres (predicted when missed); ``None`` without a calibration.
+        Smoothed distance in metres (predicted when missed), at least 0; ``None`` without a
+        calibration.
     closing_speed_mps : float or None
         Speed at which the distance shrinks, m/s (negative: receding).
     time_to_contact_s : float or None
@@ -247,7 +256,12 @@ class ObstacleTracker:
         jump_cost = np.where(jump <= self.params.max_centre_jump_m, jump / self.params.max_centre_jump_m, np.inf)
         iou = box_iou_matrix(np.array([s.box for s in self._tracks], dtype=np.float64),
                              np.array([o.box_px for o in obstacles], dtype=np.float64))
-        cost = np.minimum(jump_cost, np.where(iou >= self.params.min_iou, 1.0 - iou, np.inf))
+        predicted = np.array([np.nan if (z := s.predicted_distance(time_s)) is None else z for s in self._tracks])
+        measured = np.array([np.nan if o.distance_m is None else o.distance_m for o in obstacles])
+        change = np.abs(measured[None, :] - predicted[:, None])
+        reach = np.maximum(self.params.max_centre_jump_m, self.params.max_distance_change * np.abs(predicted))[:, None]
+        plausible = ~(change > reach)                     # NaN (no distance on either side): boxes alone
+        cost = np.minimum(jump_cost, np.where((iou >= self.params.min_iou) & plausible, 1.0 - iou, np.inf))
         ts, js = np.nonzero(np.isfinite(cost))
         costs = sorted(zip(cost[ts, js].tolist(), ts.tolist(), js.tolist()))
         pairs: dict[int, tuple[_State, float]] = {}
@@ -281,11 +295,12 @@ class ObstacleTracker:
 
     def _report(self, state: _State, obstacle: Obstacle | None, time_s: float | None = None) -> Track:
         distance = state.distance if time_s is None else state.predicted_distance(time_s)
+        if distance is not None:
+            distance = max(distance, 0.0)     # a prediction past the camera: at contact, not behind it
         closing = -state.velocity if distance is not None else None
         approaching = bool(closing is not None and state.age >= self.params.min_age_frames
                            and closing > self.params.min_closing_speed_mps)
-        # a missed track's predicted distance may already have passed zero: contact is then now
-        contact = max(distance, 0.0) / closing if approaching and distance is not None else None
+        contact = distance / closing if approaching and distance is not None else None
         return Track(track_id=state.track_id, obstacle=obstacle, distance_m=distance, closing_speed_mps=closing,
                      time_to_contact_s=contact, approaching=approaching, age_frames=state.age,
                      missed_frames=state.missed)
