@@ -87,6 +87,10 @@ def test_calibrate_argument_errors(chessboard, tmp_path, capsys):
     assert main(["calibrate", "--folder", str(chessboard), "--board", "9-6", "--square", "0.025",
                  "--out", str(tmp_path / "c.json")]) == 1
     assert "COLUMNSxROWS" in capsys.readouterr().err
+    for board in ("2x2", "9x2"):           # OpenCV asserts below 3: exit 3 with its text until session 23
+        assert main(["calibrate", "--folder", str(chessboard), "--board", board, "--square", "0.025",
+                     "--out", str(tmp_path / "c.json")]) == 1
+        assert "must be an integer >= 3 inner corners" in capsys.readouterr().err
     (tmp_path / "a_file").write_text("x")
     # checked before the boards are searched (the write itself would fail with "File exists")
     assert main(["calibrate", "--folder", str(chessboard), "--square", "0.025", "--out",

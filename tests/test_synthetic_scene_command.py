@@ -267,3 +267,23 @@ def test_a_rectified_sequence_over_a_mis_mounted_one_leaves_no_calibration_of_th
     assert "frame_*" in capsys.readouterr().out and (out / "frame_0001" / "camera_pair.json").exists()
     assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "2"]) == 0
     assert not list(out.glob("frame_*/camera_pair.json"))
+
+
+def test_single_file_writers_refuse_to_replace_a_scenes_files(tmp_path, capsys):
+    # segment -o scene/labels.png replaced the scene's ground truth, exit 0 (user-level review, session 23)
+    from stereo_obstacles.errors import OutputError
+    from stereo_obstacles.synthetic.scene_files import refuse_scene_files
+
+    scene = tmp_path / "scene"
+    assert main(["scene", "--out", str(scene), "--size", "160x120"]) == 0
+    truth = {name: (scene / name).read_bytes() for name in ("labels.png", "disparity.pfm")}
+    for command in (["segment", str(scene / "left.png"), "-o", str(scene / "labels.png")],
+                    ["disparity", str(scene / "left.png"), str(scene / "right.png"), "-o", str(scene / "disparity.pfm")]):
+        capsys.readouterr()
+        assert main(command) == 1
+        assert "is a file of the rendered scene in" in capsys.readouterr().err
+    assert {name: (scene / name).read_bytes() for name in truth} == truth
+    with pytest.raises(OutputError, match="calibration.json is a file of the rendered scene"):
+        refuse_scene_files(None, scene / "calibration.json")          # calibrate --out
+    refuse_scene_files(scene / "mine.png", tmp_path / "labels.png")   # other names, or not in a scene: written
+    assert main(["segment", str(scene / "left.png"), "-o", str(scene / "mine.png")]) == 0

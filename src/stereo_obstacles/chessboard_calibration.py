@@ -43,8 +43,9 @@ class Board:
     def __post_init__(self) -> None:
         for name in ("columns", "rows"):
             value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 2:
-                raise InvalidInputError(f"board {name} must be an integer >= 2 inner corners, got {value!r}")
+            # OpenCV's corner finder asserts on fewer than 3 (exit 3 for --board 2x2 until session 23)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 3:
+                raise InvalidInputError(f"board {name} must be an integer >= 3 inner corners, got {value!r}")
         if not (isinstance(self.square_m, (int, float)) and 0 < self.square_m < 10):
             raise InvalidInputError(f"board square_m must be in (0, 10) metres, got {self.square_m!r}")
 

@@ -79,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.chessboard_calibration import Board, calibrate_pairs
     from stereo_obstacles.errors import InvalidInputError, OutputError
     from stereo_obstacles.fileio import read_image
+    from stereo_obstacles.synthetic.scene_files import refuse_scene_files
 
     if args.folder and (args.left_glob or args.right_glob):
         raise InvalidInputError("give either LEFT_GLOB RIGHT_GLOB or --folder DIR, not both")
@@ -93,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     images = tuple(name for pair in files for name in pair)
     check_output_file(out, images)
     check_output_file(yaml_path, images)
+    refuse_scene_files(out)
     pairs = [(f"{Path(left).name}+{Path(right).name}", read_image(left, mode="gray"), read_image(right, mode="gray"))
              for left, right in files]
     result = calibrate_pairs(pairs, board)

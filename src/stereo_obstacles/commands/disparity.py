@@ -87,10 +87,12 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.fileio import check_disparity_path, check_image_path, read_image, write_disparity, write_image
     from stereo_obstacles.matching import match, warn_if_range_cut_off
     from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES
+    from stereo_obstacles.synthetic.scene_files import refuse_scene_files
 
     inputs = (args.left, args.right, getattr(args, "calib", None),
               None if args.seeds in SEED_SOURCES else args.seeds)
     check_output_file(args.output, inputs)
+    refuse_scene_files(args.output, args.picture)
     check_disparity_path(args.output)
     if args.picture:
         check_output_file(args.picture, inputs + (args.output,))

@@ -73,12 +73,14 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
     from stereo_obstacles.segmentation import SegmentationParameters, segment
     from stereo_obstacles.shadow_texture import ShadowTextureParameters
+    from stereo_obstacles.synthetic.scene_files import refuse_scene_files
 
     inputs = (args.image, args.right)
     for target in (args.output, f"{args.output}.json", args.overlay):
         if target is not None:
             check_output_file(target, inputs)
             inputs += (target,)
+    refuse_scene_files(args.output, args.overlay)
     check_labels_path(args.output)                       # the formats too, before the first file is written
     if args.overlay:
         check_image_path(args.overlay)

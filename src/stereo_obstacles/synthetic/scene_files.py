@@ -38,6 +38,7 @@ from stereo_obstacles import __version__
 from stereo_obstacles.atomic import refuse_foreign_files, staged_directory, write_text_atomic
 from stereo_obstacles.calibration import write_calibration_json
 from stereo_obstacles.camera_calibration import CameraPairCalibration, write_camera_pair_json
+from stereo_obstacles.errors import OutputError
 from stereo_obstacles.fileio import write_depth, write_disparity, write_image, write_labels
 from stereo_obstacles.json_documents import is_document_of
 from stereo_obstacles.labels import Label, colorize_labels
@@ -122,6 +123,16 @@ def scene_document(pair: SyntheticPair) -> dict:
 def holds_a_scene(folder: str | os.PathLike[str]) -> bool:
     """Whether ``folder`` holds a scene this tool wrote: a ``scene.json`` of its format."""
     return is_document_of(Path(folder) / "scene.json", SCENE_FORMAT)
+
+
+def refuse_scene_files(*paths: str | os.PathLike[str] | None) -> None:
+    """Raise :class:`~stereo_obstacles.errors.OutputError` when one of the output ``paths`` (``None``
+    skipped) would replace a file of a rendered scene (:data:`SCENE_FILES` in a folder that
+    :func:`holds_a_scene`): its ground truth, its images or its calibration."""
+    for path in (Path(p) for p in paths if p is not None):
+        if path.name in SCENE_FILES and holds_a_scene(path.parent):
+            raise OutputError(f"{path} is a file of the rendered scene in {path.parent} (its images, ground truth "
+                              f"or calibration); write it elsewhere")
 
 
 def check_scene_folder(folder: str | os.PathLike[str]) -> None:
