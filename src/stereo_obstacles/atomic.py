@@ -114,6 +114,22 @@ def refuse_foreign_files(folder: str | os.PathLike[str], names: Iterable[str], *
                           f"would replace them; write it elsewhere, or delete them")
 
 
+def remove_file_set(folder: Path, names: tuple[str, ...], *, what: str) -> None:
+    """Remove the files ``names`` from ``folder`` (the first one first: the file that makes the
+    set one of this tool's, so that a set half removed is no set), and ``folder`` itself when
+    nothing else is left in it; anything else there stays. :class:`OutputError` naming ``what``
+    when a file cannot be removed."""
+    try:
+        for name in names:
+            path = folder / name
+            if path.is_file() or path.is_symlink():
+                path.unlink()
+        if not any(folder.iterdir()):
+            folder.rmdir()
+    except OSError as exc:
+        raise OutputError(f"cannot remove {what} {folder}: {exc.strerror or exc}") from exc
+
+
 def temporary_beside(path: Path, *, suffix: str | None = None) -> Path:
     """Create an empty private temporary file in ``path``'s folder (created if needed).
 

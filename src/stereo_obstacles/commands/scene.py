@@ -76,21 +76,12 @@ def _remove_frames(folder, keep) -> None:
     such folder when nothing else is left in it; anything else there is the user's and stays."""
     from pathlib import Path
 
-    from stereo_obstacles.errors import OutputError
+    from stereo_obstacles.atomic import remove_file_set
     from stereo_obstacles.synthetic.scene_files import SCENE_FILES, holds_a_scene
 
     for frame in Path(folder).glob("frame_*"):
-        if frame.name in keep or frame.is_symlink() or not holds_a_scene(frame):
-            continue
-        try:
-            for name in ("scene.json",) + SCENE_FILES:     # scene.json first: a frame half removed is no frame
-                path = frame / name
-                if path.is_file() or path.is_symlink():
-                    path.unlink()
-            if not any(frame.iterdir()):
-                frame.rmdir()
-        except OSError as exc:
-            raise OutputError(f"cannot remove the earlier frame {frame}: {exc.strerror or exc}") from exc
+        if frame.name not in keep and not frame.is_symlink() and holds_a_scene(frame):
+            remove_file_set(frame, ("scene.json",) + SCENE_FILES, what="the earlier frame")
 
 
 def _rectification_hint(options, calibration_file) -> None:

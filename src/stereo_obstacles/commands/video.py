@@ -136,6 +136,24 @@ def _pattern_matches(sources) -> tuple[str, ...]:
     return tuple(match for source in sources if glob.has_magic(source) for match in glob.glob(source))
 
 
+def _remove_earlier_reports(folder, keep) -> int:
+    """Remove the reports of this tool in the sub-folders of ``folder`` not named in ``keep`` (the
+    frames of an earlier, longer run, which would pass for this run's); return how many. Anything
+    else there is the user's and stays."""
+    from pathlib import Path
+
+    from stereo_obstacles.atomic import remove_file_set
+    from stereo_obstacles.report import OUTPUT_FILES, holds_a_report
+
+    if not Path(folder).is_dir():
+        return 0
+    earlier = [frame for frame in Path(folder).iterdir()
+               if frame.name not in keep and frame.is_dir() and not frame.is_symlink() and holds_a_report(frame)]
+    for frame in earlier:
+        remove_file_set(frame, OUTPUT_FILES, what="the earlier frame report")     # obstacles.json first
+    return len(earlier)
+
+
 def run(args: argparse.Namespace) -> int:
     """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C, 143 on
     SIGTERM."""
@@ -232,15 +250,11 @@ def run(args: argparse.Namespace) -> int:
         stream = detect_stream(itertools.chain([first], frames), calibration, config=checked, temporal=temporal,
                                tracking=tracking, in_flight=in_flight)
         stop = stack.enter_context(StopRequest("the current frame"))
+        reported: set[str] = set()
         try:
             for detection in stream:
-                record = frame_record(detection)
-                if jsonl is not None:
-                    jsonl.write(record)
-                elif not progress.enabled:
-                    print(_frame_line(record, calibration is not None), flush=True)
-                if video is not None:
-                    video.write(annotate_frame(detection))
+                # the slow report first, the JSON line last: a SIGTERM while a frame is written leaves
+                # it out of the line count and the video, not only out of the reports
                 if args.frames_out:
                     result = detection.result
                     write_detection_outputs(Path(args.frames_out) / detection.frame.name, left=detection.frame.left,
@@ -251,7 +265,15 @@ def run(args: argparse.Namespace) -> int:
                                             inputs={"source": source.description, "frame": detection.frame.index,
                                                     "rectification": rectified_by,
                                                     "rectification_check": first_checked})
+                if video is not None:
+                    video.write(annotate_frame(detection))
+                record = frame_record(detection)
+                if jsonl is not None:
+                    jsonl.write(record)
+                elif not progress.enabled:
+                    print(_frame_line(record, calibration is not None), flush=True)
                 count += 1
+                reported.add(detection.frame.name)
                 near = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
                 progress.update(note=f"approaching #{near[0].track_id}" if near else "")
                 if stop.requested:
@@ -267,6 +289,9 @@ def run(args: argparse.Namespace) -> int:
         finally:
             stream.close()
         elapsed = time.monotonic() - start
+        if args.frames_out and not interrupted and (removed := _remove_earlier_reports(args.frames_out, reported)):
+            print(f"removed {removed} frame report{'s' if removed != 1 else ''} of an earlier run from "
+                  f"{args.frames_out}", file=sys.stderr)
         if jsonl is not None:
             jsonl.write({"type": "end", "frames": count, "interrupted": interrupted, "seconds": round(elapsed, 3),
                          "frames_per_second": round(count / elapsed, 3) if elapsed > 0 else None})
