@@ -173,6 +173,20 @@ def test_rectify_uncalibrated(synthetic_files, tmp_path, capsys):
     assert "inliers:" in capsys.readouterr().out
 
 
+def test_detect_uncalibrated_makes_no_distances_and_says_what_its_disparities_are(synthetic_files, tmp_path, capsys,
+                                                                                    caplog):
+    # with --focal and --baseline it reported a box at 3.1 m at 2.11 m and a wall at 9.2 m at 3.19 m
+    # (user-level review, session 23): the homographies shift the disparity across the image
+    pair = [str(synthetic_files / "left.png"), str(synthetic_files / "right.png")]
+    assert main(["detect", *pair, "--uncalibrated", "--focal", "554", "--baseline", "0.12",
+                 "--out", str(tmp_path / "m")]) == 1
+    assert "--uncalibrated gives no metric depth" in capsys.readouterr().err
+    assert not (tmp_path / "m").exists()
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        assert main(["detect", *pair, "--uncalibrated", "--out", str(tmp_path / "px")]) == 0
+    assert "a larger disparity is nearer only between obstacles close together in the image" in caplog.text
+
+
 def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_other_images(synthetic_files, tmp_path,
                                                                                         capsys):
     out = tmp_path / "r"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 
 CALIB_UNIT_HELP = ("length unit of an OpenCV calibration's translation or of a Q matrix, which the file does not "
                    "say (default m); formats that state theirs do not use it")
@@ -125,12 +126,18 @@ def prepare_pair(args: argparse.Namespace, left, right):
     if getattr(args, "uncalibrated", False):
         if calib_file:
             raise CalibrationError("give either --calib FILE or --uncalibrated, not both")
+        if getattr(args, "focal", None) is not None or getattr(args, "baseline", None) is not None:
+            raise CalibrationError("--uncalibrated gives no metric depth: its homographies shift the disparity by "
+                                   "an amount that changes across the image, so --focal and --baseline cannot make "
+                                   "distances of it; calibrate the rig (stereo-obstacles calibrate) for distances")
         from stereo_obstacles.uncalibrated_rectification import rectify_uncalibrated
 
         rectification = rectify_uncalibrated(left, right)
         left, right = rectification.apply(left, right)
-        calibration = calibration_from_args(args, width, height) if hasattr(args, "focal") else None
-        return left, right, calibration, rectification.to_dict()
+        logging.getLogger(__name__).warning(
+            "rectified from the images alone: the disparities carry an offset that changes across the image, so "
+            "a larger disparity is nearer only between obstacles close together in the image")
+        return left, right, None, rectification.to_dict()
     if calib_file:
         calibration, rectification = calibration_and_rectification(args, width, height)
         if rectification is None:
