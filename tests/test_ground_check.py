@@ -424,6 +424,18 @@ def test_segment_command_records_the_stereo_check(tmp_path):
     assert check["plane_fallback_reason"] is None
 
 
+def test_segment_command_names_the_files_of_a_pair_of_two_sizes(tmp_path, capsys):
+    # it said "left and right images differ: (480, 640, 3) uint8 vs ..." without the files (review, session 23)
+    left, right, _, _ = _pair()
+    write_image(tmp_path / "left.png", left)
+    write_image(tmp_path / "right.png", right[:100])
+    assert main(["segment", str(tmp_path / "left.png"), "--right", str(tmp_path / "right.png"),
+                 "-o", str(tmp_path / "labels.png")]) == 1
+    err = capsys.readouterr().err
+    assert f"left.png is {WIDTH}x{HEIGHT} uint8 but --right " in err and f"right.png is {WIDTH}x100 uint8" in err
+    assert not (tmp_path / "labels.png").exists()
+
+
 def test_segment_command_records_the_taller_band(tmp_path):
     left, right, _, _ = _pair()
     left[180:], right[180:] = PAVER.astype(np.uint8), PAVER.astype(np.uint8)   # smooth ground in the area

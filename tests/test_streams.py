@@ -166,6 +166,11 @@ def test_missing_or_broken_video(tmp_path):
     broken.write_bytes(b"not a video at all")
     with pytest.raises(InputFileError, match="cannot be opened as a video"):
         SideBySideSource(broken)
+    # a folder given as the one side-by-side video was "video file F does not exist" (review, session 23)
+    (tmp_path / "seq" / "frame_0000").mkdir(parents=True)
+    (tmp_path / "seq" / "frame_0000" / "left.png").write_bytes(b"")
+    with pytest.raises(InputFileError, match=r"seq is a folder, not a video file; .*'.*seq/frame_\*/left.png'"):
+        SideBySideSource(tmp_path / "seq")
 
 
 def test_side_by_side_video_is_split_in_halves(tmp_path):

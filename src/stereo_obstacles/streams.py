@@ -132,6 +132,11 @@ def _bgr_to_rgb(image: np.ndarray) -> np.ndarray:
 
 def _open_video(path: str | os.PathLike[str]) -> cv2.VideoCapture:
     p = Path(path)
+    if p.is_dir():
+        example = (f" ('{p}/frame_*/left.png' '{p}/frame_*/right.png' for a rendered sequence)"
+                   if any(p.glob("frame_*/left.png")) else "")
+        raise InputFileError(f"{p} is a folder, not a video file; a stereo pair of image sequences is two folders "
+                             f"or two glob patterns of images{example}")
     if not p.is_file():
         raise InputFileError(f"video file {p} does not exist")
     capture = cv2.VideoCapture(str(p))
