@@ -125,6 +125,9 @@ def test_overlapping_boxes_far_apart_in_distance_are_not_one_track():
     tracker = ObstacleTracker()                                 # a step within 30 % of the distance: kept
     first = tracker.update([seen(0.0, 5.0, box=(100, 100, 140, 200))], 0.0)[0]
     assert tracker.update([seen(0.8, 6.2, box=(100, 100, 150, 200))], DT)[0].track_id == first.track_id
+    # and the track survives that one noisy frame: its velocity, started from it, predicts 7.4 m next
+    later = [tracker.update([seen(0.0, 5.0, box=(100, 100, 140, 200))], k * DT)[0] for k in (2, 3)]
+    assert [t.track_id for t in later] == [first.track_id] * 2
 
 
 def test_without_calibration_boxes_carry_the_ids():

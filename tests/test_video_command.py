@@ -111,6 +111,11 @@ def test_an_output_naming_an_image_a_pattern_matches_is_refused(tmp_path, capsys
                  "--max-frames", "1"]) == 1
     assert "is also an input or another output of this run" in capsys.readouterr().err
     assert image.read_bytes() == before
+    # one the pattern would match once written: the next run read it as a frame (review)
+    assert main(["video", str(left_dir / "*"), str(right_dir / "*"), "--jsonl", str(left_dir / "track.jsonl"),
+                 "--max-frames", "1"]) == 1
+    assert "track.jsonl matches the source pattern" in capsys.readouterr().err
+    assert not (left_dir / "track.jsonl").exists()
 
 
 def test_a_video_writer_opencv_refuses_costs_no_earlier_jsonl_file(tmp_path, capsys):
@@ -182,34 +187,42 @@ def test_ctrl_c_stops_cleanly_with_only_complete_lines(tmp_path):
     assert 2 <= records[-1]["frames"] < 100 and len(records) == records[-1]["frames"] + 2
 
 
-def test_a_frame_stopped_while_its_report_is_written_is_in_no_output(tmp_path, monkeypatch):
-    # a SIGTERM during the frame's --frames-out report left its JSON line and video frame in, the
-    # count and the report out: 10 lines against "frames": 9 (user-level review, session 23)
-    from stereo_obstacles import report
+def _stop_on_call(real, n: int, stop):
+    """``real`` wrapped so that its ``n``-th call first calls ``stop`` (which raises, or sends a signal)."""
+    calls = []
+
+    def wrapped(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == n:
+            stop()
+        return real(*args, **kwargs)
+    return wrapped
+
+
+def _raise_terminated():
     from stereo_obstacles.interrupts import Terminated
 
-    real, calls = report.write_detection_outputs, []
+    raise Terminated
 
-    def stopped_on_the_third(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 3:
-            raise Terminated
-        return real(*args, **kwargs)
 
-    monkeypatch.setattr(report, "write_detection_outputs", stopped_on_the_third)
+def _send_sigterm():
+    os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _every_output_of_a_stopped_run(tmp_path) -> tuple[int, list[dict], int, int]:
+    """Run video with --jsonl, --video-out and --frames-out: the exit code, the JSON records, and
+    the numbers of frame reports and of video frames written."""
     left_dir, right_dir = write_sequences(tmp_path / "in")
     jsonl, out_video, frames_out = tmp_path / "f.jsonl", tmp_path / "v.mp4", tmp_path / "fo"
-    assert main(["video", str(left_dir), str(right_dir), "--jsonl", str(jsonl), "--video-out", str(out_video),
-                 "--frames-out", str(frames_out)]) == 143
-    records = read_json_lines(jsonl)
-    assert len(records) == 4 and records[-1]["frames"] == 2 and records[-1]["interrupted"]
-    assert len(list(frames_out.iterdir())) == 2
+    code = main(["video", str(left_dir), str(right_dir), "--jsonl", str(jsonl), "--video-out", str(out_video),
+                 "--frames-out", str(frames_out)])
     capture = cv2.VideoCapture(str(out_video))
-    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 2
+    video_frames = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
     capture.release()
+    return code, read_json_lines(jsonl), len(list(frames_out.iterdir())), video_frames
 
 
-def test_a_shorter_rerun_removes_the_frame_reports_of_the_earlier_run(tmp_path, capsys):
+def test_a_shorter_rerun_removes_the_frame_reports_of_the_earlier_run(tmp_path, capsys, monkeypatch):
     # they stayed beside the new ones, calibrated among uncalibrated (user-level review, session 23)
     left_dir, right_dir = write_sequences(tmp_path / "in")
     frames_out = tmp_path / "fo"
@@ -217,10 +230,48 @@ def test_a_shorter_rerun_removes_the_frame_reports_of_the_earlier_run(tmp_path, 
     assert len(list(frames_out.iterdir())) == N_FRAMES
     (frames_out / "notes").mkdir()
     (frames_out / "notes" / "mine.txt").write_text("x")
+    # a report of detect, and the frames of another source, are not this run's to remove (review)
+    assert main(["detect", str(left_dir / "0000.png"), str(right_dir / "0000.png"), "--out",
+                 str(frames_out / "my_detect_run")]) == 0
+    other = tmp_path / "other"
+    other.mkdir()
+    for side in ("left", "right"):
+        (other / side).mkdir()
+        for i in range(N_FRAMES):
+            (other / side / f"{i + 10:04d}.png").write_bytes((tmp_path / "in" / side / f"{i:04d}.png").read_bytes())
+    assert main(["video", str(other / "left"), str(other / "right"), "--frames-out", str(frames_out),
+                 "--max-frames", "1"]) == 0
+    kept = sorted(["notes", "my_detect_run", "0010"] + [f"{i:04d}" for i in range(N_FRAMES)])
+    assert sorted(p.name for p in frames_out.iterdir()) == kept
+    # an interrupted rerun keeps them all: it did not write the frames that would replace them
+    from stereo_obstacles import report
+
+    with monkeypatch.context() as patched:
+        patched.setattr(report, "write_detection_outputs", _stop_on_call(report.write_detection_outputs, 2,
+                                                                          _raise_terminated))
+        assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(frames_out),
+                     "--max-frames", "2"]) == 143
+    assert sorted(p.name for p in frames_out.iterdir()) == kept
     capsys.readouterr()
     assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(frames_out), "--max-frames", "2"]) == 0
-    assert f"removed {N_FRAMES - 2} frame reports of an earlier run" in capsys.readouterr().err
-    assert sorted(p.name for p in frames_out.iterdir()) == sorted(["notes"] + [f"{i:04d}" for i in range(2)])
+    assert f"removed {N_FRAMES - 2} frame reports of an earlier run over this source" in capsys.readouterr().err
+    assert sorted(p.name for p in frames_out.iterdir()) == sorted(["notes", "my_detect_run", "0010", "0000", "0001"])
+
+
+@pytest.mark.parametrize("module, name, call, stop", [("report", "write_detection_outputs", 3, _raise_terminated),
+                                                     ("stream_detection", "annotate_frame", 2, _send_sigterm)])
+def test_a_frame_stopped_while_it_is_written_is_in_all_outputs_or_none(tmp_path, monkeypatch, module, name, call,
+                                                                       stop):
+    # a SIGTERM while the frame's --frames-out report was written left its JSON line and video frame in,
+    # the count and the report out: 10 lines against "frames": 9 (user-level review, session 23). Raised in
+    # the report, the frame is in no output; sent while its video frame is drawn, it waits for them all
+    import importlib
+
+    target = importlib.import_module(f"stereo_obstacles.{module}")
+    monkeypatch.setattr(target, name, _stop_on_call(getattr(target, name), call, stop))
+    code, records, reports, video_frames = _every_output_of_a_stopped_run(tmp_path)
+    assert code == 143 and len(records) == 4 and records[-1]["frames"] == 2 and records[-1]["interrupted"]
+    assert reports == video_frames == 2
 
 
 def test_sigterm_stops_at_once_with_complete_lines_and_exit_143(tmp_path):
@@ -266,6 +317,20 @@ def test_json_lines_go_to_a_named_pipe_and_to_dev_null(tmp_path):
     with JsonLinesWriter(os.devnull) as out:
         out.write({"frame": 0})
     assert out.lines == 1
+
+
+def test_dev_null_is_an_output_for_a_user_who_cannot_write_in_dev(tmp_path, monkeypatch):
+    # the folder's trial file and write check refused /dev/null to every user but root (review)
+    from stereo_obstacles.atomic import check_output_file
+
+    real_access = os.access
+    monkeypatch.setattr(os, "access", lambda path, mode, **kw: False if os.fspath(path) == os.path.dirname(os.devnull)
+                        else real_access(path, mode, **kw))
+    check_output_file(os.devnull)
+    with JsonLinesWriter(os.devnull) as out:
+        out.write({"frame": 0})
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    assert main(["video", str(left_dir), str(right_dir), "--jsonl", os.devnull, "--max-frames", "1"]) == 0
 
 
 def test_progress_draws_only_when_enabled():

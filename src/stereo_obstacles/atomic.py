@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
+import stat
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -73,8 +74,22 @@ def check_output_file(path: str | os.PathLike[str], inputs: Iterable[str | os.Pa
     for folder in input_folders:
         if Path(folder).is_dir() and Path(folder).resolve() in target.resolve().parents:
             raise OutputError(f"{target} lies in the input folder {folder}; write it elsewhere")
-    _check_creatable(target.parent)
+    if is_pipe_or_device(target):                 # written where it is: its folder (/dev) need not be writable
+        if not os.access(target, os.W_OK):
+            raise OutputError(f"cannot write {target}: permission denied")
+    else:
+        _check_creatable(target.parent)
     _refuse_inputs(target, inputs)
+
+
+def is_pipe_or_device(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is an existing named pipe or character device (``/dev/null``): a stream
+    written in place, not a file made beside it and renamed."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return False
+    return stat.S_ISFIFO(mode) or stat.S_ISCHR(mode)
 
 
 def _refuse_inputs(target: Path, inputs: Iterable[str | os.PathLike[str] | None]) -> None:

@@ -13,8 +13,8 @@ import logging
 import signal
 import threading
 
-__all__ = ["EXIT_INTERRUPTED", "EXIT_TERMINATED", "StopRequest", "Terminated", "interrupt_exit_code",
-           "is_interrupt"]
+__all__ = ["EXIT_INTERRUPTED", "EXIT_TERMINATED", "StopRequest", "TerminationDeferred", "Terminated",
+           "interrupt_exit_code", "is_interrupt"]
 
 EXIT_INTERRUPTED = 130
 """Exit code after Ctrl-C (128 + SIGINT)."""
@@ -64,6 +64,39 @@ class StopRequest:
         if self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
             self._previous = None
+
+
+class TerminationDeferred:
+    """Context manager: a SIGTERM that arrives in the block is held back and delivered (to the
+    handler in place before the block) when the block ends, so that a unit of work, such as a
+    frame's outputs, is done whole or not begun. Outside the main thread it does nothing.
+
+    Examples
+    --------
+    >>> with TerminationDeferred():
+    ...     pass                     # a SIGTERM here would be delivered on leaving the block
+    """
+
+    def __init__(self) -> None:
+        self._previous = None
+        self._held = False
+
+    def _hold(self, signum, frame) -> None:
+        self._held = True
+
+    def __enter__(self) -> TerminationDeferred:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGTERM, self._hold)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._previous is None:
+            return
+        signal.signal(signal.SIGTERM, self._previous)
+        self._previous = None
+        if self._held:
+            self._held = False
+            signal.raise_signal(signal.SIGTERM)
 
 
 def is_interrupt(exc: BaseException) -> bool:

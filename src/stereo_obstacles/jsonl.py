@@ -1,8 +1,9 @@
 """JSON lines written one complete line at a time, so that a killed run leaves only whole lines.
 
 Each record is encoded first, then handed to the operating system in a single ``write`` of
-the whole line (newline included; a short write is continued) and made durable with
-``fsync`` before the next record is encoded. A run stopped by Ctrl-C (``KeyboardInterrupt``
+the whole line (newline included; a short write is continued) and, in a regular file, made
+durable with ``fsync`` before the next record is encoded (a named pipe another process reads,
+or ``/dev/null``, is written the same way, without the ``fsync``). A run stopped by Ctrl-C (``KeyboardInterrupt``
 is raised between Python statements, never inside the ``write``) or killed by a signal
 therefore leaves a file whose every line is a complete JSON document; only a crash of the
 machine or a full disk in the middle of a line can leave a torn last line, which
@@ -13,10 +14,9 @@ from __future__ import annotations
 
 import json
 import os
-import stat
 from pathlib import Path
 
-from stereo_obstacles.atomic import prepare_parent
+from stereo_obstacles.atomic import is_pipe_or_device, prepare_parent
 from stereo_obstacles.errors import InputFileError, OutputError
 
 __all__ = ["JsonLinesWriter", "read_json_lines"]
@@ -39,11 +39,12 @@ class JsonLinesWriter:
 
     def __init__(self, path: str | os.PathLike[str], *, sync: bool = True) -> None:
         self.path = Path(path)
-        prepare_parent(self.path)
+        if not is_pipe_or_device(self.path):
+            prepare_parent(self.path)
         try:
             self._fd: int | None = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666)
             # a pipe another process reads (or /dev/null) has nothing to make durable: fsync fails there
-            self.sync = sync and stat.S_ISREG(os.fstat(self._fd).st_mode)
+            self.sync = sync and not is_pipe_or_device(self.path)
         except OSError as exc:
             raise OutputError(f"cannot write {self.path}: {exc.strerror or exc}") from exc
         self.lines = 0

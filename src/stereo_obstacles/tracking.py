@@ -11,9 +11,9 @@ tracks:
   ``jump / max_centre_jump_m`` and ``1 - IoU``. Either cue alone is fragile: the centre of
   an object that the detector merges with its neighbour in one frame jumps by a metre, while
   its box still overlaps. A pair by boxes also needs the obstacle's distance within
-  ``max_distance_change`` of the track's predicted one (as a fraction of it; at least
-  ``max_centre_jump_m``): a box over a far tree and one over a near car overlap too, and one
-  such pair made a track close at 670 m/s. Unmatched obstacles start new tracks; a track not
+  ``max_distance_change`` of the track's predicted or last one (as a fraction of the predicted
+  one; at least ``max_centre_jump_m``): a box over a far tree and one over a near car overlap
+  too, and one such pair made a track close at 670 m/s. Unmatched obstacles start new tracks; a track not
   seen for more than ``max_missed_frames`` frames ends.
 * **smoothing** — an alpha-beta filter (a steady-state 1-D constant-velocity Kalman filter)
   on the distance: ``predicted = z + v dt``, ``z = predicted + alpha r``, ``v = v + beta r / dt``
@@ -53,8 +53,8 @@ class TrackingParameters:
     min_iou : float
         Smallest box overlap (intersection over union, in (0, 1]) for an association by boxes.
     max_distance_change : float
-        Largest change of distance, as a fraction of the track's predicted distance (at least
-        ``max_centre_jump_m``), for an association by boxes.
+        Largest change of distance from the track's predicted or last distance, as a fraction of
+        the predicted one (at least ``max_centre_jump_m``), for an association by boxes.
     alpha, beta : float
         Gains of the alpha-beta filter on distance (0 < alpha <= 1, 0 <= beta <= 2).
     max_missed_frames : int
@@ -257,8 +257,10 @@ class ObstacleTracker:
         iou = box_iou_matrix(np.array([s.box for s in self._tracks], dtype=np.float64),
                              np.array([o.box_px for o in obstacles], dtype=np.float64))
         predicted = np.array([np.nan if (z := s.predicted_distance(time_s)) is None else z for s in self._tracks])
+        last = np.array([np.nan if s.distance is None else s.distance for s in self._tracks])
         measured = np.array([np.nan if o.distance_m is None else o.distance_m for o in obstacles])
-        change = np.abs(measured[None, :] - predicted[:, None])
+        # from the prediction or from the last distance: one noisy frame throws a young track's velocity off
+        change = np.fmin(np.abs(measured[None, :] - predicted[:, None]), np.abs(measured[None, :] - last[:, None]))
         reach = np.maximum(self.params.max_centre_jump_m, self.params.max_distance_change * np.abs(predicted))[:, None]
         plausible = ~(change > reach)                     # NaN (no distance on either side): boxes alone
         cost = np.minimum(jump_cost, np.where((iou >= self.params.min_iou) & plausible, 1.0 - iou, np.inf))

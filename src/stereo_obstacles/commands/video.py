@@ -136,22 +136,72 @@ def _pattern_matches(sources) -> tuple[str, ...]:
     return tuple(match for source in sources if glob.has_magic(source) for match in glob.glob(source))
 
 
-def _remove_earlier_reports(folder, keep) -> int:
-    """Remove the reports of this tool in the sub-folders of ``folder`` not named in ``keep`` (the
-    frames of an earlier, longer run, which would pass for this run's); return how many. Anything
-    else there is the user's and stays."""
+def _refuse_pattern_outputs(sources, target: str) -> None:
+    """Raise :class:`OutputError` when the output ``target`` would match one of the glob patterns
+    among ``sources`` (the next run would read it as a frame), even before it exists."""
+    import fnmatch
+    import glob
+    import os
+
+    from stereo_obstacles.errors import OutputError
+
+    for pattern in (source for source in sources if glob.has_magic(source)):
+        if fnmatch.fnmatchcase(os.path.abspath(target), os.path.abspath(pattern)):
+            raise OutputError(f"{target} matches the source pattern {pattern}: a later run would read it as a "
+                              f"frame; write it elsewhere")
+
+
+def _is_frame_report_of(folder, source: str) -> bool:
+    """Whether ``folder`` holds the report ``video`` wrote for a frame of ``source`` (its
+    description): ``run.inputs`` names that source and a frame, as no ``detect`` report does."""
+    import json
+    from pathlib import Path
+
+    from stereo_obstacles.report import holds_a_report
+
+    if not holds_a_report(folder):
+        return False
+    try:
+        inputs = json.loads((Path(folder) / "obstacles.json").read_text(encoding="utf-8"))["run"]["inputs"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
+    return isinstance(inputs, dict) and "frame" in inputs and inputs.get("source") == source
+
+
+def _remove_earlier_reports(folder, keep, source: str) -> int:
+    """Remove the frame reports of an earlier run over ``source`` in the sub-folders of ``folder``
+    not named in ``keep`` (the frames of a longer run, which would pass for this run's); return how
+    many. Anything else there (a ``detect`` report, another source's frames) stays."""
     from pathlib import Path
 
     from stereo_obstacles.atomic import remove_file_set
-    from stereo_obstacles.report import OUTPUT_FILES, holds_a_report
+    from stereo_obstacles.report import OUTPUT_FILES
 
     if not Path(folder).is_dir():
         return 0
-    earlier = [frame for frame in Path(folder).iterdir()
-               if frame.name not in keep and frame.is_dir() and not frame.is_symlink() and holds_a_report(frame)]
+    earlier = [frame for frame in Path(folder).iterdir() if frame.name not in keep and frame.is_dir()
+               and not frame.is_symlink() and _is_frame_report_of(frame, source)]
     for frame in earlier:
         remove_file_set(frame, OUTPUT_FILES, what="the earlier frame report")     # obstacles.json first
     return len(earlier)
+
+
+def _say_earlier_reports_removed(folder, keep, source: str) -> None:
+    """:func:`_remove_earlier_reports`, saying on stderr how many went; one that cannot be removed
+    is a warning: every frame of this run is written by then."""
+    import logging
+    import sys
+
+    from stereo_obstacles.errors import OutputError
+
+    try:
+        removed = _remove_earlier_reports(folder, keep, source)
+    except OutputError as exc:
+        logging.getLogger(__name__).warning("%s; the other frames of an earlier run stay in %s", exc, folder)
+        return
+    if removed:
+        print(f"removed {removed} frame report{'s' if removed != 1 else ''} of an earlier run over this source "
+              f"from {folder}", file=sys.stderr)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -171,7 +221,8 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._repeated_warnings import each_warning_once, repeats_note
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError
-    from stereo_obstacles.interrupts import EXIT_INTERRUPTED, StopRequest, interrupt_exit_code, is_interrupt
+    from stereo_obstacles.interrupts import (EXIT_INTERRUPTED, StopRequest, TerminationDeferred, interrupt_exit_code,
+                                             is_interrupt)
     from stereo_obstacles.jsonl import JsonLinesWriter
     from stereo_obstacles.progress import Progress
     from stereo_obstacles.pipeline import pair_rectification_check
@@ -197,6 +248,7 @@ def run(args: argparse.Namespace) -> int:
     for target in (args.video_out, None if args.jsonl == "-" else args.jsonl):
         if target:
             check_output_file(target, inputs=written, input_folders=args.source)   # nor the other output
+            _refuse_pattern_outputs(args.source, target)
             written += (target,)
     if args.frames_out:
         check_output_folder(args.frames_out, inputs=written)
@@ -253,27 +305,28 @@ def run(args: argparse.Namespace) -> int:
         reported: set[str] = set()
         try:
             for detection in stream:
-                # the slow report first, the JSON line last: a SIGTERM while a frame is written leaves
-                # it out of the line count and the video, not only out of the reports
-                if args.frames_out:
-                    result = detection.result
-                    write_detection_outputs(Path(args.frames_out) / detection.frame.name, left=detection.frame.left,
-                                            labels=result.segmentation.labels, disparity=result.disparity,
-                                            depth_m=result.depth_m, obstacle_list=result.obstacles,
-                                            calibration=calibration, config=config.to_dict(),
-                                            timings=result.timings_s,
-                                            inputs={"source": source.description, "frame": detection.frame.index,
-                                                    "rectification": rectified_by,
-                                                    "rectification_check": first_checked})
-                if video is not None:
-                    video.write(annotate_frame(detection))
-                record = frame_record(detection)
-                if jsonl is not None:
-                    jsonl.write(record)
-                elif not progress.enabled:
-                    print(_frame_line(record, calibration is not None), flush=True)
-                count += 1
-                reported.add(detection.frame.name)
+                # a SIGTERM waits for the frame's outputs: all of them or none hold the frame (an error
+                # in the report, the slowest, leaves it out of the others too)
+                with TerminationDeferred():
+                    if args.frames_out:
+                        result = detection.result
+                        write_detection_outputs(Path(args.frames_out) / detection.frame.name,
+                                                left=detection.frame.left, labels=result.segmentation.labels,
+                                                disparity=result.disparity, depth_m=result.depth_m,
+                                                obstacle_list=result.obstacles, calibration=calibration,
+                                                config=config.to_dict(), timings=result.timings_s,
+                                                inputs={"source": source.description, "frame": detection.frame.index,
+                                                        "rectification": rectified_by,
+                                                        "rectification_check": first_checked})
+                    if video is not None:
+                        video.write(annotate_frame(detection))
+                    record = frame_record(detection)
+                    if jsonl is not None:
+                        jsonl.write(record)
+                    elif not progress.enabled:
+                        print(_frame_line(record, calibration is not None), flush=True)
+                    count += 1
+                    reported.add(detection.frame.name)
                 near = [t for t in detection.tracks if t.approaching and t.obstacle is not None]
                 progress.update(note=f"approaching #{near[0].track_id}" if near else "")
                 if stop.requested:
@@ -289,12 +342,11 @@ def run(args: argparse.Namespace) -> int:
         finally:
             stream.close()
         elapsed = time.monotonic() - start
-        if args.frames_out and not interrupted and (removed := _remove_earlier_reports(args.frames_out, reported)):
-            print(f"removed {removed} frame report{'s' if removed != 1 else ''} of an earlier run from "
-                  f"{args.frames_out}", file=sys.stderr)
         if jsonl is not None:
             jsonl.write({"type": "end", "frames": count, "interrupted": interrupted, "seconds": round(elapsed, 3),
                          "frames_per_second": round(count / elapsed, 3) if elapsed > 0 else None})
+        if args.frames_out and not interrupted:
+            _say_earlier_reports_removed(args.frames_out, reported, source.description)
     print(f"{'interrupted after' if interrupted else 'processed'} {count} frame{'s' if count != 1 else ''} "
           f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s)"
           f"{'; ' + repeats_note(repeats()) if repeats() else ''}",
