@@ -91,6 +91,14 @@ def test_calibrate_argument_errors(chessboard, tmp_path, capsys):
         assert main(["calibrate", "--folder", str(chessboard), "--board", board, "--square", "0.025",
                      "--out", str(tmp_path / "c.json")]) == 1
         assert "must be an integer >= 3 inner corners" in capsys.readouterr().err
+    scene = tmp_path / "scene"                # a rendered scene's calibration.json is its truth (review)
+    assert main(["scene", "--out", str(scene), "--size", "160x120"]) == 0
+    truth = (scene / "calibration.json").read_bytes()
+    capsys.readouterr()
+    assert main(["calibrate", "--folder", str(chessboard), "--square", "0.025",
+                 "--out", str(scene / "calibration.json")]) == 1
+    assert "is a file of the rendered scene" in capsys.readouterr().err
+    assert (scene / "calibration.json").read_bytes() == truth and not (scene / "calibration.yml").exists()
     (tmp_path / "a_file").write_text("x")
     # checked before the boards are searched (the write itself would fail with "File exists")
     assert main(["calibrate", "--folder", str(chessboard), "--square", "0.025", "--out",
@@ -185,6 +193,14 @@ def test_detect_uncalibrated_makes_no_distances_and_says_what_its_disparities_ar
     with caplog.at_level("WARNING", logger="stereo_obstacles"):
         assert main(["detect", *pair, "--uncalibrated", "--out", str(tmp_path / "px")]) == 0
     assert "a larger disparity is nearer only between obstacles close together in the image" in caplog.text
+    # and the outputs say so too, not "a larger disparity means a nearer obstacle" (review)
+    said = "a larger disparity means a nearer obstacle only between obstacles close together in the image"
+    assert said in capsys.readouterr().out
+    assert said in json.loads((tmp_path / "px" / "obstacles.json").read_text())["units_note"]
+    assert said in (tmp_path / "px" / "index.html").read_text()
+    assert main(["detect", *pair, "--out", str(tmp_path / "plain")]) == 0          # taken as rectified: as before
+    assert json.loads((tmp_path / "plain" / "obstacles.json").read_text())["units_note"].endswith(
+        "a larger disparity means a nearer obstacle.")
 
 
 def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_other_images(synthetic_files, tmp_path,

@@ -432,7 +432,7 @@ def test_segment_command_names_the_files_of_a_pair_of_two_sizes(tmp_path, capsys
     assert main(["segment", str(tmp_path / "left.png"), "--right", str(tmp_path / "right.png"),
                  "-o", str(tmp_path / "labels.png")]) == 1
     err = capsys.readouterr().err
-    assert f"left.png is {WIDTH}x{HEIGHT} uint8 but --right " in err and f"right.png is {WIDTH}x100 uint8" in err
+    assert f"left.png is {WIDTH}x{HEIGHT} but --right " in err and f"right.png is {WIDTH}x100; a stereo pair" in err
     assert not (tmp_path / "labels.png").exists()
 
 

@@ -57,6 +57,12 @@ def test_description_names_nearest_corridor_units_and_rejections():
     assert metres == ["3 obstacles, nearest #1 4.00 m", "1 m corridor: free 4.00 m to #1",
                       "1 rejected (thin boxes without caption)"]
     assert pixels[0] == "3 obstacles, nearest #1 d=10.5 px" and "no calibration" in pixels[1]
+    assert pixels[1].endswith("larger is nearer")
+    local = describe_detection(DETECTION.uncalibrated, False, nearer_by_disparity=False)   # --uncalibrated
+    assert local[1] == "no calibration: d = disparity in px, larger is nearer only between obstacles close together"
+    panel = draw_obstacles(DETECTION.left, DETECTION.uncalibrated, calibrated=False, nearer_by_disparity=False)
+    h = DETECTION.left.shape[0]
+    assert not np.array_equal(panel[h:], draw_obstacles(DETECTION.left, DETECTION.uncalibrated, calibrated=False)[h:])
 
 
 def test_grey_left_image_is_accepted_and_mismatched_sizes_are_refused():

@@ -273,7 +273,7 @@ def _load(job: BatchJob):
     ``--calib`` describes the raw cameras, as ``calibrate`` writes them), grey ones kept for the
     disparity task."""
     from stereo_obstacles.datasets import load_pair
-    from stereo_obstacles.errors import ImageMismatchError
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import read_image
     from stereo_obstacles.rectification import rig_for_images
 
@@ -287,9 +287,7 @@ def _load(job: BatchJob):
     else:
         mode = "color" if job.task == "detect" else "any"     # the matcher takes grey pairs too
         left, right = read_image(pair.left, mode=mode), read_image(pair.right, mode=mode)
-        if left.shape[:2] != right.shape[:2] or left.dtype != right.dtype or (job.task == "detect"
-                                                                           and left.shape != right.shape):
-            raise ImageMismatchError(f"{pair.left} is {_describe(left)} but {pair.right} is {_describe(right)}")
+        check_pair_of_files(left, right, pair.left, pair.right, channels=job.task == "detect")
         calibration = None
         inputs = {"left": pair.left, "right": pair.right, "calibration": None}
     inputs["rectification"] = None                       # the keys detect records, filled as it fills them
@@ -300,11 +298,6 @@ def _load(job: BatchJob):
             left, right = rectification.apply(left, right)
             inputs["rectification"] = rectification.report(job.calib_file)
     return left, right, calibration, inputs
-
-
-def _describe(image) -> str:
-    """``640x480 uint8 RGB`` (or grey) of an image array."""
-    return f"{image.shape[1]}x{image.shape[0]} {image.dtype} {'RGB' if image.ndim == 3 else 'grey'}"
 
 
 def _run_task(job: BatchJob) -> dict:

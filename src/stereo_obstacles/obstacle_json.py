@@ -65,6 +65,27 @@ UNITS_NOTE_CALIBRATED = ("Lengths (fields ending in _m) are metres; image positi
 UNITS_NOTE_UNCALIBRATED = ("No calibration was given: distances and sizes are unknown. Only image "
                            "positions and disparities are reported, in pixels; a larger disparity "
                            "means a nearer obstacle.")
+UNITS_NOTE_RECTIFIED_FROM_IMAGES = (
+    "No calibration was given, and the pair was rectified from the images alone: distances and sizes are "
+    "unknown. Only image positions and disparities are reported, in pixels; the disparities carry an offset "
+    "that changes across the image, so a larger disparity means a nearer obstacle only between obstacles "
+    "close together in the image.")
+
+
+def rectified_from_images(inputs: Mapping[str, Any] | None) -> bool:
+    """Whether the run's ``inputs`` (``run.inputs`` of the document) say the pair was rectified
+    from its own feature matches (``--uncalibrated``), which leaves no depth scale and an offset
+    in the disparity that changes across the image."""
+    rectification = inputs.get("rectification") if isinstance(inputs, Mapping) else None
+    return isinstance(rectification, Mapping) and rectification.get("method") == "uncalibrated"
+
+
+def units_note(calibrated: bool, inputs: Mapping[str, Any] | None = None) -> str:
+    """What the document's numbers are: metres and pixels, or pixels only (and how far its
+    disparities compare when the pair was rectified from the images alone)."""
+    if calibrated:
+        return UNITS_NOTE_CALIBRATED
+    return UNITS_NOTE_RECTIFIED_FROM_IMAGES if rectified_from_images(inputs) else UNITS_NOTE_UNCALIBRATED
 
 SCAN_NOTE = ("Sector k covers bearings [first_bearing_deg + k * sector_deg, first_bearing_deg + (k + 1) * sector_deg) "
              "degrees: the angle atan2(x, z) in the camera's x-z plane, 0 along the optical axis, positive to the "
@@ -182,7 +203,7 @@ def obstacles_to_dict(obstacle_list: ObstacleList, calibration: StereoCalibratio
         "format": OBSTACLES_FORMAT,
         "version": OBSTACLES_VERSION,
         "units": "metres" if calibrated else "pixels",
-        "units_note": UNITS_NOTE_CALIBRATED if calibrated else UNITS_NOTE_UNCALIBRATED,
+        "units_note": units_note(calibrated, inputs),
         "frame": dict(FRAME),
         "calibration": calibration.to_dict() if calibrated else None,
         "image_size_px": {"width": int(width), "height": int(height)},
@@ -290,4 +311,4 @@ def read_obstacles_json(path: str | os.PathLike[str]) -> ObstacleRecord:
 
 
 __all__ = ["OBSTACLES_FORMAT", "OBSTACLES_VERSION", "FRAME", "ObstacleRecord",
-           "obstacles_to_dict", "write_obstacles_json", "read_obstacles_json"]
+           "obstacles_to_dict", "rectified_from_images", "units_note", "write_obstacles_json", "read_obstacles_json"]

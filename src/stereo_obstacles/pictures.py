@@ -101,8 +101,10 @@ def obstacle_caption(obstacle: Obstacle, calibrated: bool) -> str:
     return f"#{obstacle.id} d={obstacle.disparity_px:.1f} px"
 
 
-def describe_detection(obstacle_list: ObstacleList, calibrated: bool) -> list[str]:
-    """Short sentences summing up a detection: count and nearest, corridor, units, rejections."""
+def describe_detection(obstacle_list: ObstacleList, calibrated: bool, *, nearer_by_disparity: bool = True) -> list[str]:
+    """Short sentences summing up a detection: count and nearest, corridor, units, rejections.
+    ``nearer_by_disparity`` false: a larger disparity is nearer only locally (a pair rectified from
+    the images alone)."""
     obstacles = obstacle_list.obstacles
     parts = [f"{len(obstacles)} obstacle{'s' if len(obstacles) != 1 else ''}"]
     if obstacles:
@@ -113,13 +115,15 @@ def describe_detection(obstacle_list: ObstacleList, calibrated: bool) -> list[st
                 if corridor.nearest_obstacle_id is not None else "nothing found ahead")
         parts.append(f"{corridor.width_m:g} m corridor: {free}")
     if not calibrated:
-        parts.append("no calibration: d = disparity in px, larger is nearer")
+        parts.append("no calibration: d = disparity in px, larger is nearer"
+                     + ("" if nearer_by_disparity else " only between obstacles close together"))
     if obstacle_list.rejected:
         parts.append(f"{len(obstacle_list.rejected)} rejected (thin boxes without caption)")
     return parts
 
 
-def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibrated: bool) -> np.ndarray:
+def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibrated: bool,
+                   nearer_by_disparity: bool = True) -> np.ndarray:
     """The left image with every obstacle tinted, boxed and labelled with its id and distance.
 
     Each obstacle's own pixels (``obstacle_list.id_map``) are tinted in its colour
@@ -139,6 +143,9 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
         The measured obstacles; its ``id_map`` must be ``(H, W)``.
     calibrated
         Whether distances in metres are shown (else disparities in pixels).
+    nearer_by_disparity
+        Without a calibration, whether the panel says a larger disparity is nearer everywhere
+        (false: only between obstacles close together, as :func:`describe_detection`).
 
     Returns
     -------
@@ -183,7 +190,7 @@ def draw_obstacles(left_rgb: np.ndarray, obstacle_list: ObstacleList, *, calibra
                 break
         else:
             left_out += 1
-    parts = describe_detection(obstacle_list, calibrated)
+    parts = describe_detection(obstacle_list, calibrated, nearer_by_disparity=nearer_by_disparity)
     if left_out:
         parts.append(f"{left_out} caption{'s' if left_out != 1 else ''} left out for lack of room (see the table)")
     return _stack_with_panel(out, _text_panel(parts, w))

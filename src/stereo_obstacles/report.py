@@ -40,7 +40,7 @@ from stereo_obstacles.errors import InvalidInputError, OutputError
 from stereo_obstacles.json_documents import is_document_of
 from stereo_obstacles.fileio import to_uint8, write_depth, write_image, write_labels, write_pfm
 from stereo_obstacles.labels import SEGMENTATION_LABELS
-from stereo_obstacles.obstacle_json import (OBSTACLES_FORMAT, UNITS_NOTE_UNCALIBRATED, obstacles_to_dict,
+from stereo_obstacles.obstacle_json import (OBSTACLES_FORMAT, obstacles_to_dict, rectified_from_images, units_note,
                                             write_obstacles_json)
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
 from stereo_obstacles.pictures import (
@@ -107,10 +107,12 @@ MAX_REJECTED_LINES = 5
 scene without ground, such as OpenCV's aloe, has 80)."""
 
 
-def format_obstacle_table(obstacle_list: ObstacleList, calibrated: bool) -> str:
+def format_obstacle_table(obstacle_list: ObstacleList, calibrated: bool, *,
+                          inputs: Mapping[str, Any] | None = None) -> str:
     """The obstacles as a plain-text table for a terminal, nearest first.
 
-    Without a calibration the first line says that the values are pixels and disparities. The
+    Without a calibration the first line says that the values are pixels and disparities (and,
+    when ``inputs`` say the pair was rectified from the images alone, how far they compare). The
     corridor summary and the largest rejected groups (with their reasons) follow the table.
 
     Examples
@@ -120,7 +122,7 @@ def format_obstacle_table(obstacle_list: ObstacleList, calibrated: bool) -> str:
     >>> print(format_obstacle_table(ObstacleList((), np.zeros((2, 2), np.int32)), True))
     No obstacles found.
     """
-    lines = [] if calibrated else [UNITS_NOTE_UNCALIBRATED]
+    lines = [] if calibrated else [units_note(False, inputs)]
     header, rows = _table(obstacle_list, calibrated)
     if rows:
         widths = [max(len(cell) for cell in column) for column in zip(header, *rows)]
@@ -176,10 +178,11 @@ def _html_report(obstacle_list: ObstacleList, calibration: StereoCalibration | N
                  inputs: Mapping[str, Any]) -> str:
     calibrated = calibration is not None
     doc = obstacles_to_dict(obstacle_list, calibration, config=config, timings_s=timings, inputs=inputs)
-    summary = "; ".join(describe_detection(obstacle_list, calibrated))
+    summary = "; ".join(describe_detection(obstacle_list, calibrated,
+                                           nearer_by_disparity=not rectified_from_images(inputs)))
     parts = [f'<h1>Obstacles</h1>\n<p class="summary">{html.escape(summary)}.</p>']
     if not calibrated:
-        parts.append(f'<p class="note">{html.escape(UNITS_NOTE_UNCALIBRATED)}</p>')
+        parts.append(f'<p class="note">{html.escape(units_note(False, inputs))}</p>')
     if "obstacles.png" in pictures:
         parts.append('<figure><img src="obstacles.png" alt="left image with obstacle boxes and distances">'
                      '<figcaption>Each obstacle is tinted and boxed in its own colour with its id and '
@@ -339,7 +342,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
             write_ply(stage / "points.ply", points_from_depth(depth_m, calibration), left,
                       comments=[f"image size {np.shape(disparity)[1]}x{np.shape(disparity)[0]}"])
             write_image(stage / "depth_picture.png", depth_picture(depth_m))
-        write_image(stage / "obstacles.png", draw_obstacles(left, obstacle_list, calibrated=calibrated))
+        write_image(stage / "obstacles.png", draw_obstacles(left, obstacle_list, calibrated=calibrated,
+                                                            nearer_by_disparity=not rectified_from_images(inputs)))
         write_image(stage / "disparity_picture.png", disparity_picture(disparity))
         write_image(stage / "labels_picture.png", labels_picture(np.asarray(labels)))
         if with_scan:

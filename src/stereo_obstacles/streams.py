@@ -36,6 +36,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError, InputFileError, InvalidInputError
+from stereo_obstacles.image_pairs import check_pair_of_files
 from stereo_obstacles.fileio import read_image
 
 __all__ = ["SOURCE_KINDS", "CameraPairSource", "ImageSequenceSource", "SideBySideSource", "StereoFrame",
@@ -372,9 +373,7 @@ class ImageSequenceSource(StereoSource):
             for path, image in ((left_path, left), (right_path, right)):
                 if image.dtype != np.uint8:
                     raise InputFileError(f"{path}: expected an 8-bit image, got {image.dtype}")
-            if left.shape != right.shape:
-                raise ImageMismatchError(f"{left_path} is {left.shape[1]}x{left.shape[0]} but {right_path} is "
-                                         f"{right.shape[1]}x{right.shape[0]}")
+            check_pair_of_files(left, right, left_path, right_path)
             yield StereoFrame(index, index / self.fps, left, right, name)
 
 

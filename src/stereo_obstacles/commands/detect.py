@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles.atomic import check_output_folder
     from stereo_obstacles.commands._compile_notice import announce_compilation
-    from stereo_obstacles.errors import ImageMismatchError
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import read_image
     from stereo_obstacles.report import OUTPUT_FILES, check_report_folder, format_obstacle_table
 
@@ -129,11 +129,7 @@ def run(args: argparse.Namespace) -> int:
     check_report_folder(args.out)
     left = read_image(args.left, mode="color")
     right = read_image(args.right, mode="color")
-    if left.shape != right.shape:
-        raise ImageMismatchError(f"{args.left} is {left.shape[1]}x{left.shape[0]} but {args.right} is "
-                                 f"{right.shape[1]}x{right.shape[0]}; a stereo pair needs one size")
-    if left.dtype != right.dtype:
-        raise ImageMismatchError(f"{args.left} is {left.dtype} but {args.right} is {right.dtype}")
+    check_pair_of_files(left, right, args.left, args.right)
     from stereo_obstacles.commands._calibration_options import prepare_pair
 
     left, right, calibration, rectification = prepare_pair(args, left, right)
@@ -143,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     result = run_detection(left, right, calibration, config, args.out,
                            inputs={"left": str(args.left), "right": str(args.right),
                                    "calibration": args.calib, "rectification": rectification})
-    print(format_obstacle_table(result.obstacles, calibration is not None))
+    print(format_obstacle_table(result.obstacles, calibration is not None, inputs={"rectification": rectification}))
     print(timing_line(result) + " (one call in a fresh process: includes loading the compiled kernels)")
     print(f"wrote {Path(args.out) / 'index.html'} and the data files beside it")
     return 0

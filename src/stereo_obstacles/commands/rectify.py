@@ -62,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_folder, refuse_foreign_files, staged_directory
     from stereo_obstacles.calibration import write_calibration_json
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
-    from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
+    from stereo_obstacles.errors import CalibrationError, OutputError
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import read_image, write_image
     from stereo_obstacles.rectification_check import check_rectification, refuse_swapped
     from stereo_obstacles.synthetic.scene_files import holds_a_scene
@@ -76,9 +77,7 @@ def run(args: argparse.Namespace) -> int:
                          missing="no rectification.json of it")
     left = read_image(args.left)
     right = read_image(args.right)
-    if left.shape != right.shape:
-        raise ImageMismatchError(f"{args.left} is {left.shape[1]}x{left.shape[0]} but {args.right} is "
-                                 f"{right.shape[1]}x{right.shape[0]}; a stereo pair needs one size")
+    check_pair_of_files(left, right, args.left, args.right)
     report = {"format": REPORT_FORMAT, "version": __version__, "left": str(args.left), "right": str(args.right)}
     rectified_calibration = None
     if args.uncalibrated:

@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_file, write_text_atomic
-    from stereo_obstacles.errors import ImageMismatchError
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import check_image_path, check_labels_path, read_image, write_image, write_labels
     from stereo_obstacles.labels import Label, colorize_labels
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
@@ -87,9 +87,8 @@ def run(args: argparse.Namespace) -> int:
         check_image_path(args.overlay)
     rgb = read_image(args.image, mode="color")
     right = None if args.right is None else read_image(args.right, mode="color")
-    if right is not None and (right.shape != rgb.shape or right.dtype != rgb.dtype):
-        raise ImageMismatchError(f"{args.image} is {rgb.shape[1]}x{rgb.shape[0]} {rgb.dtype} but --right {args.right} "
-                                 f"is {right.shape[1]}x{right.shape[0]} {right.dtype}; a stereo pair needs one size")
+    if right is not None:
+        check_pair_of_files(rgb, right, args.image, f"--right {args.right}")
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
     texture = (ShadowTextureParameters(min_relative_texture=0.0) if args.no_shadow_texture
                else ShadowTextureParameters())
