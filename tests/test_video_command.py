@@ -274,6 +274,18 @@ def test_a_frame_stopped_while_it_is_written_is_in_all_outputs_or_none(tmp_path,
     assert reports == video_frames == 2
 
 
+def test_a_frame_that_cannot_be_read_ends_the_json_lines_with_the_error(tmp_path, capsys):
+    # the lines stopped without an end line, as if the run had been killed (user-level review, session 23)
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    (left_dir / "0002.png").write_bytes(b"\x89PNG\r\n\x1a\n truncated")
+    jsonl = tmp_path / "f.jsonl"
+    assert main(["video", str(left_dir), str(right_dir), "--jsonl", str(jsonl)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "0002.png" in err
+    end = read_json_lines(jsonl)[-1]
+    assert end["type"] == "end" and end["frames"] == 2 and not end["interrupted"] and "0002.png" in end["error"]
+
+
 def test_sigterm_stops_at_once_with_complete_lines_and_exit_143(tmp_path):
     code, lines, err = _run_and_stop(tmp_path, signal.SIGTERM)
     assert code == 143, err

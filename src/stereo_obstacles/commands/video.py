@@ -186,6 +186,14 @@ def _remove_earlier_reports(folder, keep, source: str) -> int:
     return len(earlier)
 
 
+def _end_record(frames: int, interrupted: bool, elapsed_s: float, *, error: str | None = None) -> dict:
+    """The JSON lines' last record: frames written, whether a Ctrl-C or SIGTERM stopped the run,
+    its time; ``error``: the one-line error that ended it (the key only then)."""
+    record = {"type": "end", "frames": frames, "interrupted": interrupted, "seconds": round(elapsed_s, 3),
+              "frames_per_second": round(frames / elapsed_s, 3) if elapsed_s > 0 else None}
+    return record if error is None else {**record, "error": error}
+
+
 def _say_earlier_reports_removed(folder, keep, source: str) -> None:
     """:func:`_remove_earlier_reports`, saying on stderr how many went; one that cannot be removed
     is a warning: every frame of this run is written by then."""
@@ -220,7 +228,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands._repeated_warnings import each_warning_once, repeats_note
     from stereo_obstacles.commands.detect import config_from_args
-    from stereo_obstacles.errors import InputFileError, InvalidInputError
+    from stereo_obstacles.errors import InputFileError, InvalidInputError, StereoObstaclesError
     from stereo_obstacles.interrupts import (EXIT_INTERRUPTED, StopRequest, TerminationDeferred, interrupt_exit_code,
                                              is_interrupt)
     from stereo_obstacles.jsonl import JsonLinesWriter
@@ -339,12 +347,15 @@ def run(args: argparse.Namespace) -> int:
                 raise
             interrupted = True
             exit_code = interrupt_exit_code(exc)
+        except StereoObstaclesError as exc:          # a bad frame mid-stream: the lines say where and why it stopped
+            if jsonl is not None:
+                jsonl.write(_end_record(count, False, time.monotonic() - start, error=" ".join(str(exc).split())))
+            raise
         finally:
             stream.close()
         elapsed = time.monotonic() - start
         if jsonl is not None:
-            jsonl.write({"type": "end", "frames": count, "interrupted": interrupted, "seconds": round(elapsed, 3),
-                         "frames_per_second": round(count / elapsed, 3) if elapsed > 0 else None})
+            jsonl.write(_end_record(count, interrupted, elapsed))
         if args.frames_out and not interrupted:
             _say_earlier_reports_removed(args.frames_out, reported, source.description)
     print(f"{'interrupted after' if interrupted else 'processed'} {count} frame{'s' if count != 1 else ''} "
