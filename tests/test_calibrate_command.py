@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 import re
 import shutil
 
@@ -84,6 +85,14 @@ def test_calibrate_argument_errors(chessboard, tmp_path, capsys):
     assert main(["calibrate", str(chessboard / "left0*.jpg"), str(chessboard / "right*.jpg"), "--square", "0.025",
                  "--out", str(tmp_path / "c.json")]) == 1
     assert "one to one" in capsys.readouterr().err
+    # the same files on both sides, or a pair out of step: refused before the boards are searched, not
+    # "cameras not side by side" or a 31.8 px reprojection error after them (user-level review, session 23)
+    assert main(["calibrate", str(chessboard / "left*.jpg"), str(chessboard / "left*.jpg"), "--square", "0.025",
+                 "--out", str(tmp_path / "c.json")]) == 1
+    assert "the left and right images of a pair must be the two cameras' own" in capsys.readouterr().err
+    assert main(["calibrate", str(chessboard / "left0[1-6].jpg"), str(chessboard / "right0[1-467].jpg"),
+                 "--square", "0.025", "--out", str(tmp_path / "c.json")]) == 1
+    assert "left05.jpg is paired with" in capsys.readouterr().err and not (tmp_path / "c.json").exists()
     assert main(["calibrate", "--folder", str(chessboard), "--board", "9-6", "--square", "0.025",
                  "--out", str(tmp_path / "c.json")]) == 1
     assert "COLUMNSxROWS" in capsys.readouterr().err
@@ -296,3 +305,17 @@ def test_rectify_refuses_images_given_the_wrong_way_round(calibrated, chessboard
     assert main(["rectify", str(chessboard / "right01.jpg"), str(chessboard / "left01.jpg"), "--calib",
                  str(calibrated), "--out", str(tmp_path / "out")]) == 1
     assert "look swapped" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+def test_pairs_of_files_are_checked_by_the_last_number_of_their_names(tmp_path):
+    from stereo_obstacles.commands.calibrate import _pairs_from_globs
+    from stereo_obstacles.errors import InputFileError
+
+    for name in ("cam0_0007.png", "cam1_0007.png", "cam0_0010.png", "cam1_0010.png"):
+        (tmp_path / name).write_bytes(b"")
+    pairs = _pairs_from_globs(str(tmp_path / "cam0_*.png"), str(tmp_path / "cam1_*.png"))   # cam0 / cam1 differ
+    assert [(os.path.basename(a), os.path.basename(b)) for a, b in pairs] == [("cam0_0007.png", "cam1_0007.png"),
+                                                                            ("cam0_0010.png", "cam1_0010.png")]
+    (tmp_path / "cam1_0010.png").rename(tmp_path / "cam1_0011.png")
+    with pytest.raises(InputFileError, match="cam0_0010.png is paired with .*cam1_0011.png"):
+        _pairs_from_globs(str(tmp_path / "cam0_*.png"), str(tmp_path / "cam1_*.png"))

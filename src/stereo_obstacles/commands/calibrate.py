@@ -56,7 +56,11 @@ def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
 
 
 def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
+    """The files the two patterns match, paired in sorted order; refused when the counts differ,
+    a file stands on both sides, or the last numbers in a pair's names differ (a file missing)."""
     import glob
+    import os
+    import re
 
     from stereo_obstacles.errors import InputFileError
 
@@ -66,6 +70,15 @@ def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
     if len(lefts) != len(rights):
         raise InputFileError(f"{left_glob} matches {len(lefts)} files but {right_glob} matches {len(rights)}; "
                              f"the pairs must correspond one to one")
+    for left, right in zip(lefts, rights):
+        if os.path.realpath(left) == os.path.realpath(right):
+            raise InputFileError(f"{left_glob} and {right_glob} both match {left}: the left and right images of a "
+                                 f"pair must be the two cameras' own")
+        # the last number of each name is the frame's (cam0_0007.png, cam1_0007.png)
+        numbers = [re.findall(r"\d+", os.path.basename(name)) for name in (left, right)]
+        if all(numbers) and int(numbers[0][-1]) != int(numbers[1][-1]):
+            raise InputFileError(f"{left} is paired with {right} (the files in sorted order): their numbers differ; "
+                                 f"is a file missing on one side?")
     return list(zip(lefts, rights))
 
 
