@@ -180,6 +180,16 @@ def test_a_calib_unit_the_file_does_not_use_is_warned_about_once(synthetic_files
                               equal_nan=True)
 
 
+@pytest.mark.parametrize("how", [["--uncalibrated"], ["--calib", "rig.json"]])
+def test_rectify_refuses_one_image_given_twice(synthetic_files, tmp_path, capsys, how):
+    # it said "the images look swapped" or "degenerate motion" (user-level review, session 23)
+    how = [str(synthetic_files / h) if h.endswith(".json") else h for h in how]
+    left = str(synthetic_files / "left.png")
+    assert main(["rectify", left, left, *how, "--out", str(tmp_path / "r")]) == 1
+    assert "are the same image; rectifying needs the two cameras' images" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
 def test_rectify_uncalibrated(synthetic_files, tmp_path, capsys):
     out = tmp_path / "r"
     assert main(["rectify", str(synthetic_files / "left.png"), str(synthetic_files / "right.png"), "--uncalibrated",

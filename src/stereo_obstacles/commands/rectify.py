@@ -58,11 +58,13 @@ def run(args: argparse.Namespace) -> int:
     import logging
     from pathlib import Path
 
+    import numpy as np
+
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_folder, refuse_foreign_files, staged_directory
     from stereo_obstacles.calibration import write_calibration_json
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
-    from stereo_obstacles.errors import CalibrationError, OutputError
+    from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
     from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import read_image, write_image
     from stereo_obstacles.rectification_check import check_rectification, refuse_swapped
@@ -78,6 +80,9 @@ def run(args: argparse.Namespace) -> int:
     left = read_image(args.left)
     right = read_image(args.right)
     check_pair_of_files(left, right, args.left, args.right)
+    if np.array_equal(left, right):                # "they look swapped" or "degenerate motion" said it badly
+        raise ImageMismatchError(f"{args.left} and {args.right} are the same image; rectifying needs the two "
+                                 f"cameras' images")
     report = {"format": REPORT_FORMAT, "version": __version__, "left": str(args.left), "right": str(args.right)}
     rectified_calibration = None
     if args.uncalibrated:
