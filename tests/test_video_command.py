@@ -286,6 +286,18 @@ def test_a_frame_that_cannot_be_read_ends_the_json_lines_with_the_error(tmp_path
     assert end["type"] == "end" and end["frames"] == 2 and not end["interrupted"] and "0002.png" in end["error"]
 
 
+def test_options_of_the_temporal_seeds_are_said_to_do_nothing_without_them(tmp_path, caplog):
+    # --no-temporal-seeds silently ignored --seed-step, --refine-frames and --forward-speed (review, session 23)
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        assert main(["video", str(left_dir), str(right_dir), "--no-temporal-seeds", "--seed-step", "4",
+                     "--refine-frames", "0", "--max-frames", "1"]) == 0
+        assert "--seed-step, --refine-frames do nothing with --no-temporal-seeds" in caplog.text
+        caplog.clear()
+        assert main(["video", str(left_dir), str(right_dir), "--seed-step", "4", "--max-frames", "1"]) == 0
+        assert "do nothing" not in caplog.text and "does nothing" not in caplog.text
+
+
 def test_sigterm_stops_at_once_with_complete_lines_and_exit_143(tmp_path):
     code, lines, err = _run_and_stop(tmp_path, signal.SIGTERM)
     assert code == 143, err

@@ -48,7 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--sun-elevation-deg", type=float, default=None, metavar="DEG",
                         help="sun height above the horizon, degrees")
     parser.add_argument("--frames", type=int, default=1, metavar="N",
-                        help="render N frames with the rig walking forward (folders frame_0000, ...)")
+                        help="render N frames with the rig walking forward (folders frame_0000, ...; the default 1 "
+                             "writes the one scene into OUT itself)")
     parser.add_argument("--speed", type=float, default=None, metavar="M",
                         help=f"forward motion per frame in metres, with --frames (default {DEFAULT_SPEED_M})")
     parser.set_defaults(handler=run)

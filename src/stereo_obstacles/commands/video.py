@@ -43,15 +43,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     seeds = parser.add_argument_group("temporal seeds")
     seeds.add_argument("--temporal-seeds", action=argparse.BooleanOptionalAction, default=True,
                        help="seed each frame's matching from the previous frame's matches (default on)")
-    seeds.add_argument("--seed-step", type=int, default=8, metavar="PX",
+    seeds.add_argument("--seed-step", type=int, default=None, metavar="PX",
                        help="grid step of the temporal seeds, pixels (default 8)")
-    seeds.add_argument("--refresh-every", type=int, default=30, metavar="N",
+    seeds.add_argument("--refresh-every", type=int, default=None, metavar="N",
                        help="use edge seeds every N frames (default 30; 0: only when too few seeds)")
     seeds.add_argument("--refine-frames", type=int, default=None, metavar="N",
                        help="after each grown frame, match N frames by refining its disparity only (default 1; "
                             "0: every frame grows)")
-    seeds.add_argument("--forward-speed", type=float, default=0.0, metavar="M",
-                       help="expected forward motion per frame in metres, to move the seeds (needs a calibration)")
+    seeds.add_argument("--forward-speed", type=float, default=None, metavar="M",
+                       help="expected forward motion per frame in metres, to move the seeds (needs a calibration; "
+                            "default 0)")
     add_calibration_options(parser)
     add_detection_options(parser)
     parser.set_defaults(handler=run)
@@ -186,6 +187,28 @@ def _remove_earlier_reports(folder, keep, source: str) -> int:
     return len(earlier)
 
 
+def _temporal_parameters(args: argparse.Namespace):
+    """The :class:`~stereo_obstacles.temporal_seeds.TemporalSeedParameters` the options give, the
+    unset ones at their defaults; ``None`` with ``--no-temporal-seeds`` (options of the seeds given
+    with it are warned of: they do nothing then)."""
+    import logging
+
+    from stereo_obstacles.temporal_seeds import TemporalSeedParameters
+
+    given = {"step_px": args.seed_step, "refresh_every": args.refresh_every,
+             "forward_m_per_frame": args.forward_speed, "refine_frames": args.refine_frames}
+    given = {name: value for name, value in given.items() if value is not None}
+    if not args.temporal_seeds:
+        if given:
+            options = {"step_px": "--seed-step", "refresh_every": "--refresh-every",
+                       "forward_m_per_frame": "--forward-speed", "refine_frames": "--refine-frames"}
+            logging.getLogger(__name__).warning("%s do%s nothing with --no-temporal-seeds",
+                                                ", ".join(options[name] for name in given),
+                                                "es" if len(given) == 1 else "")
+        return None
+    return TemporalSeedParameters(**given)
+
+
 def _end_record(frames: int, interrupted: bool, elapsed_s: float, *, error: str | None = None) -> dict:
     """The JSON lines' last record: frames written, whether a Ctrl-C or SIGTERM stopped the run,
     its time; ``error``: the one-line error that ended it (the key only then)."""
@@ -239,7 +262,6 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.stream_detection import (IN_FLIGHT, annotate_frame, detect_stream, frame_record,
                                                    header_record)
     from stereo_obstacles.streams import IMAGE_EXTENSIONS, open_source
-    from stereo_obstacles.temporal_seeds import TemporalSeedParameters
     from stereo_obstacles.tracking import TrackingParameters
 
     if args.max_frames is not None and args.max_frames < 1:
@@ -247,7 +269,7 @@ def run(args: argparse.Namespace) -> int:
     in_flight = IN_FLIGHT if args.in_flight is None else args.in_flight
     if in_flight < 1:
         raise InvalidInputError(f"--in-flight must be >= 1, got {in_flight}")
-    refine_frames = TemporalSeedParameters().refine_frames if args.refine_frames is None else args.refine_frames
+    temporal = _temporal_parameters(args)
     config = config_from_args(args)
     if args.video_out and Path(args.video_out).suffix.lower() in IMAGE_EXTENSIONS:
         raise InvalidInputError(f"--video-out {args.video_out} names an image; give a video file name such as "
@@ -288,10 +310,6 @@ def run(args: argparse.Namespace) -> int:
         refuse_swapped(first_check)     # before any output is written
         first_checked = {**first_check.to_dict(), "frame": first.index}      # the rig does not change
         checked = replace(config, check_rectification=False)                # done: the rig does not change
-        temporal = (TemporalSeedParameters(step_px=args.seed_step, refresh_every=args.refresh_every,
-                                           forward_m_per_frame=args.forward_speed,
-                                           refine_frames=refine_frames)
-                    if args.temporal_seeds else None)
         video = None
         if args.video_out:              # first: a writer OpenCV refuses must not cost an earlier --jsonl file
             video = _VideoOut(args.video_out, source.fps, (width, height))
