@@ -142,9 +142,15 @@ def test_opencv_yaml_needs_its_length_unit(shared_dataset):
     assert (c.width_px, c.height_px) == (640, 480)
 
 
-def test_opencv_image_list_is_not_a_calibration(shared_dataset):
-    with pytest.raises(CalibrationError, match="no rectified projection matrices"):
+def test_opencv_image_list_is_not_a_calibration(shared_dataset, tmp_path):
+    # it was told to "rectify with stereoRectify first" (user-level review, session 23)
+    with pytest.raises(CalibrationError, match="no rectified projection matrices P1 and P2: not a stereo calibration"):
         read_calibration(shared_dataset("calibration_examples") / "opencv_stereo_chessboard" / "stereo_calib.xml")
+    raw = tmp_path / "raw.yml"                     # the raw cameras only, where a rectified calibration is read
+    raw.write_text("%YAML:1.0\n---\ncameraMatrix1: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                   "   data: [ 500., 0., 320., 0., 500., 240., 0., 0., 1. ]\n")
+    with pytest.raises(CalibrationError, match="it describes the raw cameras .*give it with --calib to a command"):
+        read_calibration(raw)
 
 
 def test_opencv_xml_written_by_opencv_is_read(tmp_path):

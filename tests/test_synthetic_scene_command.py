@@ -287,3 +287,13 @@ def test_single_file_writers_refuse_to_replace_a_scenes_files(tmp_path, capsys):
         refuse_scene_files(None, scene / "calibration.json")          # calibrate --out
     refuse_scene_files(scene / "mine.png", tmp_path / "labels.png")   # other names, or not in a scene: written
     assert main(["segment", str(scene / "left.png"), "-o", str(scene / "mine.png")]) == 0
+
+
+def test_a_mis_mounted_sequence_names_a_calibration_file_that_exists(tmp_path, capsys):
+    # the hint named "seq/frame_*/camera_pair.json", a pattern no --calib reads (user-level review, session 23)
+    out = tmp_path / "seq"
+    assert main(["scene", "--out", str(out), "--frames", "2", "--size", "160x120", "--right-rotation-deg", "0", "1",
+                 "0"]) == 0
+    hint = next(line for line in capsys.readouterr().out.splitlines() if "--calib" in line)
+    named = hint.split("--calib ")[1].split()[0]
+    assert named == str(out / "frame_0000" / "camera_pair.json") and os.path.isfile(named)

@@ -267,15 +267,19 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
         if not storage.isOpened():
             raise CalibrationError(f"{source}: OpenCV cannot open this file as YAML/XML")
         left, right = storage.getNode("P1").mat(), storage.getNode("P2").mat()
+        raw_cameras = not storage.getNode("cameraMatrix1").empty()
         size = opencv_image_size(storage.getNode("imageSize"), source)
     except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
         raise CalibrationError(f"{source}: malformed OpenCV calibration: {' '.join(exc.msg.split())}") from exc
     finally:
         storage.release()
     if left is None or right is None:
+        # an image list (OpenCV's stereo_calib.xml) was told to "rectify with stereoRectify first"
         raise CalibrationError(
-            f"{source} has no rectified projection matrices P1 and P2 (an unrectified calibration "
-            f"or not a calibration at all); rectify with stereoRectify first")
+            f"{source} has no rectified projection matrices P1 and P2: "
+            + ("it describes the raw cameras (cameraMatrix1/2); give it with --calib to a command that rectifies "
+               "the pair first (rectify, detect, video, batch)" if raw_cameras
+               else "not a stereo calibration (this tool reads P1/P2, or cameraMatrix1/2, distCoeffs1/2, R and T)"))
     if left.shape != (3, 4) or right.shape != (3, 4):
         raise CalibrationError(f"{source}: P1 and P2 must be 3x4, got {left.shape} and {right.shape}")
     focal = float(left[0, 0])

@@ -147,5 +147,5 @@ def run(args: argparse.Namespace) -> int:
             write_scene_folder(stage / name, pair)
     _remove_frames(out, keep=names)                              # and the frames of a longer sequence
     print(f"wrote {args.frames} frames (seed {scene.seed}, {width}x{height}) to {out}/frame_*")
-    _rectification_hint(options, out / "frame_*" / "camera_pair.json")
+    _rectification_hint(options, out / names[0] / "camera_pair.json")     # one rig: every frame's file is the same
     return 0
