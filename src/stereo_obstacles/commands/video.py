@@ -152,41 +152,6 @@ def _refuse_pattern_outputs(sources, target: str) -> None:
                               f"frame; write it elsewhere")
 
 
-def _is_frame_report_of(folder, source: str) -> bool:
-    """Whether ``folder`` holds the report ``video`` wrote for a frame of ``source`` (its
-    description): ``run.inputs`` names that source and a frame, as no ``detect`` report does."""
-    import json
-    from pathlib import Path
-
-    from stereo_obstacles.report import holds_a_report
-
-    if not holds_a_report(folder):
-        return False
-    try:
-        inputs = json.loads((Path(folder) / "obstacles.json").read_text(encoding="utf-8"))["run"]["inputs"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return False
-    return isinstance(inputs, dict) and "frame" in inputs and inputs.get("source") == source
-
-
-def _remove_earlier_reports(folder, keep, source: str) -> int:
-    """Remove the frame reports of an earlier run over ``source`` in the sub-folders of ``folder``
-    not named in ``keep`` (the frames of a longer run, which would pass for this run's); return how
-    many. Anything else there (a ``detect`` report, another source's frames) stays."""
-    from pathlib import Path
-
-    from stereo_obstacles.atomic import remove_file_set
-    from stereo_obstacles.report import OUTPUT_FILES
-
-    if not Path(folder).is_dir():
-        return 0
-    earlier = [frame for frame in Path(folder).iterdir() if frame.name not in keep and frame.is_dir()
-               and not frame.is_symlink() and _is_frame_report_of(frame, source)]
-    for frame in earlier:
-        remove_file_set(frame, OUTPUT_FILES, what="the earlier frame report")     # obstacles.json first
-    return len(earlier)
-
-
 def _temporal_parameters(args: argparse.Namespace):
     """The :class:`~stereo_obstacles.temporal_seeds.TemporalSeedParameters` the options give, the
     unset ones at their defaults; ``None`` with ``--no-temporal-seeds`` (options of the seeds given
@@ -217,24 +182,6 @@ def _end_record(frames: int, interrupted: bool, elapsed_s: float, *, error: str 
     return record if error is None else {**record, "error": error}
 
 
-def _say_earlier_reports_removed(folder, keep, source: str) -> None:
-    """:func:`_remove_earlier_reports`, saying on stderr how many went; one that cannot be removed
-    is a warning: every frame of this run is written by then."""
-    import logging
-    import sys
-
-    from stereo_obstacles.errors import OutputError
-
-    try:
-        removed = _remove_earlier_reports(folder, keep, source)
-    except OutputError as exc:
-        logging.getLogger(__name__).warning("%s; the other frames of an earlier run stay in %s", exc, folder)
-        return
-    if removed:
-        print(f"removed {removed} frame report{'s' if removed != 1 else ''} of an earlier run over this source "
-              f"from {folder}", file=sys.stderr)
-
-
 def run(args: argparse.Namespace) -> int:
     """Open the source, detect and track frame by frame, write what was asked; 130 on Ctrl-C, 143 on
     SIGTERM."""
@@ -249,6 +196,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_file, check_output_folder
     from stereo_obstacles.commands._calibration_options import calibration_and_rectification
     from stereo_obstacles.commands._compile_notice import announce_compilation
+    from stereo_obstacles.commands._frame_reports import say_earlier_reports_removed
     from stereo_obstacles.commands._repeated_warnings import each_warning_once, repeats_note
     from stereo_obstacles.commands.detect import config_from_args
     from stereo_obstacles.errors import InputFileError, InvalidInputError, StereoObstaclesError
@@ -375,7 +323,7 @@ def run(args: argparse.Namespace) -> int:
         if jsonl is not None:
             jsonl.write(_end_record(count, interrupted, elapsed))
         if args.frames_out and not interrupted:
-            _say_earlier_reports_removed(args.frames_out, reported, source.description)
+            say_earlier_reports_removed(args.frames_out, reported, source.description)
     print(f"{'interrupted after' if interrupted else 'processed'} {count} frame{'s' if count != 1 else ''} "
           f"in {elapsed:.1f} s ({count / elapsed if elapsed > 0 else 0:.2f} frames/s)"
           f"{'; ' + repeats_note(repeats()) if repeats() else ''}",
