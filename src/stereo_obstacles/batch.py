@@ -273,8 +273,8 @@ def _load(job: BatchJob):
     ``--calib`` describes the raw cameras, as ``calibrate`` writes them), grey ones kept for the
     disparity task."""
     from stereo_obstacles.datasets import load_pair
-    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import read_image
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.rectification import rig_for_images
 
     pair = job.pair

@@ -121,8 +121,8 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles.atomic import check_output_folder
     from stereo_obstacles.commands._compile_notice import announce_compilation
-    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import read_image
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.report import OUTPUT_FILES, check_report_folder, format_obstacle_table
 
     check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))

@@ -65,8 +65,8 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.calibration import write_calibration_json
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
-    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import read_image, write_image
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.rectification_check import check_rectification, refuse_swapped
     from stereo_obstacles.synthetic.scene_files import holds_a_scene
 

@@ -68,8 +68,8 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_file, write_text_atomic
-    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.fileio import check_image_path, check_labels_path, read_image, write_image, write_labels
+    from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.labels import Label, colorize_labels
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
     from stereo_obstacles.segmentation import SegmentationParameters, segment
