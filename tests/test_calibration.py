@@ -66,7 +66,9 @@ def test_detect_warns_of_a_calibration_that_fits_other_images(shared_dataset, tm
     with caplog.at_level("WARNING", logger="stereo_obstacles"):
         assert main(["detect", str(tmp_path / "left.png"), str(tmp_path / "right.png"), "--calib",
                      str(kitti / "Calib.txt"), "--out", str(tmp_path / "out")]) == 0
-    assert "lies far from the centre of the 621x188 images" in caplog.text
+    assert caplog.text.count("lies far from the centre of the 621x188 images") == 1   # not again by detect itself
+    recorded = json.loads((tmp_path / "out" / "obstacles.json").read_text())["calibration"]
+    assert (recorded["width_px"], recorded["height_px"]) == (621, 188)                # the size it was used for
 
 
 def test_json_with_wrong_content_is_refused(tmp_path):

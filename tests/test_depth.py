@@ -62,3 +62,14 @@ def test_bad_input_is_refused():
         disparity_to_depth(np.zeros(3, np.float32), RIG)
     with pytest.raises(InvalidInputError, match="floating point"):
         disparity_to_depth(np.zeros((2, 2), np.uint8), RIG)
+
+
+def test_depth_without_a_calibration_or_with_a_negative_error_is_refused():
+    # an AttributeError from inside, and a negative uncertainty (API review, session 23)
+    d = np.full((2, 2), 10.0, np.float32)
+    for convert in (disparity_to_depth, depth_to_disparity, points_from_depth, depth_uncertainty_m):
+        with pytest.raises(InvalidInputError, match="calibration must be a StereoCalibration .*got NoneType"):
+            convert(d, None)
+    for error in (-1.0, float("nan")):
+        with pytest.raises(InvalidInputError, match="disparity_error_px must be a finite number >= 0"):
+            depth_uncertainty_m(d, RIG, disparity_error_px=error)

@@ -73,6 +73,42 @@ def test_bad_inputs_are_refused(default_pair):
         DetectionConfig(geometric_min_height_m=-1.0)
 
 
+def test_what_a_library_user_passes_wrongly_is_refused_by_its_name(default_pair, caplog):
+    # each gave a traceback from deep inside, or a silently wrong answer (API review, session 23)
+    from dataclasses import replace
+
+    left, right, calibration = default_pair.left, default_pair.right, default_pair.calibration
+    with pytest.raises(InvalidInputError, match="config must be a DetectionConfig, got NoneType"):
+        detect(left, right, calibration, config=None)
+    with pytest.raises(InvalidInputError, match=r"left must be uint8 or uint16, got float64 \(an image scaled to 0..1"):
+        detect(left / 255.0, right / 255.0, calibration)
+    with pytest.raises(InvalidInputError, match="seed_points: contains NaN"):     # was an empty map at scale 0.5
+        detect(left, right, calibration, seed_points=np.full((10, 3), np.nan))
+    with pytest.raises(InvalidInputError, match="seed_points must be"):
+        detect(left, right, calibration, seed_points=np.zeros((10, 2)))
+    with pytest.raises(InvalidInputError, match=r"disparity_estimate: 307200 values lie outside .* \[0, 213\]"):
+        detect(left, right, calibration, disparity_estimate=np.full(left.shape[:2], 1e6, np.float32))   # read 0.31 m
+    with pytest.raises(InvalidInputError, match="seed_points and disparity_estimate"):
+        detect(left, right, calibration, seed_points=np.zeros((1, 3)), disparity_estimate=np.zeros(left.shape[:2]))
+    unsized = replace(calibration, width_px=None, height_px=None, cx_px=2 * calibration.cx_px)
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        detect(left, right, unsized)                                  # a calibration of other images, says detect too
+    assert "lies far from the centre of the 640x480 images" in caplog.text
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("obstacles", {"max_distance_m": 10.0}, "obstacles must be ObstacleParameters, got dict"),
+    ("grouping", None, "grouping must be GroupingParameters, got NoneType"),
+    ("visibility", 1, "visibility must be VisibilityParameters or None, got int"),
+    ("check_rectification", "no", "check_rectification must be bool, got str"),
+    ("geometric_min_height_m", "0.1", "geometric_min_height_m must be in"),
+    ("standing_significance", float("nan"), "standing_significance must be in")])
+def test_a_config_of_the_wrong_kinds_is_refused_when_made(field, value, message):
+    # they were accepted and failed later inside a stage with AttributeError (API review, session 23)
+    with pytest.raises(InvalidInputError, match=message):
+        DetectionConfig(**{field: value})
+
+
 def test_a_wall_filling_the_view_is_reported_not_lost():
     """Random scene 9 puts a wall 2 m ahead across the reference area: colour alone calls it ground."""
     from stereo_obstacles.synthetic import random_scene

@@ -180,10 +180,10 @@ def test_terminal_table_lists_the_largest_rejected_groups_and_sums_up_the_rest()
 def test_a_rerun_removes_the_pictures_of_their_former_names_from_its_own_folder_only(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    for name in report.FORMER_PICTURE_NAMES + ("depth.npy",):             # the user's own files
+    for name in report.FORMER_PICTURE_NAMES:                              # the user's own files
         (out / name).write_bytes(b"user")
     _write(out, calibrated=False)
-    assert all((out / name).read_bytes() == b"user" for name in report.FORMER_PICTURE_NAMES + ("depth.npy",))
+    assert all((out / name).read_bytes() == b"user" for name in report.FORMER_PICTURE_NAMES)
     _write(out, calibrated=False)                                         # a rerun over a current report
     assert all((out / name).exists() for name in report.FORMER_PICTURE_NAMES)
     former = tmp_path / "former"                                          # a report of the former kind
@@ -193,6 +193,23 @@ def test_a_rerun_removes_the_pictures_of_their_former_names_from_its_own_folder_
     _write(former)
     assert not any((former / name).exists() for name in report.FORMER_PICTURE_NAMES)
     assert (former / "disparity_picture.png").exists()
+
+
+def test_the_library_writer_refuses_a_scene_and_a_users_files_as_the_commands_do(tmp_path):
+    # write_detection_outputs replaced a rendered scene's ground truth and a user's index.html (API review)
+    from stereo_obstacles.errors import OutputError
+    from stereo_obstacles.synthetic import default_scene, render_pair, write_scene_folder
+
+    write_scene_folder(tmp_path / "scene", render_pair(default_scene(160, 120)))
+    truth = (tmp_path / "scene" / "obstacles.json").read_bytes()
+    with pytest.raises(OutputError, match="holds a rendered scene"):
+        _write(tmp_path / "scene")
+    assert (tmp_path / "scene" / "obstacles.json").read_bytes() == truth
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "index.html").write_text("my page")
+    with pytest.raises(OutputError, match="holds index.html but no report of this tool"):
+        _write(tmp_path / "mine")
+    assert (tmp_path / "mine" / "index.html").read_text() == "my page"
 
 
 def test_a_report_killed_while_moving_in_is_refused_by_the_next_run_with_why(tmp_path, monkeypatch):
@@ -237,9 +254,12 @@ def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tm
     with pytest.raises(OutputError, match="not a report of this tool"):
         report.check_report_folder(foreign)
     (foreign / "depth.npy").write_bytes(b"user")
-    _write(foreign, calibrated=False)                       # the library writer itself: the user's files stay
-    assert (foreign / "depth.npy").read_bytes() == b"user"
-    report.check_report_folder(foreign)                     # now a report of this tool: a rerun is fine
+    with pytest.raises(OutputError, match="not a report of this tool"):
+        _write(foreign, calibrated=False)                   # the library writer refuses as the commands do
+    assert (foreign / "depth.npy").read_bytes() == b"user" and (foreign / "obstacles.json").read_text() == '{"mine": 1}'
+    _write(tmp_path / "ours")
+    report.check_report_folder(tmp_path / "ours")           # a report of this tool: a rerun is fine
+    _write(tmp_path / "ours", calibrated=False)
     users = tmp_path / "users"                              # no obstacles.json, but the names a report writes
     users.mkdir()
     (users / "index.html").write_text("my page")

@@ -13,7 +13,7 @@ import json
 import logging
 import math
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 from stereo_obstacles.atomic import write_text_atomic
 from stereo_obstacles.errors import CalibrationError
@@ -172,11 +172,17 @@ def read_calibration_json(path: str | os.PathLike[str]) -> StereoCalibration:
     return StereoCalibration.from_dict(data, source=str(path))
 
 
-def check_for_images(calibration: StereoCalibration, width_px: int, height_px: int) -> None:
-    """:meth:`StereoCalibration.check_image_size`, and its :meth:`~StereoCalibration.off_centre_doubt`
-    logged as a warning: for the commands, which check a calibration once per pair of files or
-    once per stream (``pipeline.detect`` checks only the size, once per call)."""
+def sized_for_images(calibration: StereoCalibration, width_px: int, height_px: int, *,
+                     source: object = None) -> StereoCalibration:
+    """``calibration`` checked against images of ``width_px x height_px``
+    (:meth:`StereoCalibration.check_image_size`; its :meth:`~StereoCalibration.off_centre_doubt`
+    logged as a warning) and with their size filled in when it states none, so that the check and
+    the warning come once per pair of files or per stream, not again in every
+    :func:`~stereo_obstacles.pipeline.detect` call. ``source`` (a dataset folder) starts the warning."""
     calibration.check_image_size(width_px, height_px)
     doubt = calibration.off_centre_doubt(width_px, height_px)
     if doubt is not None:
-        logger.warning(doubt)
+        logger.warning("%s", doubt if source is None else f"{source}: {doubt}")
+    if calibration.width_px is None or calibration.height_px is None:
+        calibration = replace(calibration, width_px=width_px, height_px=height_px)
+    return calibration

@@ -59,7 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stereo_obstacles.calibration import StereoCalibration, read_calibration_json
+from stereo_obstacles.calibration import StereoCalibration, read_calibration_json, sized_for_images
 from stereo_obstacles.calibration_files import read_calibration
 from stereo_obstacles.errors import ImageMismatchError, InputFileError, InvalidInputError
 from stereo_obstacles.fileio import read_image, read_kitti_disparity, read_pfm
@@ -393,14 +393,8 @@ def _with_calibration(pair: StereoPair) -> StereoPair:
     if pair.calibration_file is None:
         return pair
     reader = read_calibration_json if pair.layout == "synthetic" else read_calibration
-    calibration = reader(pair.calibration_file)
-    if calibration.width_px is None:
-        h, w = pair.left.shape[:2]
-        doubt = calibration.off_centre_doubt(w, h)          # before the images' size is filled in
-        if doubt is not None:
-            logger.warning("%s: %s", pair.source, doubt)
-        calibration = replace(calibration, width_px=w, height_px=h)
-    return replace(pair, calibration=calibration)
+    h, w = pair.left.shape[:2]
+    return replace(pair, calibration=sized_for_images(reader(pair.calibration_file), w, h, source=pair.source))
 
 
 def _read_rgb(path: Path) -> np.ndarray:

@@ -10,7 +10,18 @@ from __future__ import annotations
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import is_finite_real
 from stereo_obstacles.float_maps import check_float_map
+
+
+def _check_calibration(calibration: object) -> StereoCalibration:
+    """``calibration`` itself, or :class:`InvalidInputError`: depth needs one (``None`` gave an
+    AttributeError from deep inside)."""
+    if not isinstance(calibration, StereoCalibration):
+        raise InvalidInputError(f"calibration must be a StereoCalibration (depth needs one), got "
+                                f"{type(calibration).__name__}")
+    return calibration
 
 
 def disparity_to_depth(disparity: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
@@ -26,7 +37,7 @@ def disparity_to_depth(disparity: np.ndarray, calibration: StereoCalibration) ->
         The rectified calibration (``focal_px``, ``baseline_m``, ``doffs_px``).
     """
     d = check_float_map(disparity, "disparity").astype(np.float32, copy=False)
-    d = d.astype(np.float64) + calibration.doffs_px
+    d = d.astype(np.float64) + _check_calibration(calibration).doffs_px
     depth = np.full(d.shape, np.nan, dtype=np.float32)
     valid = np.isfinite(d) & (d > 0)
     depth[valid] = (calibration.focal_baseline_px_m / d[valid]).astype(np.float32)
@@ -36,6 +47,7 @@ def disparity_to_depth(disparity: np.ndarray, calibration: StereoCalibration) ->
 def depth_to_disparity(depth_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
     """Disparity in pixels from depth in metres (the inverse of :func:`disparity_to_depth`)."""
     z = check_float_map(depth_m, "depth").astype(np.float32, copy=False).astype(np.float64)
+    _check_calibration(calibration)
     disparity = np.full(z.shape, np.nan, dtype=np.float32)
     valid = np.isfinite(z) & (z > 0)
     disparity[valid] = (calibration.focal_baseline_px_m / z[valid] - calibration.doffs_px).astype(np.float32)
@@ -45,6 +57,7 @@ def depth_to_disparity(depth_m: np.ndarray, calibration: StereoCalibration) -> n
 def points_from_depth(depth_m: np.ndarray, calibration: StereoCalibration) -> np.ndarray:
     """3-D points ``float32 (H, W, 3)`` in metres in the left camera frame; NaN where depth is NaN."""
     z = check_float_map(depth_m, "depth").astype(np.float32, copy=False)
+    _check_calibration(calibration)
     h, w = z.shape
     xs = (np.arange(w, dtype=np.float32) - np.float32(calibration.cx_px)) / np.float32(calibration.focal_px)
     ys = (np.arange(h, dtype=np.float32) - np.float32(calibration.cy_px)) / np.float32(calibration.focal_px)
@@ -57,6 +70,10 @@ def points_from_depth(depth_m: np.ndarray, calibration: StereoCalibration) -> np
 
 def depth_uncertainty_m(depth_m: np.ndarray, calibration: StereoCalibration,
                         disparity_error_px: float = 1.0) -> np.ndarray:
-    """Depth error caused by a disparity error: ``Z**2 / (f B) * disparity_error_px``, metres."""
+    """Depth error caused by a disparity error: ``Z**2 / (f B) * disparity_error_px``, metres
+    (``disparity_error_px`` a finite number >= 0)."""
     z = check_float_map(depth_m, "depth").astype(np.float32, copy=False)
+    _check_calibration(calibration)
+    if not (is_finite_real(disparity_error_px) and disparity_error_px >= 0):
+        raise InvalidInputError(f"disparity_error_px must be a finite number >= 0, got {disparity_error_px!r}")
     return (z * z / np.float32(calibration.focal_baseline_px_m) * np.float32(disparity_error_px)).astype(np.float32)

@@ -95,11 +95,19 @@ class ObstacleParameters:
 
 @dataclass(frozen=True)
 class Obstacle:
-    """One detected obstacle. Lengths in metres (``None`` without a calibration).
+    """One detected obstacle. Lengths in metres (``None`` without a calibration), in the rectified
+    left camera frame: ``X`` right, ``Y`` down, ``Z`` forward along the optical axis.
 
-    ``box_px`` is ``(x0, y0, x1, y1)``, inclusive-exclusive pixel bounds in the left image;
-    ``centre_m`` the median 3-D point ``(X, Y, Z)`` in the left camera frame; ``confidence``
-    in [0, 1] grows with the number of matched pixels and their depth agreement.
+    ``distance_m`` is the depth ``Z`` of its near face (a low percentile of its patches' depths,
+    :mod:`stereo_obstacles.near_face`), not the range ``sqrt(X**2 + Z**2)`` (the scan's
+    ``ranges_m`` are ranges). ``disparity_px`` is the median disparity of the pixels it is measured
+    on. ``box_px`` is ``(x0, y0, x1, y1)``, inclusive-exclusive pixel bounds in the left image;
+    ``centre_m`` the median 3-D point ``(X, Y, Z)`` of its pixels standing above the ground;
+    ``lateral_extent_m`` the 1st and 99th percentiles of ``X`` and ``width_m`` their difference;
+    ``height_m`` its visible height (1st to 99th percentile of ``Y``); ``height_above_ground_m`` the
+    99th percentile of its pixels' heights above the ground plane, its top (``None`` without a
+    plane); ``confidence`` in [0, 1] grows with the number of matched pixels and their depth
+    agreement. The fields of ``obstacles.json`` are these: ``docs/pipeline.md``.
     """
 
     id: int

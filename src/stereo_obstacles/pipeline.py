@@ -58,7 +58,7 @@ from stereo_obstacles.colour_split import ColourCue, colour_cue
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
-from stereo_obstacles.field_checks import check_integers
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
@@ -126,6 +126,12 @@ def pipeline_match_kwargs(options: MatchingOptions) -> dict:
 class DetectionConfig:
     """Every option of the pipeline, grouped by stage; saved next to every output.
 
+    The stages' own options: ``reference`` (the area taken for ground), ``segmentation``
+    (phase 1), ``matching`` (phase 2: ``max_disparity``, ``seeds``, ...), ``grouping`` and
+    ``obstacles`` (phase 3: ``max_distance_m``, ``corridor_width_m``, ...); change one with
+    :func:`dataclasses.replace`, e.g. ``replace(config, obstacles=replace(config.obstacles,
+    max_distance_m=10.0))``.
+
     ``geometric_min_height_m``: ground-labelled pixels this far above the ground plane become
     obstacle candidates (needs a calibration; ``0`` switches it off), if their disparity also
     exceeds the plane's by ``geometric_min_excess_px`` (full-size pixels).
@@ -134,7 +140,7 @@ class DetectionConfig:
     ``matching_scale``: grow the correspondence seeds on a copy of the pair shrunk by this
     factor in ``(0, 1]`` and refine the matches on the full-size pair
     (:mod:`stereo_obstacles.scaled_matching`). The default 0.5 found as many obstacles as 1 with
-    the same distance errors and no false alarm, at about half the matching time
+    the same distance errors and no false alarm, in about three quarters of the matching time
     (``docs/pipeline.md``, "Matching scale"); 1 grows at full size. Segmentation and obstacles
     are always at full size. Images with a side under 240 pixels are matched at a larger scale
     (:func:`stereo_obstacles.scaled_matching.effective_scale`); for a scale other than the
@@ -181,16 +187,18 @@ class DetectionConfig:
     hidden_ground: HiddenGroundParameters | None = field(default_factory=HiddenGroundParameters)
 
     def __post_init__(self) -> None:
-        if not math.isfinite(self.geometric_min_height_m) or self.geometric_min_height_m < 0:
-            raise InvalidInputError(f"geometric_min_height_m must be >= 0, got {self.geometric_min_height_m}")
+        # a dict or None for a stage's options failed later with AttributeError (API review, session 23)
+        check_types(self, (("reference", ReferenceArea), ("segmentation", SegmentationParameters),
+                           ("matching", MatchingOptions), ("grouping", GroupingParameters),
+                           ("obstacles", ObstacleParameters), ("check_rectification", bool)))
+        check_types(self, (("blind_strip", BlindStripParameters), ("visibility", VisibilityParameters),
+                           ("textureless_fill", TexturelessFillParameters),
+                           ("hidden_ground", HiddenGroundParameters)), allow_none=True)
+        check_numbers(self, (("geometric_min_height_m", 0.0, math.inf), ("geometric_min_excess_px", 0.0, math.inf)))
         check_scale(self.matching_scale)
-        if not math.isfinite(self.geometric_min_excess_px) or self.geometric_min_excess_px < 0:
-            raise InvalidInputError(f"geometric_min_excess_px must be >= 0, got {self.geometric_min_excess_px}")
-        if self.standing_significance is not None and not (math.isfinite(self.standing_significance)
-                                                           and self.standing_significance >= 0):
-            raise InvalidInputError(f"standing_significance must be None or >= 0, got {self.standing_significance}")
-        if not (math.isfinite(self.standing_max_sigma_px) and self.standing_max_sigma_px > 0):
-            raise InvalidInputError(f"standing_max_sigma_px must be > 0 pixels, got {self.standing_max_sigma_px}")
+        if self.standing_significance is not None:
+            check_numbers(self, (("standing_significance", 0.0, math.inf),))
+        check_positive(self, ("standing_max_sigma_px",))
 
     def to_dict(self) -> dict:
         """JSON-ready nested mapping of every option; ``matching`` shows the pipeline's own
@@ -274,11 +282,16 @@ def _read_only(image: np.ndarray) -> np.ndarray:
     return view
 
 
-def _check_inputs(left: np.ndarray, right: np.ndarray, calibration) -> None:
+def _check_inputs(left: np.ndarray, right: np.ndarray, calibration, config) -> None:
+    if not isinstance(config, DetectionConfig):
+        raise InvalidInputError(f"config must be a DetectionConfig, got {type(config).__name__}")
     for name, image in (("left", left), ("right", right)):
         if not isinstance(image, np.ndarray) or image.ndim != 3 or image.shape[2] != 3:
             raise InvalidInputError(f"{name} must be an RGB (H, W, 3) image, got "
                                     f"{getattr(image, 'shape', type(image).__name__)}")
+        if image.dtype not in (np.uint8, np.uint16):
+            hint = " (an image scaled to 0..1: multiply by 255 and convert)" if image.dtype.kind == "f" else ""
+            raise InvalidInputError(f"{name} must be uint8 or uint16, got {image.dtype}{hint}")
     check_same_size(left, right)
     if min(left.shape[:2]) < MIN_SIZE:
         raise InvalidInputError(f"images must be at least {MIN_SIZE}x{MIN_SIZE} pixels (one correlation window), got "
@@ -289,6 +302,31 @@ def _check_inputs(left: np.ndarray, right: np.ndarray, calibration) -> None:
                 if isinstance(calibration, CameraPairCalibration) else "")
         raise CalibrationError(f"calibration must be a StereoCalibration (a rectified pair) or None, got "
                                f"{type(calibration).__name__}{hint}")
+
+
+def _check_hints(seed_points, disparity_estimate, shape: tuple[int, int], config: DetectionConfig) -> None:
+    """Refuse seed points or a disparity estimate :func:`detect` cannot use: both given, seeds not
+    ``(N, 3)`` finite numbers, an estimate of another shape or outside the disparity range searched
+    (a wrong estimate made phantom obstacles: 1e6 px read 0.31 m)."""
+    if seed_points is not None and disparity_estimate is not None:
+        raise InvalidInputError("seed_points and disparity_estimate: give one or the other")
+    if seed_points is not None:
+        points = np.asarray(seed_points)
+        if points.ndim != 2 or points.shape[1] != 3 or points.dtype.kind not in "iuf":
+            raise InvalidInputError(f"seed_points must be (N, 3) numbers (x, y, d), got {points.dtype} {points.shape}")
+        if not np.isfinite(points).all():
+            raise InvalidInputError("seed_points: contains NaN or infinite values")
+    if disparity_estimate is not None:
+        if np.shape(disparity_estimate) != shape:
+            raise ImageMismatchError(f"disparity_estimate must have the images' shape {shape}, got "
+                                     f"{np.shape(disparity_estimate)}")
+        estimate = np.asarray(disparity_estimate, dtype=np.float64)
+        d_max = disparity_range(shape[1], 0, config.matching.max_disparity)[1]
+        with np.errstate(invalid="ignore"):
+            outside = (estimate < 0) | (estimate > d_max) | np.isinf(estimate)          # NaN: no estimate
+        if outside.any():
+            raise InvalidInputError(f"disparity_estimate: {int(outside.sum())} values lie outside the disparity range "
+                                    f"[0, {d_max}] px searched (NaN marks a pixel without an estimate)")
 
 
 GROUND_COLOUR_ROWS = 0.5
@@ -493,6 +531,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     left, right
         ``uint8`` RGB images ``(H, W, 3)`` of the same size, rectified (rows correspond);
         ``uint16`` ones are scaled to 8 bits first (:func:`stereo_obstacles.fileio.to_uint8`).
+        ``cv2.imread`` gives BGR: convert with ``cv2.cvtColor(image, cv2.COLOR_BGR2RGB)``, or read
+        with :func:`stereo_obstacles.fileio.read_image` (the colours decide what is ground).
     calibration
         The rectified calibration; without it distances stay in pixels and disparities.
     config
@@ -523,16 +563,14 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]
     [3.1, 3.9, 4.2, 6.4, 6.4, 8.7]
     """
-    _check_inputs(left, right, calibration)
-    if disparity_estimate is not None:
-        if seed_points is not None:
-            raise InvalidInputError("seed_points and disparity_estimate: give one or the other")
-        if np.shape(disparity_estimate) != left.shape[:2]:
-            raise ImageMismatchError(f"disparity_estimate must have the images' shape {left.shape[:2]}, got "
-                                     f"{np.shape(disparity_estimate)}")
+    _check_inputs(left, right, calibration, config)
+    _check_hints(seed_points, disparity_estimate, left.shape[:2], config)
     left, right = to_uint8(left, right)
     if calibration is not None:
         calibration.check_image_size(left.shape[1], left.shape[0])
+        doubt = calibration.off_centre_doubt(left.shape[1], left.shape[0])
+        if doubt is not None:
+            logger.warning("%s", doubt)
     timings: dict[str, float] = {}
     start = time.perf_counter()
     # phase 1 and the rectification check on a pool thread while the matcher runs here, on the

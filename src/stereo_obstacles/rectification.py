@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stereo_obstacles.calibration import StereoCalibration, check_for_images
+from stereo_obstacles.calibration import StereoCalibration, sized_for_images
 from stereo_obstacles.camera_calibration import CameraPairCalibration
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
 
@@ -137,7 +137,7 @@ def rig_for_images(calibration: StereoCalibration | CameraPairCalibration, width
     rectification to apply to them first (``None`` when they are taken as rectified).
 
     A rectified rig's calibration is checked against the images
-    (:func:`~stereo_obstacles.calibration.check_for_images`: the size, and a warning for a
+    (:func:`~stereo_obstacles.calibration.sized_for_images`: the size, and a warning for a
     principal point far off centre); the raw cameras' (as ``calibrate`` writes them) must be of
     the images' size and gives the rectified calibration with its rectification.
 
@@ -147,8 +147,7 @@ def rig_for_images(calibration: StereoCalibration | CameraPairCalibration, width
         A calibration of other images.
     """
     if not isinstance(calibration, CameraPairCalibration):
-        check_for_images(calibration, width_px, height_px)
-        return calibration, None
+        return sized_for_images(calibration, width_px, height_px), None
     calibration.check_image_size(width_px, height_px)
     rectification = rectify_calibration(calibration)
     return rectification.rectified, rectification

@@ -319,8 +319,20 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     -------
     list of pathlib.Path
         The files written, in the order of the table in this module's documentation.
+
+    Raises
+    ------
+    OutputError
+        ``out_dir`` holds a rendered scene, or files of the report's names that are not an
+        earlier report of this tool (:func:`check_report_folder`), or cannot be written.
+    InvalidInputError
+        Arrays of other shapes or types than above.
     """
     _check_inputs(left, labels, disparity, depth_m, obstacle_list, calibration)
+    for name, mapping in (("config", config), ("timings", timings), ("inputs", inputs)):
+        if not isinstance(mapping, Mapping):
+            raise InvalidInputError(f"{name} must be a mapping (a dict), got {type(mapping).__name__}")
+    check_report_folder(out_dir)          # a scene's ground truth, a user's files: the commands check it first too
     (left,) = to_uint8(left)
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]

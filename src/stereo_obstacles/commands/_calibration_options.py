@@ -57,7 +57,7 @@ def calibration_from_args(args: argparse.Namespace, width_px: int, height_px: in
         Contradictory or incomplete options, an unreadable file, impossible values, or a
         calibration made for another image size.
     """
-    from stereo_obstacles.calibration import StereoCalibration, check_for_images
+    from stereo_obstacles.calibration import StereoCalibration, sized_for_images
     from stereo_obstacles.calibration_files import read_calibration
 
     check_manual_calibration(args)
@@ -71,8 +71,7 @@ def calibration_from_args(args: argparse.Namespace, width_px: int, height_px: in
             width_px=width_px, height_px=height_px)
     else:
         return None
-    check_for_images(calibration, width_px, height_px)
-    return calibration
+    return sized_for_images(calibration, width_px, height_px)
 
 
 def add_rectification_options(parser: argparse.ArgumentParser, *, with_calib_file: bool = False) -> None:
