@@ -241,6 +241,18 @@ def test_calib_replaces_a_dataset_folders_own_calibration_that_does_not_parse(tm
         assert "rig: failed: CalibrationError: " in capsys.readouterr().err
 
 
+def test_a_rerun_replaces_a_pair_killed_while_its_report_moved_in(tmp_path):
+    # the library writer's folder check refused batch's own half-moved report (review, session 23)
+    write_scene_folder(tmp_path / "in" / "scene", frames()[0])
+    out = tmp_path / "out"
+    args = ["batch", str(tmp_path / "in"), "--out", str(out), "--workers", "1"]
+    assert main(args) == 0
+    for name in ("obstacles.json", "index.html", DONE_FILE):          # as a kill while moving in leaves it
+        (out / "scene" / name).unlink()
+    assert main(args) == 0 and _summary(out)["counts"]["done"] == 1
+    assert (out / "scene" / "obstacles.json").is_file()
+
+
 def test_a_dataset_folder_named_dot_or_beside_sub_folders_keeps_its_name_and_them(tmp_path, monkeypatch):
     write_scene_folder(tmp_path / "scene", frames()[0])
     write_scene_folder(tmp_path / "scene" / "more", frames()[1])

@@ -317,15 +317,22 @@ def test_rectify_refuses_images_given_the_wrong_way_round(calibrated, chessboard
     assert "look swapped" in capsys.readouterr().err and not (tmp_path / "out").exists()
 
 
-def test_pairs_of_files_are_checked_by_the_last_number_of_their_names(tmp_path):
+@pytest.mark.parametrize("left, right", [("cam0_{:04d}.png", "cam1_{:04d}.png"), ("pair{:02d}_cam0.jpg", "pair{:02d}_cam1.jpg"),
+                                         ("f{:03d}/im0.png", "f{:03d}/im1.png")])
+def test_pairs_of_files_are_checked_by_the_numbers_that_change_from_frame_to_frame(tmp_path, left, right):
+    # the camera's number is the same in every file of a side (review: pairNN_cam0 was refused)
     from stereo_obstacles.commands.calibrate import _pairs_from_globs
     from stereo_obstacles.errors import InputFileError
 
-    for name in ("cam0_0007.png", "cam1_0007.png", "cam0_0010.png", "cam1_0010.png"):
-        (tmp_path / name).write_bytes(b"")
-    pairs = _pairs_from_globs(str(tmp_path / "cam0_*.png"), str(tmp_path / "cam1_*.png"))   # cam0 / cam1 differ
-    assert [(os.path.basename(a), os.path.basename(b)) for a, b in pairs] == [("cam0_0007.png", "cam1_0007.png"),
-                                                                            ("cam0_0010.png", "cam1_0010.png")]
-    (tmp_path / "cam1_0010.png").rename(tmp_path / "cam1_0011.png")
-    with pytest.raises(InputFileError, match="cam0_0010.png is paired with .*cam1_0011.png"):
-        _pairs_from_globs(str(tmp_path / "cam0_*.png"), str(tmp_path / "cam1_*.png"))
+    for frame in (7, 10):
+        for name in (left, right):
+            (tmp_path / name.format(frame)).parent.mkdir(exist_ok=True)
+            (tmp_path / name.format(frame)).write_bytes(b"")
+    patterns = [str(tmp_path / name.replace("{:04d}", "*").replace("{:02d}", "*").replace("{:03d}", "*"))
+                for name in (left, right)]
+    assert len(_pairs_from_globs(*patterns)) == 2
+    moved = tmp_path / right.format(11)                          # frame 10 missing on the right, 11 there
+    moved.parent.mkdir(exist_ok=True)
+    (tmp_path / right.format(10)).rename(moved)
+    with pytest.raises(InputFileError, match="is paired with .*: their numbers differ"):
+        _pairs_from_globs(*patterns)

@@ -73,3 +73,12 @@ def test_depth_without_a_calibration_or_with_a_negative_error_is_refused():
     for error in (-1.0, float("nan")):
         with pytest.raises(InvalidInputError, match="disparity_error_px must be a finite number >= 0"):
             depth_uncertainty_m(d, RIG, disparity_error_px=error)
+
+
+def test_depth_uncertainty_takes_a_map_of_disparity_errors():
+    # a per-pixel sigma map (disparity_sigma_px) was refused with its repr over lines (review)
+    z = np.full((2, 2), 2.0, np.float32)
+    sigma = np.array([[0.2, 0.5], [1.0, 1.0]], np.float32)
+    np.testing.assert_allclose(depth_uncertainty_m(z, RIG, sigma), 4.0 / (700.0 * 0.12) * sigma, rtol=1e-6)
+    with pytest.raises(InvalidInputError, match=r"^disparity_error_px: a map \(2, 2\) with values"):
+        depth_uncertainty_m(z, RIG, -sigma)

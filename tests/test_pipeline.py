@@ -88,6 +88,9 @@ def test_what_a_library_user_passes_wrongly_is_refused_by_its_name(default_pair,
         detect(left, right, calibration, seed_points=np.zeros((10, 2)))
     with pytest.raises(InvalidInputError, match=r"disparity_estimate: 307200 values lie outside .* \[0, 213\]"):
         detect(left, right, calibration, disparity_estimate=np.full(left.shape[:2], 1e6, np.float32))   # read 0.31 m
+    with pytest.raises(InvalidInputError, match="disparity_estimate: 480 values lie outside"):   # one column below 0
+        detect(left, right, calibration, disparity_estimate=np.where(np.arange(left.shape[1]) == 5, -1.0, np.nan)
+               * np.ones(left.shape[:2]))
     with pytest.raises(InvalidInputError, match="seed_points and disparity_estimate"):
         detect(left, right, calibration, seed_points=np.zeros((1, 3)), disparity_estimate=np.zeros(left.shape[:2]))
     unsized = replace(calibration, width_px=None, height_px=None, cx_px=2 * calibration.cx_px)

@@ -116,3 +116,15 @@ def test_a_failing_source_still_delivers_the_frames_already_in_flight():
         for detection in detect_stream(failing(), frames()[0].calibration, in_flight=3):
             delivered.append(detection.frame.index)
     assert delivered == [0, 1, 2]
+
+
+def test_a_calibration_without_an_image_size_is_checked_once_a_stream(caplog):
+    # detect warned of it on every frame (review, session 23); the stream sizes it on its first frame
+    from dataclasses import replace
+
+    calibration = frames()[0].calibration
+    unsized = replace(calibration, width_px=None, height_px=None, cx_px=3 * calibration.cx_px)
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        detections = list(detect_stream(_stream(), unsized, temporal=None, in_flight=2))
+    assert caplog.text.count("lies far from the centre of the") == 1
+    assert {(d.result.calibration.width_px, d.result.calibration.height_px) for d in detections} == {SIZE}

@@ -222,7 +222,7 @@ def _every_output_of_a_stopped_run(tmp_path) -> tuple[int, list[dict], int, int]
     return code, read_json_lines(jsonl), len(list(frames_out.iterdir())), video_frames
 
 
-def test_a_shorter_rerun_removes_the_frame_reports_of_the_earlier_run(tmp_path, capsys, monkeypatch):
+def test_a_shorter_rerun_removes_the_frame_reports_of_the_earlier_run(tmp_path, capsys, monkeypatch, caplog):
     # they stayed beside the new ones, calibrated among uncalibrated (user-level review, session 23)
     left_dir, right_dir = write_sequences(tmp_path / "in")
     frames_out = tmp_path / "fo"
@@ -253,8 +253,10 @@ def test_a_shorter_rerun_removes_the_frame_reports_of_the_earlier_run(tmp_path, 
                      "--max-frames", "2"]) == 143
     assert sorted(p.name for p in frames_out.iterdir()) == kept
     capsys.readouterr()
-    assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(frames_out), "--max-frames", "2"]) == 0
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(frames_out), "--max-frames", "2"]) == 0
     assert f"removed {N_FRAMES - 2} frame reports of an earlier run over this source" in capsys.readouterr().err
+    assert "also holds 1 frame report of another source (or of this one named otherwise)" in caplog.text
     assert sorted(p.name for p in frames_out.iterdir()) == sorted(["notes", "my_detect_run", "0010", "0000", "0001"])
 
 
@@ -293,6 +295,10 @@ def test_options_of_the_temporal_seeds_are_said_to_do_nothing_without_them(tmp_p
         assert main(["video", str(left_dir), str(right_dir), "--no-temporal-seeds", "--seed-step", "4",
                      "--refine-frames", "0", "--max-frames", "1"]) == 0
         assert "--seed-step, --refine-frames do nothing with --no-temporal-seeds" in caplog.text
+        caplog.clear()                # not also refused for want of a calibration it would not use (review)
+        assert main(["video", str(left_dir), str(right_dir), "--no-temporal-seeds", "--forward-speed", "0.1",
+                     "--max-frames", "1"]) == 0
+        assert "--forward-speed does nothing with --no-temporal-seeds" in caplog.text
         caplog.clear()
         assert main(["video", str(left_dir), str(right_dir), "--seed-step", "4", "--max-frames", "1"]) == 0
         assert "do nothing" not in caplog.text and "does nothing" not in caplog.text

@@ -69,11 +69,18 @@ def points_from_depth(depth_m: np.ndarray, calibration: StereoCalibration) -> np
 
 
 def depth_uncertainty_m(depth_m: np.ndarray, calibration: StereoCalibration,
-                        disparity_error_px: float = 1.0) -> np.ndarray:
-    """Depth error caused by a disparity error: ``Z**2 / (f B) * disparity_error_px``, metres
-    (``disparity_error_px`` a finite number >= 0)."""
+                        disparity_error_px: float | np.ndarray = 1.0) -> np.ndarray:
+    """Depth error caused by a disparity error: ``Z**2 / (f B) * disparity_error_px``, metres.
+    ``disparity_error_px``: pixels, finite and >= 0; one number, or a map broadcasting against
+    ``depth_m`` (such as :func:`stereo_obstacles.disparity_uncertainty.disparity_sigma_px`'s)."""
     z = check_float_map(depth_m, "depth").astype(np.float32, copy=False)
     _check_calibration(calibration)
-    if not (is_finite_real(disparity_error_px) and disparity_error_px >= 0):
-        raise InvalidInputError(f"disparity_error_px must be a finite number >= 0, got {disparity_error_px!r}")
-    return (z * z / np.float32(calibration.focal_baseline_px_m) * np.float32(disparity_error_px)).astype(np.float32)
+    if np.ndim(disparity_error_px) == 0:
+        if not (is_finite_real(disparity_error_px) and disparity_error_px >= 0):
+            raise InvalidInputError(f"disparity_error_px must be a finite number >= 0, got {disparity_error_px!r}")
+    else:
+        error = np.asarray(disparity_error_px, dtype=np.float64)
+        if not (np.isfinite(error).all() and (error >= 0).all()):
+            raise InvalidInputError(f"disparity_error_px: a map {error.shape} with values that are not finite and >= 0")
+    error = np.asarray(disparity_error_px, dtype=np.float32)
+    return (z * z / np.float32(calibration.focal_baseline_px_m) * error).astype(np.float32)

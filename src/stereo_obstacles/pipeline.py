@@ -105,8 +105,8 @@ class MatchingOptions:
 
 
 DEFAULT_MATCHING_SCALE = 0.5
-""":attr:`DetectionConfig.matching_scale` unless given: found as many obstacles as 1, at about
-half the matching time (``docs/pipeline.md``, "Matching scale")."""
+""":attr:`DetectionConfig.matching_scale` unless given: found as many obstacles as 1, in about
+three quarters of the matching time (``docs/pipeline.md``, "Matching scale")."""
 
 PIPELINE_MATCHING = {"speckle_size": 0}
 """The obstacle pipeline's own defaults for :func:`~stereo_obstacles.matching.match` options
@@ -323,7 +323,7 @@ def _check_hints(seed_points, disparity_estimate, shape: tuple[int, int], config
         estimate = np.asarray(disparity_estimate, dtype=np.float64)
         d_max = disparity_range(shape[1], 0, config.matching.max_disparity)[1]
         with np.errstate(invalid="ignore"):
-            outside = (estimate < 0) | (estimate > d_max) | np.isinf(estimate)          # NaN: no estimate
+            outside = (estimate < 0) | (estimate > d_max)                                # NaN: no estimate
         if outside.any():
             raise InvalidInputError(f"disparity_estimate: {int(outside.sum())} values lie outside the disparity range "
                                     f"[0, {d_max}] px searched (NaN marks a pixel without an estimate)")

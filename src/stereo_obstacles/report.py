@@ -284,7 +284,8 @@ OUTPUT_FILES = ("obstacles.json", "disparity.pfm", "labels.png", "obstacles.png"
 def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray, labels: np.ndarray,
                             disparity: np.ndarray, depth_m: np.ndarray | None, obstacle_list: ObstacleList,
                             calibration: StereoCalibration | None, config: Mapping[str, Any],
-                            timings: Mapping[str, float], inputs: Mapping[str, Any]) -> list[Path]:
+                            timings: Mapping[str, float], inputs: Mapping[str, Any],
+                            own_folder: bool = False) -> list[Path]:
     """Write the data files, pictures and ``index.html`` of one detection into ``out_dir``.
 
     All or nothing: on any error ``out_dir`` is left as it was. Files already in ``out_dir``
@@ -314,6 +315,10 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
         Seconds per stage, in pipeline order.
     inputs
         Input file names (or other description of the inputs).
+    own_folder
+        ``out_dir`` belongs to the caller's run (a batch's ``OUT/<pair>``, a stream's frame
+        folder): not checked with :func:`check_report_folder`, so that a rerun after a kill
+        replaces what the killed run left half moved in.
 
     Returns
     -------
@@ -324,7 +329,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     ------
     OutputError
         ``out_dir`` holds a rendered scene, or files of the report's names that are not an
-        earlier report of this tool (:func:`check_report_folder`), or cannot be written.
+        earlier report of this tool (:func:`check_report_folder`; not with ``own_folder``), or
+        cannot be written.
     InvalidInputError
         Arrays of other shapes or types than above.
     """
@@ -332,7 +338,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     for name, mapping in (("config", config), ("timings", timings), ("inputs", inputs)):
         if not isinstance(mapping, Mapping):
             raise InvalidInputError(f"{name} must be a mapping (a dict), got {type(mapping).__name__}")
-    check_report_folder(out_dir)          # a scene's ground truth, a user's files: the commands check it first too
+    if not own_folder:                    # a scene's ground truth, a user's files: the commands check it first too
+        check_report_folder(out_dir)
     (left,) = to_uint8(left)
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.calibration import StereoCalibration, sized_for_images
 from stereo_obstacles.direction_scan import DirectionScan
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.matching import disparity_range
@@ -115,8 +115,11 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
     pending: deque = deque()  # (frame, future, what seeded it, seed points) in frame order
 
     def start(pool: ThreadPoolExecutor, frame: StereoFrame | None, first: bool) -> None:
+        nonlocal calibration
         if frame is None:
             return
+        if first and calibration is not None:   # checked and sized once: detect would warn of it every frame
+            calibration = sized_for_images(calibration, frame.left.shape[1], frame.left.shape[0])
         estimate = seeder.estimate() if seeder is not None else None
         points = seeder.seeds() if seeder is not None and estimate is None else None
         seeds = "refined" if estimate is not None else "edge" if points is None else "temporal"

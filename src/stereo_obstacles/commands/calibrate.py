@@ -57,10 +57,9 @@ def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
 
 def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
     """The files the two patterns match, paired in sorted order; refused when the counts differ,
-    a file stands on both sides, or the last numbers in a pair's names differ (a file missing)."""
+    a file stands on both sides, or the frame numbers of a pair differ (a file missing)."""
     import glob
     import os
-    import re
 
     from stereo_obstacles.errors import InputFileError
 
@@ -74,12 +73,27 @@ def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
         if os.path.realpath(left) == os.path.realpath(right):
             raise InputFileError(f"{left_glob} and {right_glob} both match {left}: the left and right images of a "
                                  f"pair must be the two cameras' own")
-        # the last number of each name is the frame's (cam0_0007.png, cam1_0007.png)
-        numbers = [re.findall(r"\d+", os.path.basename(name)) for name in (left, right)]
-        if all(numbers) and int(numbers[0][-1]) != int(numbers[1][-1]):
-            raise InputFileError(f"{left} is paired with {right} (the files in sorted order): their numbers differ; "
-                                 f"is a file missing on one side?")
+    numbers = _frame_numbers(lefts), _frame_numbers(rights)
+    if None not in numbers:
+        for left, right, left_number, right_number in zip(lefts, rights, *numbers):
+            if left_number != right_number:
+                raise InputFileError(f"{left} is paired with {right} (the files in sorted order): their numbers "
+                                     f"differ; is a file missing on one side?")
     return list(zip(lefts, rights))
+
+
+def _frame_numbers(paths: list[str]) -> list[tuple[int, ...]] | None:
+    """Per path, the numbers in it that change from file to file (the frame's: ``7`` of
+    ``cam0_0007.png``, ``pair07_cam0.jpg`` or ``frame_0007/left.png``; a camera's ``0`` is the
+    same in every file of a side); ``None`` when the paths do not all hold as many numbers, or
+    none change."""
+    import re
+
+    runs = [[int(run) for run in re.findall(r"\d+", path)] for path in paths]
+    if len({len(r) for r in runs}) != 1:
+        return None
+    changing = [i for i in range(len(runs[0])) if len({r[i] for r in runs}) > 1]
+    return [tuple(r[i] for i in changing) for r in runs] if changing else None
 
 
 def run(args: argparse.Namespace) -> int:

@@ -17,7 +17,7 @@ in the left half), two video files, two folders or glob patterns of images (in p
 paired by name when both sides hold the same names, else by order; refused when they share at
 least half their names but not all), or two camera device indices. With --jsonl every frame is one line of JSON, written and synced line by line:
 a run stopped by Ctrl-C (it finishes the current frame, closes every output and exits with 130;
-a second Ctrl-C stops at once), by SIGTERM (at once, exit 143) or killed leaves only complete
+a second Ctrl-C stops at once), by SIGTERM (once the frame being written is, exit 143) or killed leaves only complete
 lines (the first line is a header, the last one, after a clean, Ctrl-C or SIGTERM stop, a
 summary)."""
 
@@ -250,7 +250,7 @@ def run(args: argparse.Namespace) -> int:
         if rectification is not None:         # the raw cameras' calibration: every frame is rectified first
             first, frames = _rectified(rectification, first), (_rectified(rectification, f) for f in frames)
             rectified_by = rectification.report(args.calib)
-        if args.forward_speed and calibration is None:
+        if temporal is not None and temporal.forward_m_per_frame and calibration is None:
             raise InvalidInputError("--forward-speed needs a calibration (--calib, or --focal and --baseline): "
                                     "without one the motion cannot be turned into disparities")
         with refusing_swapped_pairs():
@@ -291,7 +291,8 @@ def run(args: argparse.Namespace) -> int:
                                                 config=config.to_dict(), timings=result.timings_s,
                                                 inputs={"source": source.description, "frame": detection.frame.index,
                                                         "rectification": rectified_by,
-                                                        "rectification_check": first_checked})
+                                                        "rectification_check": first_checked},
+                                                own_folder=True)    # this run's frame: a rerun replaces a killed one
                     if video is not None:
                         video.write(annotate_frame(detection))
                     record = frame_record(detection)
