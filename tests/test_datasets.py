@@ -350,3 +350,15 @@ def test_scene_command_output_loads(tmp_path):
     assert pair.layout == "synthetic" and pair.left.shape == (120, 160, 3)
     assert (pair.calibration.width_px, pair.calibration.height_px) == (160, 120)
     assert pair.nonocc.mean() > 0.5 and not np.any(pair.nonocc & np.isnan(pair.gt_disparity))
+
+
+def test_a_folder_of_rendered_frames_says_to_name_one(tmp_path):
+    # "no stereo pair layout recognised" without frame=, "holds a single pair" with a wrong one (API review)
+    from stereo_obstacles.cli import main
+
+    assert main(["scene", "--out", str(tmp_path / "seq"), "--frames", "2", "--size", "160x120"]) == 0
+    with pytest.raises(InvalidInputError, match=r"seq holds 2 rendered frames \(frame_0000, ...\); pass frame="):
+        load_pair(tmp_path / "seq")
+    with pytest.raises(InvalidInputError, match="frame='frame_0009' is not one of them"):
+        load_pair(tmp_path / "seq", frame="frame_0009")
+    assert load_pair(tmp_path / "seq", frame="frame_0001").layout == "synthetic"

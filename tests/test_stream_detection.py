@@ -128,3 +128,24 @@ def test_a_calibration_without_an_image_size_is_checked_once_a_stream(caplog):
         detections = list(detect_stream(_stream(), unsized, temporal=None, in_flight=2))
     assert caplog.text.count("lies far from the centre of the") == 1
     assert {(d.result.calibration.width_px, d.result.calibration.height_px) for d in detections} == {SIZE}
+
+
+def test_what_detect_stream_cannot_use_is_refused_by_its_name():
+    # tracking=None and (left, right) tuples gave AttributeError from inside (API review, session 23)
+    from stereo_obstacles.errors import ImageMismatchError
+
+    calibration = frames()[0].calibration
+    for options, message in (({"tracking": None}, "tracking must be a TrackingParameters, got NoneType"),
+                             ({"config": None}, "config must be a DetectionConfig, got NoneType"),
+                             ({"temporal": {"step_px": 8}}, "temporal must be a TemporalSeedParameters or None")):
+        with pytest.raises(InvalidInputError, match=message):
+            list(detect_stream(_stream(), calibration, **options))
+    pair = frames()[0]
+    with pytest.raises(InvalidInputError, match="frames must give StereoFrame objects, got tuple"):
+        list(detect_stream([(pair.left, pair.right)], calibration))
+    with pytest.raises(InvalidInputError, match="frame 0: left must be an RGB"):
+        StereoFrame(0, 0.0, pair.left.tolist(), pair.right, "f0")
+    with pytest.raises(InvalidInputError, match="timestamp_s must be a finite number"):
+        StereoFrame(0, float("nan"), pair.left, pair.right, "f0")
+    with pytest.raises(ImageMismatchError):
+        StereoFrame(0, 0.0, pair.left, pair.right[:-1], "f0")

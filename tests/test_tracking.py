@@ -161,3 +161,18 @@ def test_errors():
                        ("min_closing_speed_mps", -1.0), ("min_age_frames", 2.0)):
         with pytest.raises(InvalidInputError, match=field):
             TrackingParameters(**{field: bad})
+
+
+def test_the_tracker_takes_a_detections_list_and_refuses_what_it_cannot_use():
+    # an ObstacleList gave "not iterable", time None a TypeError, a dict of options failed at the first
+    # update; a new track's closing speed was -0.0 in the JSON lines (API review, session 23)
+    from stereo_obstacles.obstacles import ObstacleList
+
+    tracker = ObstacleTracker()
+    listed = ObstacleList((seen(0.0, 5.0),), np.zeros((2, 2), np.int32))
+    first = tracker.update(listed, 0.0)[0]
+    assert first.track_id == 1 and str(first.closing_speed_mps) == "0.0"
+    with pytest.raises(InvalidInputError, match="time_s must be a finite number of seconds, got None"):
+        tracker.update([], None)
+    with pytest.raises(InvalidInputError, match="params must be a TrackingParameters, got dict"):
+        ObstacleTracker({"alpha": 0.3})

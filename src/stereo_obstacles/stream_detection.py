@@ -108,6 +108,11 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
     """
     if not isinstance(in_flight, int) or isinstance(in_flight, bool) or in_flight < 1:
         raise InvalidInputError(f"in_flight must be an integer >= 1, got {in_flight!r}")
+    for name, value, kind in (("config", config, DetectionConfig), ("tracking", tracking, TrackingParameters)):
+        if not isinstance(value, kind):
+            raise InvalidInputError(f"{name} must be a {kind.__name__}, got {type(value).__name__}")
+    if temporal is not None and not isinstance(temporal, TemporalSeedParameters):
+        raise InvalidInputError(f"temporal must be a TemporalSeedParameters or None, got {type(temporal).__name__}")
     seeder = TemporalSeeder(temporal, calibration) if temporal is not None else None
     tracker = ObstacleTracker(tracking)
     later_frames = replace(config, check_rectification=False)  # the rig does not change between frames
@@ -118,6 +123,8 @@ def detect_stream(frames: Iterable[StereoFrame], calibration: StereoCalibration 
         nonlocal calibration
         if frame is None:
             return
+        if not isinstance(frame, StereoFrame):        # a (left, right) tuple, a dataset's StereoPair
+            raise InvalidInputError(f"frames must give StereoFrame objects, got {type(frame).__name__}")
         if first and calibration is not None:   # checked and sized once: detect would warn of it every frame
             calibration = sized_for_images(calibration, frame.left.shape[1], frame.left.shape[0])
         estimate = seeder.estimate() if seeder is not None else None

@@ -36,6 +36,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError, InputFileError, InvalidInputError
+from stereo_obstacles.field_checks import is_finite_real
 from stereo_obstacles.image_pairs import check_pair_of_files
 from stereo_obstacles.fileio import read_image
 
@@ -77,9 +78,16 @@ class StereoFrame:
     name: str
 
     def __post_init__(self) -> None:
+        for side in ("left", "right"):
+            image = getattr(self, side)
+            if not isinstance(image, np.ndarray) or image.ndim != 3 or image.shape[2] != 3:
+                raise InvalidInputError(f"frame {self.index}: {side} must be an RGB (H, W, 3) array, got "
+                                        f"{getattr(image, 'shape', type(image).__name__)}")
         if self.left.shape != self.right.shape:
             raise ImageMismatchError(f"frame {self.index}: left is {self.left.shape[1]}x{self.left.shape[0]} "
                                      f"but right is {self.right.shape[1]}x{self.right.shape[0]}")
+        if not is_finite_real(self.timestamp_s):
+            raise InvalidInputError(f"frame {self.index}: timestamp_s must be a finite number, got {self.timestamp_s!r}")
 
 
 class StereoSource:

@@ -35,8 +35,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
-from stereo_obstacles.obstacles import Obstacle
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, is_finite_real
+from stereo_obstacles.obstacles import Obstacle, ObstacleList
 
 __all__ = ["ObstacleTracker", "Track", "TrackingParameters", "box_iou_matrix"]
 
@@ -184,6 +184,8 @@ class ObstacleTracker:
     """
 
     def __init__(self, params: TrackingParameters = TrackingParameters()) -> None:
+        if not isinstance(params, TrackingParameters):
+            raise InvalidInputError(f"params must be a TrackingParameters, got {type(params).__name__}")
         self.params = params
         self._tracks: list[_State] = []
         self._next_id = 1
@@ -194,8 +196,8 @@ class ObstacleTracker:
 
         Parameters
         ----------
-        obstacles : sequence of Obstacle
-            This frame's detections (any order).
+        obstacles : sequence of Obstacle, or ObstacleList
+            This frame's detections (any order); an ``ObstacleList`` gives its ``obstacles``.
         time_s : float
             Time of the frame in seconds; must increase from frame to frame.
 
@@ -210,8 +212,10 @@ class ObstacleTracker:
         InvalidInputError
             ``time_s`` is not finite or does not increase.
         """
-        if not math.isfinite(time_s):
-            raise InvalidInputError(f"time_s must be finite, got {time_s}")
+        if not is_finite_real(time_s):
+            raise InvalidInputError(f"time_s must be a finite number of seconds, got {time_s!r}")
+        if isinstance(obstacles, ObstacleList):          # a detection's list, not its obstacles: take them
+            obstacles = obstacles.obstacles
         if self._last_time_s is not None and time_s <= self._last_time_s:
             raise InvalidInputError(f"time_s must increase: {time_s} after {self._last_time_s}")
         self._last_time_s = time_s
@@ -299,7 +303,7 @@ class ObstacleTracker:
         distance = state.distance if time_s is None else state.predicted_distance(time_s)
         if distance is not None:
             distance = max(distance, 0.0)     # a prediction past the camera: at contact, not behind it
-        closing = -state.velocity if distance is not None else None
+        closing = 0.0 - state.velocity if distance is not None else None      # not -0.0 for a new track
         approaching = bool(closing is not None and state.age >= self.params.min_age_frames
                            and closing > self.params.min_closing_speed_mps)
         contact = distance / closing if approaching and distance is not None else None
