@@ -241,3 +241,14 @@ def test_float_images_of_0_to_1_match_like_their_8_bit_originals():
     overshoot[0, 0, 0] = 1.02                 # one value above 1: the pair keeps its own units, both images
     assert max(g.max() for g in grey_pair(unit[0], overshoot)) < 1.1
     assert to_grey(np.full((4, 4), 0.5)).max() == 0.5                       # a single image is never rescaled
+
+
+def test_match_options_are_checked_without_images():
+    from stereo_obstacles.matching import check_match_options
+
+    check_match_options()
+    check_match_options(tau=0.6, max_disparity=40, seeds="canny")
+    with pytest.raises(InvalidInputError, match="not options of the matcher: left, taux"):
+        check_match_options(taux=0.6, left=None)
+    with pytest.raises(InvalidInputError, match="max_disparity: expected an integer >= min_disparity"):
+        check_match_options(min_disparity=10, max_disparity=5)

@@ -112,6 +112,18 @@ def test_a_config_of_the_wrong_kinds_is_refused_when_made(field, value, message)
         DetectionConfig(**{field: value})
 
 
+@pytest.mark.parametrize("options, message", [({"tau": float("nan")}, "tau: expected 0 < tau < 1"),
+                                              ({"mu": -1.0}, "mu: expected >= 0"),
+                                              ({"max_candidates": -3}, "max_candidates: expected an integer >= 1"),
+                                              ({"seeds": "bogus"}, "seeds: expected one of"),
+                                              ({"variant": "bogus"}, "variant: expected one of"),
+                                              ({"speckle_size": -1}, "speckle_size: expected an integer >= 0")])
+def test_matching_options_are_checked_when_made(options, message):
+    # they were accepted and refused at the first detect, after the segmentation had started (API review)
+    with pytest.raises(InvalidInputError, match=message):
+        MatchingOptions(**options)
+
+
 def test_a_wall_filling_the_view_is_reported_not_lost():
     """Random scene 9 puts a wall 2 m ahead across the reference area: colour alone calls it ground."""
     from stereo_obstacles.synthetic import random_scene

@@ -11,6 +11,7 @@ speckle removal (:mod:`stereo_obstacles.speckles`). See ``docs/matching.md``.
 
 from __future__ import annotations
 
+import inspect
 import logging
 import math
 import time
@@ -276,6 +277,18 @@ def disparity_range(width: int, min_disparity: int = 0, max_disparity: int | Non
     if d_min > d_max:
         raise InvalidInputError(f"min_disparity: expected < image width {width}, got {d_min}")
     return d_min, d_max
+
+
+def check_match_options(**options) -> None:
+    """Raise :class:`InvalidInputError` when ``options`` (keyword arguments of :func:`match`, the
+    others at their defaults) are not ones it takes, or out of their ranges: as :func:`match`
+    would, before any image is read (for an options object made long before the images come)."""
+    parameters = inspect.signature(match).parameters
+    unknown = sorted(set(options) - (set(parameters) - {"left", "right"}))
+    if unknown:
+        raise InvalidInputError(f"not options of the matcher: {', '.join(unknown)}")
+    _check_options(**{name: options.get(name, parameters[name].default)
+                      for name in inspect.signature(_check_options).parameters})
 
 
 def match(left: np.ndarray, right: np.ndarray, *, seeds: str = DEFAULT_SEEDS, max_disparity: int | None = None,

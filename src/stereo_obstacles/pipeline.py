@@ -62,7 +62,7 @@ from stereo_obstacles.field_checks import check_integers, check_numbers, check_p
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
-from stereo_obstacles.matching import MIN_SIZE, disparity_range, warn_if_range_cut_off
+from stereo_obstacles.matching import MIN_SIZE, check_match_options, disparity_range, warn_if_range_cut_off
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
@@ -98,6 +98,7 @@ class MatchingOptions:
     def __post_init__(self) -> None:
         if self.max_disparity is not None:
             check_integers(self, (("max_disparity", 1, math.inf),))
+        check_match_options(**self.to_kwargs())      # when made, not at the first frame (API review)
 
     def to_kwargs(self) -> dict:
         """Keyword arguments for ``match`` with the unset options left out."""
