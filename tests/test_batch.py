@@ -251,6 +251,10 @@ def test_a_rerun_replaces_a_pair_killed_while_its_report_moved_in(tmp_path):
         (out / "scene" / name).unlink()
     assert main(args) == 0 and _summary(out)["counts"]["done"] == 1
     assert (out / "scene" / "obstacles.json").is_file()
+    # but a rendered scene there is still not written over: batch over its own input (review)
+    truth = (tmp_path / "in" / "scene" / "obstacles.json").read_bytes()
+    assert main(["batch", str(tmp_path / "in" / "scene"), "--out", str(tmp_path / "in"), "--workers", "1"]) == 1
+    assert (tmp_path / "in" / "scene" / "obstacles.json").read_bytes() == truth
 
 
 def test_a_dataset_folder_named_dot_or_beside_sub_folders_keeps_its_name_and_them(tmp_path, monkeypatch):

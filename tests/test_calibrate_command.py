@@ -318,21 +318,25 @@ def test_rectify_refuses_images_given_the_wrong_way_round(calibrated, chessboard
 
 
 @pytest.mark.parametrize("left, right", [("cam0_{:04d}.png", "cam1_{:04d}.png"), ("pair{:02d}_cam0.jpg", "pair{:02d}_cam1.jpg"),
-                                         ("f{:03d}/im0.png", "f{:03d}/im1.png")])
-def test_pairs_of_files_are_checked_by_the_numbers_that_change_from_frame_to_frame(tmp_path, left, right):
-    # the camera's number is the same in every file of a side (review: pairNN_cam0 was refused)
+                                         ("f{:03d}/im0.png", "f{:03d}/im1.png"), ("left{}.jpg", "right{:02d}.jpg"),
+                                         ("IMG_{}.jpg", "DSC_{}.jpg")])
+def test_pairs_of_files_are_checked_by_their_frame_numbers_keeping_step(tmp_path, left, right):
+    # pairNN_cam0 / pairNN_cam1, left1..left12 against right01..right12 (text order put left11 before left2)
+    # and two cameras' own counters were refused (reviews); a file missing on one side is found
     from stereo_obstacles.commands.calibrate import _pairs_from_globs
     from stereo_obstacles.errors import InputFileError
 
-    for frame in (7, 10):
-        for name in (left, right):
-            (tmp_path / name.format(frame)).parent.mkdir(exist_ok=True)
-            (tmp_path / name.format(frame)).write_bytes(b"")
-    patterns = [str(tmp_path / name.replace("{:04d}", "*").replace("{:02d}", "*").replace("{:03d}", "*"))
-                for name in (left, right)]
-    assert len(_pairs_from_globs(*patterns)) == 2
-    moved = tmp_path / right.format(11)                          # frame 10 missing on the right, 11 there
+    offset = 1000 if left.startswith("IMG") else 0
+    for frame in range(1, 13):
+        for name, number in ((left, frame), (right, frame + offset)):
+            (tmp_path / name.format(number)).parent.mkdir(exist_ok=True)
+            (tmp_path / name.format(number)).write_bytes(b"")
+    patterns = [str(tmp_path / re.sub(r"\{[^}]*\}", "*", name)) for name in (left, right)]
+    pairs = _pairs_from_globs(*patterns)
+    assert [(os.path.basename(a), os.path.basename(b)) for a, b in pairs][1] == (
+        os.path.basename(left.format(2)), os.path.basename(right.format(2 + offset)))
+    moved = tmp_path / right.format(13 + offset)                  # frame 2 missing on the right, 13 there
     moved.parent.mkdir(exist_ok=True)
-    (tmp_path / right.format(10)).rename(moved)
-    with pytest.raises(InputFileError, match="is paired with .*: their numbers differ"):
+    (tmp_path / right.format(2 + offset)).rename(moved)
+    with pytest.raises(InputFileError, match="is paired with .*: their frame numbers are out of step"):
         _pairs_from_globs(*patterns)

@@ -357,8 +357,9 @@ def test_a_folder_of_rendered_frames_says_to_name_one(tmp_path):
     from stereo_obstacles.cli import main
 
     assert main(["scene", "--out", str(tmp_path / "seq"), "--frames", "2", "--size", "160x120"]) == 0
-    with pytest.raises(InvalidInputError, match=r"seq holds 2 rendered frames \(frame_0000, ...\); pass frame="):
+    with pytest.raises(InvalidInputError, match=r"seq holds 2 rendered frames \(frame_0000, ...\): give one frame's "
+                                                r"folder \(.*seq/frame_0000\), or frame="):
         load_pair(tmp_path / "seq")
-    with pytest.raises(InvalidInputError, match="frame='frame_0009' is not one of them"):
+    with pytest.raises(InvalidInputError, match=r"\(frame_0000, ...\), and no frame 'frame_0009': give"):
         load_pair(tmp_path / "seq", frame="frame_0009")
     assert load_pair(tmp_path / "seq", frame="frame_0001").layout == "synthetic"

@@ -82,3 +82,7 @@ def test_depth_uncertainty_takes_a_map_of_disparity_errors():
     np.testing.assert_allclose(depth_uncertainty_m(z, RIG, sigma), 4.0 / (700.0 * 0.12) * sigma, rtol=1e-6)
     with pytest.raises(InvalidInputError, match=r"^disparity_error_px: a map \(2, 2\) with values"):
         depth_uncertainty_m(z, RIG, -sigma)
+    for wrong in (np.ones((3, 3)), np.ones((4, 2, 2))):                # no fit, or a larger result
+        with pytest.raises(InvalidInputError, match="does not fit the depth map"):
+            depth_uncertainty_m(z, RIG, wrong)
+    np.testing.assert_allclose(depth_uncertainty_m(z, RIG, np.array(1.0)), depth_uncertainty_m(z, RIG, 1.0))

@@ -112,12 +112,14 @@ def test_a_config_of_the_wrong_kinds_is_refused_when_made(field, value, message)
         DetectionConfig(**{field: value})
 
 
-@pytest.mark.parametrize("options, message", [({"tau": float("nan")}, "tau: expected 0 < tau < 1"),
+@pytest.mark.parametrize("options, message", [({"tau": float("nan")}, "tau: expected a finite number"),
                                               ({"mu": -1.0}, "mu: expected >= 0"),
                                               ({"max_candidates": -3}, "max_candidates: expected an integer >= 1"),
                                               ({"seeds": "bogus"}, "seeds: expected one of"),
                                               ({"variant": "bogus"}, "variant: expected one of"),
-                                              ({"speckle_size": -1}, "speckle_size: expected an integer >= 0")])
+                                              ({"speckle_size": -1}, "speckle_size: expected an integer >= 0"),
+                                              ({"tau": "0.5"}, "tau: expected a finite number, got '0.5'"),
+                                              ({"max_candidates": float("inf")}, "max_candidates: expected a finite")])
 def test_matching_options_are_checked_when_made(options, message):
     # they were accepted and refused at the first detect, after the segmentation had started (API review)
     with pytest.raises(InvalidInputError, match=message):

@@ -113,20 +113,20 @@ def test_pairing_by_order_warns_when_the_frame_numbers_disagree(tmp_path, caplog
             ImageSequenceSource(left_dir, right_dir)
         assert caplog.text == "", folder
     # per-camera timestamps (ms) a little apart are in step; the reviewer's names warned
-    assert streams._first_out_of_step(["1650000000100.png", "1650000000133.png", "1650000000167.png"],
+    assert streams.first_out_of_step(["1650000000100.png", "1650000000133.png", "1650000000167.png"],
                                       ["1650000000102.png", "1650000000134.png", "1650000000170.png"]) is None
-    assert streams._first_out_of_step(["1650000000100.png", "1650000000133.png", "1650000000167.png"],
+    assert streams.first_out_of_step(["1650000000100.png", "1650000000133.png", "1650000000167.png"],
                                       ["1650000000102.png", "1650000000170.png", "1650000000200.png"]) == 1
     # seconds with a fraction (TUM): read whole, not as whole seconds then a fraction (review)
     left = [f"{1305031102.9 + k / 30:.6f}.png" for k in range(12)]
     right = [f"{1305031102.885 + k / 30:.6f}.png" for k in range(12)]
-    assert streams._first_out_of_step(left, right) is None
-    assert streams._first_out_of_step(left[:11], right[:5] + right[6:]) == 5
+    assert streams.first_out_of_step(left, right) is None
+    assert streams.first_out_of_step(left[:11], right[:5] + right[6:]) == 5
     # ROS's seconds_nanoseconds, the right camera 4 ms late across a second (review)
     left = [f"left_1680000000_{n:03d}000000.png" for n in (900, 933, 966, 999)]
     right = [f"right_1680000000_{n:03d}000000.png" for n in (904, 937, 970)] + ["right_1680000001_003000000.png"]
-    assert streams._first_out_of_step(left, right) is None
-    assert streams._first_out_of_step(left[:3], right[:1] + right[2:]) == 1
+    assert streams.first_out_of_step(left, right) is None
+    assert streams.first_out_of_step(left[:3], right[:1] + right[2:]) == 1
 
 
 def test_image_sequence_errors(tmp_path):

@@ -14,7 +14,7 @@ from io import StringIO
 import cv2
 import pytest
 
-from _stream_frames import N_FRAMES, SIZE, write_calibration, write_side_by_side, write_sequences, write_videos
+from _stream_frames import N_FRAMES, SIZE, frames, write_calibration, write_side_by_side, write_sequences, write_videos
 from stereo_obstacles.cli import main
 from stereo_obstacles.errors import InputFileError
 from stereo_obstacles.jsonl import JsonLinesWriter, read_json_lines
@@ -286,6 +286,18 @@ def test_a_frame_that_cannot_be_read_ends_the_json_lines_with_the_error(tmp_path
     assert err.count("\n") == 1 and "0002.png" in err
     end = read_json_lines(jsonl)[-1]
     assert end["type"] == "end" and end["frames"] == 2 and not end["interrupted"] and "0002.png" in end["error"]
+
+
+def test_a_frame_report_is_not_written_over_a_rendered_scene(tmp_path, capsys):
+    # its own frame folders skip only the refusal a killed report's leftovers would meet (review)
+    from stereo_obstacles.synthetic import write_scene_folder
+
+    left_dir, right_dir = write_sequences(tmp_path / "in")
+    write_scene_folder(tmp_path / "fo" / "0000", frames()[0])
+    truth = (tmp_path / "fo" / "0000" / "obstacles.json").read_bytes()
+    assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(tmp_path / "fo"), "--max-frames", "1"]) == 1
+    assert "holds a rendered scene" in capsys.readouterr().err
+    assert (tmp_path / "fo" / "0000" / "obstacles.json").read_bytes() == truth
 
 
 def test_options_of_the_temporal_seeds_are_said_to_do_nothing_without_them(tmp_path, caplog):

@@ -221,9 +221,10 @@ def _recognised_pair(root: Path, frame: str | None, gt_scale: float | None) -> S
     if frame is not None and frame in scene_frames:
         return _recognised_pair(_check_folder(root / frame), None, gt_scale)
     if scene_frames:           # "no layout recognised" and "holds a single pair" said it wrongly (API review)
-        given = "pass frame=" if frame is None else f"frame={frame!r} is not one of them;"
-        raise InvalidInputError(f"{root} holds {len(scene_frames)} rendered frames ({scene_frames[0]}, ...); {given} "
-                                f"one of list_frames(folder)")
+        wrong = "" if frame is None else f", and no frame {frame!r}"
+        raise InvalidInputError(f"{root} holds {len(scene_frames)} rendered frames ({scene_frames[0]}, ...){wrong}: "
+                                f"give one frame's folder ({root / scene_frames[0]}), or frame= one of "
+                                f"list_frames(folder)")
     if frame is not None:
         raise InvalidInputError(f"{root} holds a single pair; frame={frame!r} does not apply")
     for loader in (_load_synthetic, _load_middlebury2014, _load_middlebury2005,

@@ -76,11 +76,18 @@ def depth_uncertainty_m(depth_m: np.ndarray, calibration: StereoCalibration,
     z = check_float_map(depth_m, "depth").astype(np.float32, copy=False)
     _check_calibration(calibration)
     if np.ndim(disparity_error_px) == 0:
-        if not (is_finite_real(disparity_error_px) and disparity_error_px >= 0):
-            raise InvalidInputError(f"disparity_error_px must be a finite number >= 0, got {disparity_error_px!r}")
+        value = disparity_error_px.item() if isinstance(disparity_error_px, np.ndarray) else disparity_error_px
+        if not (is_finite_real(value) and value >= 0):
+            raise InvalidInputError(f"disparity_error_px must be a finite number >= 0, got {value!r}")
     else:
         error = np.asarray(disparity_error_px, dtype=np.float64)
         if not (np.isfinite(error).all() and (error >= 0).all()):
             raise InvalidInputError(f"disparity_error_px: a map {error.shape} with values that are not finite and >= 0")
+        try:
+            fits = np.broadcast_shapes(z.shape, error.shape) == z.shape
+        except ValueError:
+            fits = False
+        if not fits:
+            raise InvalidInputError(f"disparity_error_px: a map {error.shape} does not fit the depth map {z.shape}")
     error = np.asarray(disparity_error_px, dtype=np.float32)
     return (z * z / np.float32(calibration.focal_baseline_px_m) * error).astype(np.float32)

@@ -163,6 +163,13 @@ class MatchResult:
 def _check_options(tau, mu, max_candidates, final_margin, similarity, variant, min_disparity,
                    max_disparity, margin_reference, seeds, seed_points, seed_spacing, rng_seed, bands,
                    speckle_size, speckle_range) -> None:
+    numbers = {"tau": tau, "mu": mu, "max_candidates": max_candidates, "final_margin": final_margin,
+               "min_disparity": min_disparity, "seed_spacing": seed_spacing, "rng_seed": rng_seed, "bands": bands}
+    if max_disparity is not None:
+        numbers["max_disparity"] = max_disparity
+    for name, value in numbers.items():          # a string or NaN failed in the comparisons below with TypeError
+        if not is_finite_real(value):
+            raise InvalidInputError(f"{name}: expected a finite number, got {value!r}")
     if not 0.0 < tau < 1.0:
         raise InvalidInputError(f"tau: expected 0 < tau < 1, got {tau}")
     if not mu >= 0.0:

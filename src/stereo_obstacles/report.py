@@ -254,11 +254,13 @@ def holds_a_report(folder) -> bool:
     return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
 
 
-def check_report_folder(folder) -> None:
+def check_report_folder(folder, *, own_folder: bool = False) -> None:
     """Raise :class:`OutputError` when a report written into ``folder`` would replace files that
     are not an earlier report's: a rendered scene's ground truth (``scene.json`` beside it), an
     ``obstacles.json`` of another kind, or, without a report of this tool there, any file of
-    the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``)."""
+    the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``). With
+    ``own_folder`` (a folder of the caller's own run) that last refusal is left out: it is also
+    what a report killed while moving in leaves, which a rerun must replace."""
     folder = Path(folder)
     if (folder / "scene.json").is_file():
         raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
@@ -266,8 +268,9 @@ def check_report_folder(folder) -> None:
     if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
-    refuse_foreign_files(folder, OUTPUT_FILES, ours=holds_a_report(folder), what="report",
-                         missing="no obstacles.json of it; a report killed while moving in leaves that too")
+    if not own_folder:
+        refuse_foreign_files(folder, OUTPUT_FILES, ours=holds_a_report(folder), what="report",
+                             missing="no obstacles.json of it; a report killed while moving in leaves that too")
 
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
@@ -317,8 +320,8 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
         Input file names (or other description of the inputs).
     own_folder
         ``out_dir`` belongs to the caller's run (a batch's ``OUT/<pair>``, a stream's frame
-        folder): not checked with :func:`check_report_folder`, so that a rerun after a kill
-        replaces what the killed run left half moved in.
+        folder): a rerun after a kill replaces what the killed run left half moved in (a scene
+        or another tool's ``obstacles.json`` are still refused: :func:`check_report_folder`).
 
     Returns
     -------
@@ -328,9 +331,9 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     Raises
     ------
     OutputError
-        ``out_dir`` holds a rendered scene, or files of the report's names that are not an
-        earlier report of this tool (:func:`check_report_folder`; not with ``own_folder``), or
-        cannot be written.
+        ``out_dir`` holds a rendered scene, another tool's ``obstacles.json``, or (without
+        ``own_folder``) files of the report's names that are not an earlier report of this tool
+        (:func:`check_report_folder`), or cannot be written.
     InvalidInputError
         Arrays of other shapes or types than above.
     """
@@ -338,8 +341,7 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     for name, mapping in (("config", config), ("timings", timings), ("inputs", inputs)):
         if not isinstance(mapping, Mapping):
             raise InvalidInputError(f"{name} must be a mapping (a dict), got {type(mapping).__name__}")
-    if not own_folder:                    # a scene's ground truth, a user's files: the commands check it first too
-        check_report_folder(out_dir)
+    check_report_folder(out_dir, own_folder=own_folder)     # the commands check it first too
     (left,) = to_uint8(left)
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]

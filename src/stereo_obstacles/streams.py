@@ -255,7 +255,8 @@ class SideBySideSource(StereoSource):
             capture.release()
 
 
-def _natural_key(text: str) -> list:
+def natural_key(text: str) -> list:
+    """A sort key that orders the numbers in ``text`` by value (``left2`` before ``left11``)."""
     return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", text)]
 
 
@@ -271,10 +272,10 @@ def _list_images(spec: str | os.PathLike[str], side: str) -> list[Path]:
         raise InputFileError(f"{side} image sequence {text}: not a folder and not a glob pattern")
     if not files:
         raise InputFileError(f"{side} image sequence {text}: no image files")
-    return sorted(files, key=lambda path: _natural_key(path.as_posix()))
+    return sorted(files, key=lambda path: natural_key(path.as_posix()))
 
 
-def _relative_paths(files: list[Path]) -> list[str]:
+def relative_paths(files: list[Path]) -> list[str]:
     """Each file's path below the folder common to all (``frame_0003/left.png``; the file name
     when all lie in one folder): what the two sides are paired by."""
     common = Path(os.path.commonpath([p.parent for p in files])) if len(files) > 1 else files[0].parent
@@ -287,7 +288,7 @@ def _file_frame_name(relative_path: str) -> str:
     return os.path.splitext(relative_path)[0].replace("/", "_")
 
 
-def _first_out_of_step(left_names: list[str], right_names: list[str]) -> int | None:
+def first_out_of_step(left_names: list[str], right_names: list[str]) -> int | None:
     """Index of the first pair (paired by order) whose frame numbers are out of step with the
     first pair's, or None.
 
@@ -317,8 +318,8 @@ def _paired(left_files: list[Path], right_files: list[Path], left: object, right
     refused (a frame missing on one side would pair every later frame with the wrong partner).
     Fewer in common (per-camera timestamps that meet by chance) or none: by order, the counts
     equal; a warning when the frame numbers in the paired names
-    fall out of step (:func:`_first_out_of_step`: a frame may be missing)."""
-    left_names, right_names = _relative_paths(left_files), _relative_paths(right_files)
+    fall out of step (:func:`first_out_of_step`: a frame may be missing)."""
+    left_names, right_names = relative_paths(left_files), relative_paths(right_files)
     right_index = {name: j for j, name in enumerate(right_names)}
     common = right_index.keys() & set(left_names)
     if common and len(common) == len(left_names) == len(right_names):
@@ -333,7 +334,7 @@ def _paired(left_files: list[Path], right_files: list[Path], left: object, right
     if len(left_files) != len(right_files):
         raise ImageMismatchError(f"{left} holds {len(left_files)} images but {right} holds "
                                  f"{len(right_files)}, and their names differ, so they cannot be paired")
-    out_of_step = _first_out_of_step(left_names, right_names)
+    out_of_step = first_out_of_step(left_names, right_names)
     if out_of_step is not None:
         logger.warning("pairing the images by order, but %s goes with %s: their frame numbers are out of step "
                        "with the first pair's (is a frame missing on one side?)", left_files[out_of_step],
@@ -366,7 +367,7 @@ class ImageSequenceSource(StereoSource):
             raise InvalidInputError(f"fps must be > 0, got {fps}")
         self.description = f"image sequences {left} and {right}"
         left_files, right_files = _list_images(left, "left"), _list_images(right, "right")
-        relative = _relative_paths(left_files)
+        relative = relative_paths(left_files)
         names = [_file_frame_name(path) for path in relative]
         if len(set(names)) < len(names):            # one stem with two endings: the outputs need one name each
             names = [path.replace("/", "_") for path in relative]

@@ -56,14 +56,17 @@ def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
 
 
 def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
-    """The files the two patterns match, paired in sorted order; refused when the counts differ,
-    a file stands on both sides, or the frame numbers of a pair differ (a file missing)."""
+    """The files the two patterns match, paired in natural order (``left2`` before ``left11``);
+    refused when the counts differ, a file stands on both sides, or the frame numbers of the
+    pairs fall out of step (a file missing on one side: ``streams.first_out_of_step``)."""
     import glob
     import os
+    from pathlib import Path
 
     from stereo_obstacles.errors import InputFileError
+    from stereo_obstacles.streams import first_out_of_step, natural_key, relative_paths
 
-    lefts, rights = sorted(glob.glob(left_glob)), sorted(glob.glob(right_glob))
+    lefts, rights = (sorted(glob.glob(pattern), key=natural_key) for pattern in (left_glob, right_glob))
     if not lefts or not rights:
         raise InputFileError(f"no files match {left_glob if not lefts else right_glob}")
     if len(lefts) != len(rights):
@@ -73,27 +76,11 @@ def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
         if os.path.realpath(left) == os.path.realpath(right):
             raise InputFileError(f"{left_glob} and {right_glob} both match {left}: the left and right images of a "
                                  f"pair must be the two cameras' own")
-    numbers = _frame_numbers(lefts), _frame_numbers(rights)
-    if None not in numbers:
-        for left, right, left_number, right_number in zip(lefts, rights, *numbers):
-            if left_number != right_number:
-                raise InputFileError(f"{left} is paired with {right} (the files in sorted order): their numbers "
-                                     f"differ; is a file missing on one side?")
+    out_of_step = first_out_of_step(*(relative_paths([Path(f) for f in files]) for files in (lefts, rights)))
+    if out_of_step is not None:
+        raise InputFileError(f"{lefts[out_of_step]} is paired with {rights[out_of_step]} (the files in order): their "
+                             f"frame numbers are out of step with the first pair's; is a file missing on one side?")
     return list(zip(lefts, rights))
-
-
-def _frame_numbers(paths: list[str]) -> list[tuple[int, ...]] | None:
-    """Per path, the numbers in it that change from file to file (the frame's: ``7`` of
-    ``cam0_0007.png``, ``pair07_cam0.jpg`` or ``frame_0007/left.png``; a camera's ``0`` is the
-    same in every file of a side); ``None`` when the paths do not all hold as many numbers, or
-    none change."""
-    import re
-
-    runs = [[int(run) for run in re.findall(r"\d+", path)] for path in paths]
-    if len({len(r) for r in runs}) != 1:
-        return None
-    changing = [i for i in range(len(runs[0])) if len({r[i] for r in runs}) > 1]
-    return [tuple(r[i] for i in changing) for r in runs] if changing else None
 
 
 def run(args: argparse.Namespace) -> int:
