@@ -33,3 +33,12 @@ def reference_cover(row: np.ndarray, max_gap_px: int, surface_tolerance_px: floa
             if low <= r <= high:
                 cover[r] = max(cover[r], seen)
     return cover
+
+
+def random_disparity_rows(seed: int, levels: list[float], shape: tuple[int, int]) -> np.ndarray:
+    """float32 ``shape`` disparities: surfaces at the ``levels`` (pixels) with noise of 0.6 px, 30 %
+    of the pixels unmatched (NaN); the random maps the kernels are compared with their references on."""
+    rng = np.random.default_rng(seed)
+    d = rng.choice(levels, size=shape) + rng.normal(0, 0.6, shape)
+    d[rng.random(shape) < 0.3] = np.nan
+    return d.astype(np.float32)

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from _right_image_cover import matches_of_row, reference_cover
+from _right_image_cover import matches_of_row, random_disparity_rows, reference_cover
 
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane
@@ -46,11 +46,8 @@ def _reference(d: np.ndarray, mask: np.ndarray, plane: GroundPlane, params: Hidd
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_test_equals_the_reference_on_random_maps(seed):
-    rng = np.random.default_rng(seed)
-    d = rng.choice([3.0, 8.0, 14.0, 25.0], size=(8, 64)) + rng.normal(0, 0.6, (8, 64))
-    d[rng.random(d.shape) < 0.3] = np.nan
-    d = d.astype(np.float32)
-    mask = rng.random(d.shape) < 0.5
+    d = random_disparity_rows(seed, [3.0, 8.0, 14.0, 25.0], (8, 64))
+    mask = np.random.default_rng(seed + 100).random(d.shape) < 0.5
     plane = _plane(a=0.01, b=1.5, c=-1.0)        # rows 0 (above the horizon) to 7 (at 9.5 px)
     for params in (HiddenGroundParameters(), HiddenGroundParameters(min_jump_px=0.5, max_edge_gap_px=3)):
         expected = _reference(d, mask, plane, params)

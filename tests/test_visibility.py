@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from _right_image_cover import matches_of_row, reference_cover
+from _right_image_cover import matches_of_row, random_disparity_rows, reference_cover
 
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
@@ -30,10 +30,7 @@ def _reference(d: np.ndarray, params: VisibilityParameters) -> np.ndarray:
 
 @pytest.mark.parametrize("seed", range(6))
 def test_compiled_test_equals_the_reference_on_random_maps(seed):
-    rng = np.random.default_rng(seed)
-    d = rng.choice([3.0, 6.5, 12.0, 20.0], size=(6, 48)) + rng.normal(0, 0.6, (6, 48))
-    d[rng.random(d.shape) < 0.3] = np.nan
-    d = d.astype(np.float32)
+    d = random_disparity_rows(seed, [3.0, 6.5, 12.0, 20.0], (6, 48))
     for params in (VisibilityParameters(), VisibilityParameters(max_gap_px=1, surface_tolerance_px=0.5,
                                                                 min_depth_gap_px=1.0)):
         assert np.array_equal(hidden_in_right(d, params), _reference(d, params))

@@ -52,7 +52,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles.blind_strip import BlindStripParameters, extend_into_blind_strip
-from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.calibration import StereoCalibration, sized_for_images
 from stereo_obstacles.camera_calibration import CameraPairCalibration
 from stereo_obstacles.colour_split import ColourCue, colour_cue
 from stereo_obstacles.depth import disparity_to_depth
@@ -321,7 +321,7 @@ def _check_hints(seed_points, disparity_estimate, shape: tuple[int, int], config
         if np.shape(disparity_estimate) != shape:
             raise ImageMismatchError(f"disparity_estimate must have the images' shape {shape}, got "
                                      f"{np.shape(disparity_estimate)}")
-        estimate = np.asarray(disparity_estimate, dtype=np.float64)
+        estimate = np.asarray(disparity_estimate)          # no copy: a stream refines every other frame
         d_max = disparity_range(shape[1], 0, config.matching.max_disparity)[1]
         with np.errstate(invalid="ignore"):
             outside = (estimate < 0) | (estimate > d_max)                                # NaN: no estimate
@@ -567,11 +567,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     _check_inputs(left, right, calibration, config)
     _check_hints(seed_points, disparity_estimate, left.shape[:2], config)
     left, right = to_uint8(left, right)
-    if calibration is not None:
-        calibration.check_image_size(left.shape[1], left.shape[0])
-        doubt = calibration.off_centre_doubt(left.shape[1], left.shape[0])
-        if doubt is not None:
-            logger.warning("%s", doubt)
+    if calibration is not None:     # checked, and warned of when it states no size and fits other images
+        calibration = sized_for_images(calibration, left.shape[1], left.shape[0])
     timings: dict[str, float] = {}
     start = time.perf_counter()
     # phase 1 and the rectification check on a pool thread while the matcher runs here, on the
