@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from dataclasses import dataclass
 
 import numpy as np
 import pytest
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
+from stereo_obstacles.pipeline import DetectionConfig
+from stereo_obstacles.synthetic.render import RenderOptions
 
 
 @dataclass
@@ -25,7 +30,7 @@ def test_numbers_outside_their_range_or_not_numbers_fail(share):
 
 @pytest.mark.parametrize("size, odd, message", [
     (4, True, "an odd integer"), (0, False, "an integer"), (2.0, False, "an integer"), (True, False, "an integer"),
-    (np.uint8(5), False, "an integer"),
+    (np.uint8(0), False, "an integer"), (np.float64(5.0), False, "an integer"),
 ])
 def test_integers_outside_their_range_even_or_not_integers_fail(size, odd, message):
     with pytest.raises(InvalidInputError, match=f"size must be {message} in \\[1, 9\\], got"):
@@ -65,3 +70,47 @@ def test_is_whole_number_takes_python_and_numpy_integers_but_no_bool_or_float():
 
     assert all(is_whole_number(v) for v in (0, -3, 2 ** 70, np.int32(5), np.uint8(1)))
     assert not any(is_whole_number(v) for v in (True, np.bool_(True), 1.0, np.float32(2), "3", None))
+
+
+def test_numpy_scalars_are_replaced_by_python_numbers_of_the_same_value():
+    fields = _Fields(size=np.uint8(5), share=np.float32(0.25))
+    check_integers(fields, (("size", 1, 9),))        # a uint8 cannot overflow in sizes computed from it now
+    check_numbers(fields, (("share", 0.0, 1.0),))
+    assert type(fields.size) is int and fields.size == 5
+    assert type(fields.share) is float and fields.share == 0.25
+
+
+def _numeric_fields(instance, path=()):
+    """(path, value) of every int or float field of a dataclass and the dataclasses nested in it."""
+    for field in dataclasses.fields(instance):
+        value = getattr(instance, field.name)
+        if dataclasses.is_dataclass(value):
+            yield from _numeric_fields(value, path + (field.name,))
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            yield path + (field.name,), value
+
+
+def _replaced(instance, path, value):
+    if len(path) == 1:
+        return dataclasses.replace(instance, **{path[0]: value})
+    return dataclasses.replace(instance, **{path[0]: _replaced(getattr(instance, path[0]), path[1:], value)})
+
+
+_OPTIONS = [DetectionConfig(), StereoCalibration(focal_px=554.0, cx_px=319.5, cy_px=239.5, baseline_m=0.12,
+                                                 width_px=640, height_px=480), RenderOptions()]
+
+
+@pytest.mark.parametrize("options", _OPTIONS, ids=lambda o: type(o).__name__)
+def test_every_option_takes_a_numpy_scalar_and_stays_json_ready(options):
+    """A value taken from an array (a focal length ``K[0, 0]`` of a float32 matrix, a size of an
+    int64 array) is the number it holds: accepted where the Python number is, and written to
+    JSON (the resolved configuration in obstacles.json, a calibration file) as that number."""
+    fields = list(_numeric_fields(options))
+    assert len(fields) > 5
+    for path, value in fields:
+        for numpy_type in ((np.int64, np.int32) if isinstance(value, int) else (np.float64, np.float32)):
+            made = _replaced(options, path, numpy_type(value))
+            written = json.loads(json.dumps(dataclasses.asdict(made)))
+            for name in path:
+                written = written[name]
+            assert written == pytest.approx(value, rel=1e-6), (path, numpy_type)

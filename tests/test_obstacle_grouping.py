@@ -150,7 +150,7 @@ def test_split_parameters_are_checked():
     ({"abs_tolerance_px": 0.0}, "abs_tolerance_px"), ({"abs_tolerance_px": float("inf")}, "abs_tolerance_px"),
     ({"rel_tolerance": float("nan")}, "rel_tolerance"), ({"min_pure_fraction": 1.5}, "min_pure_fraction"),
     ({"min_object_pixels": 0}, "min_object_pixels"), ({"split_min_gap_px": None}, "split_min_gap_px"),
-    ({"cell_px": np.uint8(16)}, "cell_px"),          # a narrow NumPy integer would overflow cell_px ** 2
+    ({"cell_px": np.uint8(1)}, "cell_px"),           # a NumPy integer outside the range
     ({"coplanar_tolerance_px": -0.1}, "coplanar_tolerance_px"),
     ({"coplanar_rel_tolerance": float("inf")}, "coplanar_rel_tolerance"),
     ({"coplanar_colour_reach_cells": 0}, "coplanar_colour_reach_cells"),

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import plain_numbers
 from stereo_obstacles.plane_fit import least_squares_plane
 
 __all__ = ["BlindStripParameters", "extend_into_blind_strip"]
@@ -47,6 +48,7 @@ class BlindStripParameters:
     reach_px: float = 3.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if self.fit_width_px < 2 or self.min_fit_pixels < 3 or not self.reach_px >= 0:
             raise InvalidInputError("fit_width_px must be >= 2, min_fit_pixels >= 3 and reach_px >= 0")
 

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, replace
 
 from stereo_obstacles.atomic import write_text_atomic
 from stereo_obstacles.errors import CalibrationError
+from stereo_obstacles.field_checks import plain_numbers
 from stereo_obstacles.json_documents import check_document, load_json_file
 
 logger = logging.getLogger(__name__)
@@ -74,6 +75,7 @@ class StereoCalibration:
     doffs_px: float = 0.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # a NumPy scalar (K[0, 0]) as a Python number: JSON-ready
         for name in ("focal_px", "cx_px", "cy_px", "baseline_m", "doffs_px"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):

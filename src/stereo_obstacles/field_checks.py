@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Iterable
@@ -27,9 +28,28 @@ def is_whole_number(value: object) -> bool:
     return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
+def plain_number(owner: object, name: str) -> object:
+    """``owner.name``, a NumPy integer or floating-point scalar replaced on ``owner`` (a frozen
+    dataclass too) by the Python number of the same value: a field that came from an array
+    (``K[0, 0]``, ``image.shape`` of a NumPy array of sizes) is then JSON-ready, and a narrow
+    integer cannot overflow in the sizes computed from it. Any other value is returned as it is."""
+    value = getattr(owner, name)
+    if isinstance(value, (np.integer, np.floating)):
+        value = value.item()
+        object.__setattr__(owner, name, value)
+    return value
+
+
+def plain_numbers(owner: object) -> None:
+    """:func:`plain_number` on every field of the dataclass ``owner``."""
+    for field in dataclasses.fields(owner):
+        plain_number(owner, field.name)
+
+
 def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> None:
     """Each ``(name, low, high)``: ``owner.name`` must be a finite real number (Python's or NumPy's,
-    not a bool) in ``[low, high]``.
+    not a bool) in ``[low, high]``; a NumPy one is replaced by the Python number
+    (:func:`plain_number`).
 
     Raises
     ------
@@ -37,13 +57,14 @@ def check_numbers(owner: object, ranges: Iterable[tuple[str, float, float]]) -> 
         ``"<name> must be in [low, high], got <value>"`` for the first field that is not.
     """
     for name, low, high in ranges:
-        value = getattr(owner, name)
+        value = plain_number(owner, name)
         if not is_finite_real(value) or not low <= value <= high:
             raise InvalidInputError(f"{name} must be in [{low}, {high}], got {value!r}")
 
 
 def check_positive(owner: object, names: Iterable[str]) -> None:
-    """Each ``owner.name`` must be a finite real number (Python's or NumPy's, not a bool) above 0.
+    """Each ``owner.name`` must be a finite real number (Python's or NumPy's, not a bool) above 0;
+    a NumPy one is replaced by the Python number (:func:`plain_number`).
 
     Raises
     ------
@@ -51,15 +72,15 @@ def check_positive(owner: object, names: Iterable[str]) -> None:
         ``"<name> must be a finite number > 0, got <value>"`` for the first field that is not.
     """
     for name in names:
-        value = getattr(owner, name)
+        value = plain_number(owner, name)
         if not (is_finite_real(value) and value > 0):
             raise InvalidInputError(f"{name} must be a finite number > 0, got {value!r}")
 
 
 def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd: bool = False) -> None:
-    """Each ``(name, low, high)``: ``owner.name`` must be a Python integer (not a bool; a narrow
-    NumPy integer would overflow in the sizes computed from it) in ``[low, high]``, and odd when
-    ``odd`` (a window side).
+    """Each ``(name, low, high)``: ``owner.name`` must be an integer, Python's or NumPy's (not a
+    bool; a NumPy one is replaced by the Python integer, :func:`plain_number`), in ``[low, high]``,
+    and odd when ``odd`` (a window side).
 
     Raises
     ------
@@ -68,7 +89,7 @@ def check_integers(owner: object, ranges: Iterable[tuple[str, int, int]], *, odd
         that is not.
     """
     for name, low, high in ranges:
-        value = getattr(owner, name)
+        value = plain_number(owner, name)
         if (isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high
                 or (odd and value % 2 == 0)):
             kind = "an odd integer" if odd else "an integer"
@@ -91,4 +112,4 @@ def check_types(owner: object, kinds: Iterable[tuple[str, type]], *, allow_none:
             raise InvalidInputError(f"{name} must be {expected}, got {type(value).__name__}")
 
 
-__all__ = ["check_numbers", "check_positive", "check_integers", "check_types"]
+__all__ = ["plain_number", "plain_numbers", "check_numbers", "check_positive", "check_integers", "check_types"]

@@ -48,6 +48,7 @@ from stereo_obstacles._ground_colour_kernel import (GROUND_BIT, SHADOW_BIT, SUNL
                                                     ground_cells_kernel, lookup_kernel,
                                                     shift_support_kernel)
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import plain_numbers
 
 
 @dataclass(frozen=True)
@@ -109,6 +110,7 @@ class GroundColourParameters:
     min_shadow_chroma_bins: int = 0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if not (math.isfinite(self.bin) and 0.005 <= self.bin <= 0.5):
             raise InvalidInputError(f"bin must be in [0.005, 0.5] log units, got {self.bin!r}")
         if not (math.isfinite(self.offset) and 0.001 <= self.offset <= 0.5):

@@ -21,6 +21,7 @@ import numpy as np
 from stereo_obstacles._ground_plane_kernel import inlier_counts_kernel, masked_points_kernel, raised_pixels_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import plain_numbers
 
 logger = logging.getLogger(__name__)
 
@@ -104,6 +105,7 @@ class PlaneFitParameters:
     seed: int = 0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if not (math.isfinite(self.inlier_threshold_px) and self.inlier_threshold_px > 0):
             raise InvalidInputError(f"inlier_threshold_px must be > 0, got {self.inlier_threshold_px!r}")
         for name in ("iterations", "max_points", "min_inliers"):

@@ -58,7 +58,8 @@ from stereo_obstacles.colour_split import ColourCue, colour_cue
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
+from stereo_obstacles.field_checks import (check_integers, check_numbers, check_positive, check_types, plain_number,
+                                           plain_numbers)
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
@@ -96,6 +97,7 @@ class MatchingOptions:
     speckle_range: float | None = None
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if self.max_disparity is not None:
             check_integers(self, (("max_disparity", 1, math.inf),))
         check_match_options(**self.to_kwargs())      # when made, not at the first frame (API review)
@@ -196,7 +198,7 @@ class DetectionConfig:
                            ("textureless_fill", TexturelessFillParameters),
                            ("hidden_ground", HiddenGroundParameters)), allow_none=True)
         check_numbers(self, (("geometric_min_height_m", 0.0, math.inf), ("geometric_min_excess_px", 0.0, math.inf)))
-        check_scale(self.matching_scale)
+        check_scale(plain_number(self, "matching_scale"))
         if self.standing_significance is not None:
             check_numbers(self, (("standing_significance", 0.0, math.inf),))
         check_positive(self, ("standing_max_sigma_px",))

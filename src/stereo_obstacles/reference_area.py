@@ -30,7 +30,7 @@ import numpy as np
 
 from stereo_obstacles.colour import HSI, hue_difference
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, is_finite_real, plain_numbers
 from stereo_obstacles.quantiles import MAD_TO_SIGMA, median, percentile, percentiles
 
 logger = logging.getLogger(__name__)
@@ -57,9 +57,10 @@ class ReferenceArea:
     def __post_init__(self) -> None:
         if self.unit not in ("fraction", "px"):
             raise InvalidInputError(f"reference unit must be 'fraction' or 'px', got {self.unit!r}")
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         corners = (self.x0, self.y0, self.x1, self.y1)
-        if not all(math.isfinite(float(v)) for v in corners):
-            raise InvalidInputError(f"reference corners must be finite, got {corners}")
+        if not all(is_finite_real(v) for v in corners):
+            raise InvalidInputError(f"reference corners must be finite numbers, got {corners}")
         if not (self.x0 < self.x1 and self.y0 < self.y1):
             raise InvalidInputError(f"reference needs x0 < x1 and y0 < y1, got {corners}")
         if min(corners) < 0 or (self.unit == "fraction" and max(corners) > 1):

@@ -76,7 +76,7 @@ from stereo_obstacles.colour import (DEFAULT_MIN_INTENSITY, DEFAULT_MIN_SATURATI
                                      check_thresholds, rgb_to_hsi)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.far_ground import FarGroundParameters, FarGroundRows, far_ground_pixels, far_ground_rows
-from stereo_obstacles.field_checks import check_integers, check_numbers, check_types
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_types, plain_numbers
 from stereo_obstacles.ground_check import (GroundCheck, GroundCheckParameters, check_colour_pair, check_ground,
                                            grey_levels)
 from stereo_obstacles.ground_colour import (GroundColourParameters, build_ground_colour_model,
@@ -178,6 +178,7 @@ class SegmentationParameters:
     far_ground: FarGroundParameters = field(default_factory=FarGroundParameters)
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         check_thresholds(self.min_intensity, self.min_saturation)
         check_types(self, (("ground_colour", GroundColourParameters), ("reference", ReferenceParameters),
                            ("shadow_texture", ShadowTextureParameters), ("ground_check", GroundCheckParameters),

@@ -33,6 +33,7 @@ import numpy as np
 
 from stereo_obstacles._visibility_kernel import hidden_in_right_kernel
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import plain_numbers
 from stereo_obstacles.thread_pool import run_in_threads
 
 THREADS = 2
@@ -64,6 +65,7 @@ class VisibilityParameters:
     min_depth_gap_px: float = 2.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if isinstance(self.max_gap_px, bool) or not isinstance(self.max_gap_px, (int, np.integer)) \
                 or self.max_gap_px < 1:
             raise InvalidInputError(f"max_gap_px must be an integer >= 1, got {self.max_gap_px!r}")

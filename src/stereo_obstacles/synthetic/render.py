@@ -21,6 +21,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import plain_numbers
 from stereo_obstacles.labels import Label
 from stereo_obstacles.synthetic.raycast import (GROUND, SKY, Hits, blocked_towards_direction,
                                                 blocked_towards_point, trace)
@@ -72,6 +73,7 @@ class RenderOptions:
     jpeg_quality: int | None = None
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if not isinstance(self.supersample, int) or isinstance(self.supersample, bool) \
                 or not 1 <= self.supersample <= 4:
             raise InvalidInputError(f"supersample must be an integer in [1, 4], got {self.supersample!r}")

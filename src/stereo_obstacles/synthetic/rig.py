@@ -21,6 +21,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import plain_numbers
 
 
 def _check_number(name: str, value: float, lo: float, hi: float) -> None:
@@ -151,6 +152,7 @@ class RightCameraError:
     vertical_offset_px: float = 0.0
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if not isinstance(self.rotation_deg, (tuple, list, np.ndarray)):
             raise InvalidInputError(f"right camera rotation_deg needs 3 angles (degrees about x, y, z), got "
                                     f"{self.rotation_deg!r}")

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import plain_numbers
 from stereo_obstacles.synthetic.materials import Material
 from stereo_obstacles.synthetic.primitives import Box, Cylinder, Primitive, Sphere
 from stereo_obstacles.synthetic.rig import StereoRig
@@ -127,6 +128,7 @@ class Lighting:
     sky_irradiance_rgb: tuple[float, float, float] = (0.26, 0.33, 0.48)
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         if not math.isfinite(self.sun_azimuth_deg):
             raise InvalidInputError(f"sun_azimuth_deg must be finite, got {self.sun_azimuth_deg}")
         if not (math.isfinite(self.sun_elevation_deg) and 5.0 <= self.sun_elevation_deg <= 89.0):
