@@ -72,10 +72,13 @@ def test_a_sequence_replaces_a_single_scene_and_loads_back_frame_by_frame(tmp_pa
     assert main(["scene", "--out", str(tmp_path / "one"), "--size", "64x48", "--speed", "0.1"]) == 1
     assert "give --frames N" in capsys.readouterr().err
     assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "3"]) == 0
+    capsys.readouterr()
     assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "2"]) == 0
     assert list_frames(out) == ("frame_0000", "frame_0001")                 # not the longer walk's third
+    assert f"removed 1 frame of an earlier sequence from {out} (frame_0002)" in capsys.readouterr().err
     assert main(["scene", "--out", str(out), "--size", "64x48"]) == 0
     assert list_frames(out) == (None,) and load_pair(out).layout == "synthetic"   # one scene, no stale frames
+    assert f"removed 2 frames of an earlier sequence from {out} (frame_0000..frame_0001)" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("size", ["640", "0x480", "axb", "20000x10"])

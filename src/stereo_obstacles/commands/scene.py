@@ -74,15 +74,21 @@ def _check_frame_folders(folder, names) -> None:
 def _remove_frames(folder, keep) -> None:
     """Remove the scene files of the ``frame_*`` scene folders of ``folder`` not named in ``keep``
     (frames of an earlier sequence, which the dataset reader would take for this one's), and each
-    such folder when nothing else is left in it; anything else there is the user's and stays."""
+    such folder when nothing else is left in it, saying on stderr how many went; anything else
+    there is the user's and stays."""
+    import sys
     from pathlib import Path
 
     from stereo_obstacles.atomic import remove_file_set
     from stereo_obstacles.synthetic.scene_files import SCENE_FILES, holds_a_scene
 
-    for frame in Path(folder).glob("frame_*"):
-        if frame.name not in keep and not frame.is_symlink() and holds_a_scene(frame):
-            remove_file_set(frame, ("scene.json",) + SCENE_FILES, what="the earlier frame")
+    earlier = sorted(frame for frame in Path(folder).glob("frame_*")
+                     if frame.name not in keep and not frame.is_symlink() and holds_a_scene(frame))
+    for frame in earlier:
+        remove_file_set(frame, ("scene.json",) + SCENE_FILES, what="the earlier frame")
+    if earlier:
+        print(f"removed {len(earlier)} frame{'s' if len(earlier) != 1 else ''} of an earlier sequence from {folder} "
+              f"({earlier[0].name}{'' if len(earlier) == 1 else f'..{earlier[-1].name}'})", file=sys.stderr)
 
 
 def _rectification_hint(options, calibration_file) -> None:
