@@ -55,6 +55,18 @@ def test_full_size_seeds_are_moved_and_out_of_range_ones_dropped(pair):
     assert np.isfinite(disparity).mean() > 0.3
 
 
+def test_a_seed_at_the_end_of_the_default_range_is_dropped_where_it_rounds_past_the_reduced_range(pair):
+    """320 px wide: the default range ends at 107 px, the half-size copy's at 53; a seed at 107
+    rounds to 54 there (a video's temporal seed by something close: the stream stopped with
+    "seed_points: ... outside ... the disparity range [0, 53]")."""
+    ys, xs = np.nonzero(pair.nonocc & (pair.disparity > 4))
+    true = [[xs[i], ys[i], round(float(pair.disparity[ys[i], xs[i]]))] for i in range(0, len(xs), len(xs) // 10)]
+    seeds = np.array(true + [[300, 100, 107], [300, 101, 106]], dtype=float)
+    _, result = match_at_scale(pair.left, pair.right, 0.5, seed_points=seeds)
+    assert result.stats.d_max == 53
+    assert result.stats.n_seed_pixels == len(true) + 1         # 106 -> 53 is in range, 107 -> 54 is not
+
+
 @pytest.mark.parametrize("bad", [0, -0.5, 1.5, float("nan"), True, "half"])
 def test_bad_scales_are_refused(bad):
     with pytest.raises(InvalidInputError, match="matching scale must be in"):

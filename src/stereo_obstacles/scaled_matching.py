@@ -74,18 +74,17 @@ def scaled_size(width: int, height: int, scale: float) -> tuple[int, int]:
 
 
 def _scaled_seed_points(points: np.ndarray, sx: float, sy: float, width: int, height: int,
-                        max_disparity: int | None) -> np.ndarray:
+                        d_range: tuple[int, int]) -> np.ndarray:
     """Seeds ``(x, y, d)`` of the full-size image moved to the reduced one (integer pixels); those that fall
-    outside it or its disparity range are dropped (a seed is a hint, not a constraint)."""
+    outside it or its inclusive disparity range ``d_range`` are dropped (a seed is a hint, not a
+    constraint: one at the full-size range's end can round past the reduced range's)."""
     p = np.asarray(points, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
         raise InvalidInputError(f"seed_points: expected shape (N, 3) of (x, y, d), got {p.shape}")
     # the reduced pixel whose area holds the full-size pixel's centre
     x, y, d = np.floor((p[:, 0] + 0.5) * sx), np.floor((p[:, 1] + 0.5) * sy), np.rint(p[:, 2] * sx)
     keep = np.isfinite(x) & np.isfinite(y) & np.isfinite(d) & (x >= 0) & (x < width) & (y >= 0) & (y < height) \
-        & (d >= 0) & (x - d >= 0)
-    if max_disparity is not None:
-        keep &= d <= max_disparity
+        & (d >= d_range[0]) & (d <= d_range[1]) & (x - d >= 0)
     return np.stack([x[keep], y[keep], d[keep]], axis=1)
 
 
@@ -171,10 +170,10 @@ def match_at_scale(left: np.ndarray, right: np.ndarray, scale: float, *, seed_po
     small_w, small_h = scaled_size(w, h, scale)
     sx, sy = small_w / w, small_h / h
     small_max = None if max_disparity is None else max(0, math.ceil(max_disparity * sx))
-    small_seeds = (None if seed_points is None
-                   else _scaled_seed_points(seed_points, sx, sy, small_w, small_h, small_max))
-    shrink = [cv2.resize(image, (small_w, small_h), interpolation=cv2.INTER_AREA) for image in (left, right)]
     small_options = dict(options, min_disparity=math.floor(_match_option(options, "min_disparity") * sx))
+    small_seeds = (None if seed_points is None else _scaled_seed_points(
+        seed_points, sx, sy, small_w, small_h, disparity_range(small_w, small_options["min_disparity"], small_max)))
+    shrink = [cv2.resize(image, (small_w, small_h), interpolation=cv2.INTER_AREA) for image in (left, right)]
     result = match(shrink[0], shrink[1], seed_points=small_seeds, max_disparity=small_max, **small_options)
     estimate = cv2.resize(result.disparity / np.float32(sx), (w, h), interpolation=cv2.INTER_NEAREST)
     return refine_at_full_size(left, right, estimate, max_disparity=max_disparity, **options).disparity, result
