@@ -133,8 +133,11 @@ def test_image_sequence_errors(tmp_path):
     (tmp_path / "empty").mkdir()
     with pytest.raises(InputFileError, match="no image files"):
         ImageSequenceSource(tmp_path / "empty", tmp_path / "empty")
-    with pytest.raises(InputFileError, match="not a folder and not a glob"):
+    with pytest.raises(InputFileError, match="missing does not exist"):
         ImageSequenceSource(tmp_path / "missing", tmp_path / "missing")
+    (tmp_path / "one.txt").write_text("x")
+    with pytest.raises(InputFileError, match="one.txt: not a folder and not a glob"):
+        ImageSequenceSource(tmp_path / "one.txt", tmp_path / "empty")
     with pytest.raises(InvalidInputError, match="fps"):
         ImageSequenceSource(tmp_path / "empty", tmp_path / "empty", fps=0)
 
@@ -157,6 +160,16 @@ def test_video_pair_with_different_frame_counts_is_refused(tmp_path):
     left, right = write_videos(tmp_path, right_frames=N_FRAMES - 1)
     with pytest.raises(ImageMismatchError, match=r"has 4 frames but .* has 3"):
         VideoPairSource(left, right)
+
+
+def test_a_missing_source_is_named_not_taken_for_an_image_sequence(tmp_path):
+    # a typo in the right video's name said "left image sequence L: not a folder and not a glob
+    # pattern" of the left video, which exists (review, session 24)
+    left, _ = write_videos(tmp_path)
+    with pytest.raises(InputFileError, match=r"^\S*missing.avi does not exist \(a video file, a folder of images"):
+        open_source([str(left), str(tmp_path / "missing.avi")])
+    with pytest.raises(InputFileError, match=r"left image sequence \S*nodir does not exist"):
+        open_source([str(tmp_path / "nodir"), str(tmp_path)], kind="images")
 
 
 def test_missing_or_broken_video(tmp_path):
