@@ -52,7 +52,7 @@ def test_calibration_of_the_shared_chessboard_set(calibrated):
     assert "P1" in calibrated.with_suffix(".yml").read_text()
 
 
-def test_pairs_without_the_board_are_rejected_by_name(chessboard, tmp_path, capsys):
+def test_pairs_without_the_board_are_rejected_by_name(chessboard, tmp_path, capsys, caplog):
     for name in ("left01.jpg", "right01.jpg", "left02.jpg", "right02.jpg", "left03.jpg", "right03.jpg"):
         (tmp_path / name).symlink_to(chessboard / name)
     write_image(tmp_path / "left99.png", np.full((480, 640), 127, np.uint8))
@@ -62,8 +62,13 @@ def test_pairs_without_the_board_are_rejected_by_name(chessboard, tmp_path, caps
     assert "rejected: left99.png+right99.png (board not found in the left image)" in out
     assert "pairs used: 3 of 4" in out
     (tmp_path / "left03.jpg").unlink()
+    (tmp_path / "left02.jpg").rename(tmp_path / "left07.jpg")
+    caplog.clear()
     assert main(["calibrate", "--folder", str(tmp_path), "--square", "0.025", "--out", str(tmp_path / "d.json")]) == 1
-    assert "only 2 pairs" in capsys.readouterr().err
+    assert "found in both images of only 1 pairs (need 3)" in capsys.readouterr().err
+    # files without a partner were left out without a word (review, session 24)
+    assert ("3 images in " + str(tmp_path) + " have no partner of the other camera and are left out: left07.jpg, "
+            "right02.jpg, right03.jpg") in caplog.text
 
 
 def test_a_board_size_that_does_not_fit_the_board_is_named_in_the_error(chessboard, tmp_path, capsys):

@@ -35,6 +35,9 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pg
 
 
 def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
+    """The image pairs of ``folder`` whose names differ only in ``left``/``right`` (or ``Right``),
+    in name order; a warning names the files without a partner, which are left out."""
+    import logging
     from pathlib import Path
 
     from stereo_obstacles.errors import InputFileError
@@ -42,16 +45,27 @@ def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
     root = Path(folder)
     if not root.is_dir():
         raise InputFileError(f"--folder {folder} is not a folder")
-    pairs = []
-    for left in sorted(p for p in root.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and "left" in p.name.lower()):
+    images = sorted(p for p in root.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+    pairs, unpaired = [], []
+    for left in (p for p in images if "left" in p.name.lower()):
         index = left.name.lower().index("left")
         right = left.with_name(left.name[:index] + "right" + left.name[index + 4:])
         if not right.is_file():
             right = left.with_name(left.name[:index] + "Right" + left.name[index + 4:])
         if right.is_file():
             pairs.append((str(left), str(right)))
+        else:
+            unpaired.append(left.name)
+    partnered = {Path(right).name for _, right in pairs}
+    unpaired += [p.name for p in images if "right" in p.name.lower() and "left" not in p.name.lower()
+                 and p.name not in partnered]
     if not pairs:
         raise InputFileError(f"--folder {folder} holds no image pairs named *left*/*right*")
+    if unpaired:
+        logging.getLogger(__name__).warning(
+            "%d image%s in %s %s no partner of the other camera and %s left out: %s", len(unpaired),
+            "s" if len(unpaired) != 1 else "", folder, "have" if len(unpaired) != 1 else "has",
+            "are" if len(unpaired) != 1 else "is", ", ".join(sorted(unpaired)))
     return pairs
 
 
