@@ -205,6 +205,17 @@ def test_an_image_size_that_is_not_two_positive_whole_numbers_is_one_clear_error
             reader(path)
 
 
+@pytest.mark.parametrize("p1", ["5", "[ 1, 2, 3 ]", "{ rows: 3 }", "abc"])
+def test_a_projection_that_is_not_a_matrix_is_named(tmp_path, p1):
+    # "P1: 5" gave OpenCV's assertion text: "OpenCV(5.0.0) .../persistence.cpp:2294: error: (-215:Assertion
+    # failed) isMap() in function 'operator[]'" (review, session 24)
+    matrix = "!!opencv-matrix\n   rows: 3\n   cols: 4\n   dt: d\n   data: [ 600, 0, 310, -60, 0, 600, 200, 0, 0, 0, 1, 0 ]\n"
+    path = tmp_path / "rig.yml"
+    path.write_text(f"%YAML:1.0\n---\nP1: {p1}\nP2: {matrix}")
+    with pytest.raises(CalibrationError, match=r"rig.yml: P1 must be a matrix \(!!opencv-matrix with rows, cols, dt"):
+        read_calibration(path)
+
+
 def test_unknown_length_unit_is_refused(tmp_path):
     with pytest.raises(CalibrationError, match="length_unit"):
         read_calibration(tmp_path / "x", length_unit="inch")

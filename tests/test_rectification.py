@@ -55,6 +55,11 @@ def test_json_and_yaml_round_trips(tmp_path):
         assert np.allclose(loaded.rotation, calibration.rotation)
         assert np.allclose(loaded.distortion_left, calibration.distortion_left)
         assert loaded.rms_px == 0.3
+    # read as a rectified rig it was "not a stereo-obstacles/calibration document", with no hint (review)
+    from stereo_obstacles.calibration_files import read_calibration
+    with pytest.raises(CalibrationError, match="raw cameras' calibration that calibrate writes, not a rectified rig: "
+                                               "read it with camera_calibration.read_camera_calibration"):
+        read_calibration(tmp_path / "pair.json")
     write_opencv_yaml(tmp_path / "pair.yml", calibration, rectify_calibration(calibration).opencv_matrices())
     loaded = read_camera_calibration(tmp_path / "pair.yml")
     assert isinstance(loaded, CameraPairCalibration)

@@ -169,8 +169,15 @@ def write_calibration_json(path: str | os.PathLike[str], calibration: StereoCali
 
 
 def read_calibration_json(path: str | os.PathLike[str]) -> StereoCalibration:
-    """Read the project's JSON calibration format."""
+    """Read the project's JSON calibration format; the raw cameras' JSON that ``calibrate`` writes
+    is refused with a hint to rectify with it first."""
+    from stereo_obstacles.camera_calibration import CAMERA_PAIR_FORMAT
+
     data = load_json_file(path, what="calibration", error=CalibrationError)
+    if isinstance(data, dict) and data.get("format") == CAMERA_PAIR_FORMAT:
+        raise CalibrationError(f"{path} is the raw cameras' calibration that calibrate writes, not a rectified "
+                               f"rig: read it with camera_calibration.read_camera_calibration and rectify the images "
+                               f"with it (rectification.rectify_calibration); the commands do both with --calib")
     return StereoCalibration.from_dict(data, source=str(path))
 
 

@@ -232,6 +232,12 @@ def open_opencv_storage(path: str | os.PathLike[str]):
         raise CalibrationError(f"{path}: OpenCV cannot parse this file: {reason}") from exc
 
 
+def _is_matrix_node(node) -> bool:
+    """Whether an OpenCV ``FileStorage`` node is an ``opencv-matrix`` or ``opencv-nd-matrix``
+    (a map with ``dt`` and ``data``), not any other map, sequence or number."""
+    return node.isMap() and not node.getNode("dt").empty() and not node.getNode("data").empty()
+
+
 def opencv_image_size(node, source: str) -> tuple[int, int] | None:
     """The ``(width, height)`` of an OpenCV ``FileStorage`` ``imageSize`` node, ``None`` when the
     file has none: a sequence ``[w, h]`` (as OpenCV's ``stereo_calib.cpp`` writes it) or a matrix
@@ -246,8 +252,8 @@ def opencv_image_size(node, source: str) -> tuple[int, int] | None:
     if node.empty():
         return None
     values: list = []
-    if node.isMap() and not node.getNode("dt").empty() and not node.getNode("data").empty():
-        matrix = node.mat()                      # an opencv-matrix or opencv-nd-matrix, not any map
+    if _is_matrix_node(node):
+        matrix = node.mat()
         values = [] if matrix is None else np.asarray(matrix, dtype=np.float64).ravel().tolist()
     elif node.isSeq():
         items = [node.at(i) for i in range(node.size())]
@@ -258,6 +264,16 @@ def opencv_image_size(node, source: str) -> tuple[int, int] | None:
     return int(values[0]), int(values[1])
 
 
+def _opencv_matrix(node, name: str, source: str) -> np.ndarray | None:
+    """The matrix of an OpenCV ``FileStorage`` node, ``None`` when the file has none; a node that
+    is not a matrix (``P1: 5``) is refused naming it, not with OpenCV's assertion text."""
+    if node.empty():
+        return None
+    if not _is_matrix_node(node):
+        raise CalibrationError(f"{source}: {name} must be a matrix (!!opencv-matrix with rows, cols, dt and data)")
+    return node.mat()
+
+
 def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:
     import cv2
 
@@ -266,7 +282,7 @@ def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibrati
     try:
         if not storage.isOpened():
             raise CalibrationError(f"{source}: OpenCV cannot open this file as YAML/XML")
-        left, right = storage.getNode("P1").mat(), storage.getNode("P2").mat()
+        left, right = (_opencv_matrix(storage.getNode(name), name, source) for name in ("P1", "P2"))
         raw_cameras = not storage.getNode("cameraMatrix1").empty()
         size = opencv_image_size(storage.getNode("imageSize"), source)
     except cv2.error as exc:  # a node of the wrong kind (a list where a map is expected, a bad matrix)
