@@ -247,10 +247,18 @@ def test_a_rerun_replaces_a_pair_killed_while_its_report_moved_in(tmp_path):
     out = tmp_path / "out"
     args = ["batch", str(tmp_path / "in"), "--out", str(out), "--workers", "1"]
     assert main(args) == 0
-    for name in ("obstacles.json", "index.html", DONE_FILE):          # as a kill while moving in leaves it
-        (out / "scene" / name).unlink()
+    stage = out / ".scene.@killed00.partial"                        # as a SIGKILL while moving in leaves it
+    stage.mkdir()
+    for name in ("obstacles.json", "index.html"):
+        (out / "scene" / name).rename(stage / name)
+    (out / "scene" / DONE_FILE).unlink()
     assert main(args) == 0 and _summary(out)["counts"]["done"] == 1
     assert (out / "scene" / "obstacles.json").is_file()
+    # without that mark the files are a user's: the pair fails and they stay (review, session 24)
+    (tmp_path / "out2" / "scene").mkdir(parents=True)
+    (tmp_path / "out2" / "scene" / "index.html").write_text("my page")
+    assert main(["batch", str(tmp_path / "in"), "--out", str(tmp_path / "out2"), "--workers", "1"]) == 1
+    assert (tmp_path / "out2" / "scene" / "index.html").read_text() == "my page"
     # but a rendered scene there is still not written over: batch over its own input (review)
     truth = (tmp_path / "in" / "scene" / "obstacles.json").read_bytes()
     assert main(["batch", str(tmp_path / "in" / "scene"), "--out", str(tmp_path / "in"), "--workers", "1"]) == 1

@@ -212,10 +212,12 @@ def test_the_library_writer_refuses_a_scene_and_a_users_files_as_the_commands_do
     assert (tmp_path / "mine" / "index.html").read_text() == "my page"
 
 
-def test_a_report_killed_while_moving_in_is_refused_by_the_next_run_with_why(tmp_path, monkeypatch):
-    # obstacles.json is removed first and moved in last: a folder killed in between cannot be told
-    # from a user's files of the report's names. It is refused, saying so, and nothing in it is
-    # touched (marks meant to vouch for it let reports replace a user's files; reviews)
+def test_a_report_cut_short_while_moving_in_is_replaced_by_the_next_run_and_a_users_files_are_not(tmp_path,
+                                                                                                  monkeypatch):
+    # obstacles.json is removed first and moved in last; the staging folder kept when the move is
+    # cut short tells the next run that the files there are a report's. batch and video skipped the
+    # refusal of foreign files in their own folders instead, and replaced a user's index.html in
+    # OUT/<pair> (review, session 24)
     import os
 
     out = tmp_path / "out"
@@ -233,13 +235,23 @@ def test_a_report_killed_while_moving_in_is_refused_by_the_next_run_with_why(tmp
         _write(out)
     monkeypatch.setattr(os, "replace", real_replace)
     assert not (out / "obstacles.json").exists() and (out / "disparity.pfm").is_file()
-    before = {p.name: p.read_bytes() for p in out.iterdir()}
-    with pytest.raises(OutputError, match="no report of this tool .*a report killed while moving in leaves that too"):
-        report.check_report_folder(out)
-    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
-    (out / "obstacles.json").write_text('{"mine": 1}')                    # another tool's obstacles.json
+    left = [p for p in tmp_path.iterdir() if p.name.startswith(".out.@") and p.name.endswith(".partial")]
+    assert len(left) == 1 and (left[0] / "obstacles.json").is_file()     # kept: the report's mark
+    report.check_report_folder(out)
+    _write(out)
+    assert report.holds_a_report(out) and (out / "disparity.png").read_text() == "the user's"
+    # the same files without that mark are a user's: refused, with why, nothing touched
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    for name in ("index.html", "labels.png"):
+        (mine / name).write_text("mine")
+    with pytest.raises(OutputError, match="holds labels.png, index.html but no report of this tool .*nor one of a "
+                                          "report cut short while moving in"):
+        _write(mine)
+    assert {p.name: p.read_text() for p in mine.iterdir()} == {"index.html": "mine", "labels.png": "mine"}
+    (mine / "obstacles.json").write_text('{"mine": 1}')                   # another tool's obstacles.json
     with pytest.raises(OutputError, match="not a report of this tool"):
-        report.check_report_folder(out)
+        report.check_report_folder(mine)
 
 
 def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tmp_path):

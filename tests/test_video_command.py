@@ -289,7 +289,6 @@ def test_a_frame_that_cannot_be_read_ends_the_json_lines_with_the_error(tmp_path
 
 
 def test_a_frame_report_is_not_written_over_a_rendered_scene(tmp_path, capsys):
-    # its own frame folders skip only the refusal a killed report's leftovers would meet (review)
     from stereo_obstacles.synthetic import write_scene_folder
 
     left_dir, right_dir = write_sequences(tmp_path / "in")
@@ -298,6 +297,12 @@ def test_a_frame_report_is_not_written_over_a_rendered_scene(tmp_path, capsys):
     assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(tmp_path / "fo"), "--max-frames", "1"]) == 1
     assert "holds a rendered scene" in capsys.readouterr().err
     assert (tmp_path / "fo" / "0000" / "obstacles.json").read_bytes() == truth
+    # nor over a user's own files of the report's names in a frame folder (review, session 24)
+    (tmp_path / "fo2" / "0000").mkdir(parents=True)
+    (tmp_path / "fo2" / "0000" / "index.html").write_text("my page")
+    assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(tmp_path / "fo2"), "--max-frames", "1"]) == 1
+    assert "holds index.html but no report of this tool" in capsys.readouterr().err
+    assert (tmp_path / "fo2" / "0000" / "index.html").read_text() == "my page"
 
 
 def test_options_of_the_temporal_seeds_are_said_to_do_nothing_without_them(tmp_path, caplog):

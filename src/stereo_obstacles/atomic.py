@@ -224,7 +224,10 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     ``stale`` names files of an earlier run that this one does not write (a depth map beside an
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
 
-    Staging folders of ``out_dir`` left by killed runs are removed first.
+    A move cut short (an interrupt, a failed rename) keeps the staging folder, holding what was
+    not moved: it tells the next run that the files in ``out_dir`` are this set's, not a user's
+    (:func:`stereo_obstacles.temporaries.unheld_folders`). Staging folders of ``out_dir`` left
+    by killed runs are removed first once a minute old.
     """
     final = Path(out_dir)
     check_output_folder(final)
@@ -233,12 +236,14 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         stage = create_temporary_folder(final)
     except OSError as exc:
         raise OutputError(f"cannot write to folder {final.parent}: {exc.strerror or exc}") from exc
+    moving = False
     try:
         yield stage
         _give_default_permissions(stage, folder=True)
         if not final.exists():
             os.replace(stage, final)
             return
+        moving = True
         for name in last + stale:
             (final / name).unlink(missing_ok=True)
         files = [src for src in stage.rglob("*") if src.is_file()]
@@ -246,10 +251,12 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
             dest = final / src.relative_to(stage)
             dest.parent.mkdir(parents=True, exist_ok=True)
             os.replace(src, dest)
+        moving = False
     except OSError as exc:
         if isinstance(exc, OutputError):
             raise
         raise OutputError(f"cannot write to {final}: {exc.strerror or exc}") from exc
     finally:
         release(stage)
-        shutil.rmtree(stage, ignore_errors=True)
+        if not moving:                       # else kept: the mark of a set half moved in
+            shutil.rmtree(stage, ignore_errors=True)

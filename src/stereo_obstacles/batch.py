@@ -313,8 +313,7 @@ def _run_task(job: BatchJob) -> dict:
     if job.task == "detect":
         from stereo_obstacles.commands.detect import run_detection
 
-        result = run_detection(left, right, calibration, job.config, job.out_dir, inputs=inputs,
-                               own_folder=True)     # OUT/<pair>: a rerun after a kill replaces what was left
+        result = run_detection(left, right, calibration, job.config, job.out_dir, inputs=inputs)
         nearest = result.obstacles.obstacles[0] if result.obstacles.obstacles else None
         return {"obstacles": len(result.obstacles.obstacles), "density": result.density,
                 "nearest_distance_m": nearest.distance_m if nearest is not None else None, "inputs": inputs}

@@ -46,6 +46,7 @@ from stereo_obstacles.obstacles import Obstacle, ObstacleList
 from stereo_obstacles.pictures import (
     depth_picture, describe_detection, disparity_picture, draw_obstacles, labels_picture, obstacle_colour, scan_picture)
 from stereo_obstacles.point_cloud import write_ply
+from stereo_obstacles.temporaries import unheld_folders
 
 logger = logging.getLogger(__name__)
 
@@ -254,13 +255,19 @@ def holds_a_report(folder) -> bool:
     return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
 
 
-def check_report_folder(folder, *, own_folder: bool = False) -> None:
+def _cut_short_while_moving_in(folder: Path) -> bool:
+    """Whether a report was being moved into ``folder`` when its run was cut short: a staging
+    folder of ``folder`` nobody holds still has the report's ``obstacles.json`` (moved last)."""
+    return any(holds_a_report(stage) for stage in unheld_folders(folder))
+
+
+def check_report_folder(folder) -> None:
     """Raise :class:`OutputError` when a report written into ``folder`` would replace files that
     are not an earlier report's: a rendered scene's ground truth (``scene.json`` beside it), an
     ``obstacles.json`` of another kind, or, without a report of this tool there, any file of
-    the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``). With
-    ``own_folder`` (a folder of the caller's own run) that last refusal is left out: it is also
-    what a report killed while moving in leaves, which a rerun must replace."""
+    the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``). A report cut
+    short while moving in (killed, interrupted) counts as one: the staging folder it left beside
+    ``folder`` still holds its ``obstacles.json``."""
     folder = Path(folder)
     if (folder / "scene.json").is_file():
         raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
@@ -268,9 +275,9 @@ def check_report_folder(folder, *, own_folder: bool = False) -> None:
     if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
-    if not own_folder:
-        refuse_foreign_files(folder, OUTPUT_FILES, ours=holds_a_report(folder), what="report",
-                             missing="no obstacles.json of it; a report killed while moving in leaves that too")
+    refuse_foreign_files(folder, OUTPUT_FILES, ours=holds_a_report(folder) or _cut_short_while_moving_in(folder),
+                         what="report", missing="no obstacles.json of it, nor one of a report cut short while "
+                                            "moving in")
 
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
@@ -287,8 +294,7 @@ OUTPUT_FILES = ("obstacles.json", "disparity.pfm", "labels.png", "obstacles.png"
 def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray, labels: np.ndarray,
                             disparity: np.ndarray, depth_m: np.ndarray | None, obstacle_list: ObstacleList,
                             calibration: StereoCalibration | None, config: Mapping[str, Any],
-                            timings: Mapping[str, float], inputs: Mapping[str, Any],
-                            own_folder: bool = False) -> list[Path]:
+                            timings: Mapping[str, float], inputs: Mapping[str, Any]) -> list[Path]:
     """Write the data files, pictures and ``index.html`` of one detection into ``out_dir``.
 
     All or nothing: on any error ``out_dir`` is left as it was. Files already in ``out_dir``
@@ -318,10 +324,6 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
         Seconds per stage, in pipeline order.
     inputs
         Input file names (or other description of the inputs).
-    own_folder
-        ``out_dir`` belongs to the caller's run (a batch's ``OUT/<pair>``, a stream's frame
-        folder): a rerun after a kill replaces what the killed run left half moved in (a scene
-        or another tool's ``obstacles.json`` are still refused: :func:`check_report_folder`).
 
     Returns
     -------
@@ -331,9 +333,9 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     Raises
     ------
     OutputError
-        ``out_dir`` holds a rendered scene, another tool's ``obstacles.json``, or (without
-        ``own_folder``) files of the report's names that are not an earlier report of this tool
-        (:func:`check_report_folder`), or cannot be written.
+        ``out_dir`` holds a rendered scene, another tool's ``obstacles.json``, or files of the
+        report's names that are not an earlier report of this tool (:func:`check_report_folder`),
+        or cannot be written.
     InvalidInputError
         Arrays of other shapes or types than above.
     """
@@ -341,7 +343,7 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     for name, mapping in (("config", config), ("timings", timings), ("inputs", inputs)):
         if not isinstance(mapping, Mapping):
             raise InvalidInputError(f"{name} must be a mapping (a dict), got {type(mapping).__name__}")
-    check_report_folder(out_dir, own_folder=own_folder)     # the commands check it first too
+    check_report_folder(out_dir)                         # the commands check it first too
     (left,) = to_uint8(left)
     calibrated = calibration is not None
     data_files = ["obstacles.json", "disparity.pfm"] + (["depth.npy"] if calibrated else []) + ["labels.png"]

@@ -31,7 +31,7 @@ try:
 except ImportError:                           # Windows: temporaries are neither held nor cleaned up
     fcntl = None
 
-__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "release"]
+__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "release", "unheld_folders"]
 
 ABANDONED_AFTER_S = 60.0
 """A temporary nobody holds is removed only when it was last changed this many seconds ago."""
@@ -73,10 +73,10 @@ def release(path: Path) -> None:
         os.close(fd)
 
 
-def _abandoned(entry: os.DirEntry, now: float) -> bool:
-    """Whether nobody holds ``entry`` and it has not changed for :data:`ABANDONED_AFTER_S`."""
+def _abandoned(entry: os.DirEntry, now: float, min_age_s: float = ABANDONED_AFTER_S) -> bool:
+    """Whether nobody holds ``entry`` and it has not changed for ``min_age_s`` seconds."""
     try:
-        if now - entry.stat(follow_symlinks=False).st_mtime < ABANDONED_AFTER_S:
+        if now - entry.stat(follow_symlinks=False).st_mtime < min_age_s:
             return False
         fd = os.open(entry.path, os.O_RDONLY | os.O_NOFOLLOW)      # a symbolic link fails here: not ours
     except OSError:
@@ -90,20 +90,36 @@ def _abandoned(entry: os.DirEntry, now: float) -> bool:
     return True
 
 
+def _temporaries(folder: Path, name: str, ending: str) -> list[os.DirEntry]:
+    """The temporaries of ``name`` in ``folder`` whose names end in ``ending`` (none where they
+    cannot be listed)."""
+    prefix = _prefix(name)
+    pattern = re.compile(rf"{re.escape(prefix)}[a-z0-9_]+{re.escape(ending)}", flags=re.ASCII)
+    try:
+        with os.scandir(folder) as entries:
+            return [e for e in entries if e.name.startswith(prefix) and pattern.fullmatch(e.name)]
+    except OSError:
+        return []
+
+
+def unheld_folders(final: Path, ending: str = ".partial") -> list[Path]:
+    """The staging folders of ``final`` that nobody holds, of any age: what a run left that was
+    killed while moving its files into ``final`` (:func:`stereo_obstacles.atomic.staged_directory`
+    keeps its folder when the move is cut short). None where ``flock`` is not there."""
+    if fcntl is None:
+        return []
+    now = time.time()
+    return [Path(e.path) for e in _temporaries(final.parent, final.name, ending)
+            if e.is_dir(follow_symlinks=False) and _abandoned(e, now, min_age_s=0.0)]
+
+
 def _remove_abandoned(folder: Path, name: str, ending: str) -> None:
     """Remove the abandoned temporaries of ``name`` in ``folder`` whose names end in ``ending``.
     Errors are ignored: a leftover is untidy, not wrong."""
     if fcntl is None:
         return
-    prefix = _prefix(name)
-    pattern = re.compile(rf"{re.escape(prefix)}[a-z0-9_]+{re.escape(ending)}", flags=re.ASCII)
     now = time.time()
-    try:
-        with os.scandir(folder) as entries:
-            leftovers = [e for e in entries if e.name.startswith(prefix) and pattern.fullmatch(e.name)]
-    except OSError:
-        return
-    for entry in leftovers:
+    for entry in _temporaries(folder, name, ending):
         if not _abandoned(entry, now):
             continue
         if entry.is_dir(follow_symlinks=False):

@@ -80,12 +80,11 @@ def warn_if_out_of_reach(config, calibration) -> None:
             "reported to: no obstacle can be found", max_disparity, nearest_m, config.obstacles.max_distance_m)
 
 
-def run_detection(left, right, calibration, config, out_dir, inputs: dict, *, own_folder: bool = False):
+def run_detection(left, right, calibration, config, out_dir, inputs: dict):
     """Detect, write every output into ``out_dir``, and return the detection result; a pair
     that looks swapped is refused before anything is written. The rectification check's
     verdict is stored with the ``inputs`` (``obstacles.json``'s ``run.inputs.rectification_check``:
-    a reader can tell a pair that is not rectified, or could not be checked). ``own_folder``: as
-    :func:`~stereo_obstacles.report.write_detection_outputs`'s."""
+    a reader can tell a pair that is not rectified, or could not be checked)."""
     from stereo_obstacles.pipeline import detect
     from stereo_obstacles.rectification_check import refuse_swapped, refusing_swapped_pairs
     from stereo_obstacles.report import write_detection_outputs
@@ -97,7 +96,7 @@ def run_detection(left, right, calibration, config, out_dir, inputs: dict, *, ow
         inputs = {**inputs, "rectification_check": result.rectification_check.to_dict()}
     write_detection_outputs(out_dir, left=left, labels=result.segmentation.labels, disparity=result.disparity,
                             depth_m=result.depth_m, obstacle_list=result.obstacles, calibration=calibration,
-                            config=config.to_dict(), timings=result.timings_s, inputs=inputs, own_folder=own_folder)
+                            config=config.to_dict(), timings=result.timings_s, inputs=inputs)
     return result
 
 

@@ -291,8 +291,7 @@ def run(args: argparse.Namespace) -> int:
                                                 config=config.to_dict(), timings=result.timings_s,
                                                 inputs={"source": source.description, "frame": detection.frame.index,
                                                         "rectification": rectified_by,
-                                                        "rectification_check": first_checked},
-                                                own_folder=True)    # this run's frame: a rerun replaces a killed one
+                                                        "rectification_check": first_checked})
                     if video is not None:
                         video.write(annotate_frame(detection))
                     record = frame_record(detection)
