@@ -220,6 +220,13 @@ def test_a_dataset_folder_given_itself_is_one_pair_with_its_own_calibration(tmp_
     assert json.loads((tmp_path / "out" / "scene" / "obstacles.json").read_text())["units"] == "metres"
     kitti = shared_dataset("kitti2015_000005")
     assert [(p.name, p.folder) for p in find_pairs(kitti)] == [("kitti2015_000005", str(kitti))]
+    # a layout without calibration given itself was "no stereo pairs found" (review, session 24)
+    for name in ("opencv_aloe", "middlebury2003_teddy"):
+        folder = shared_dataset(name)
+        assert [(p.name, p.folder) for p in find_pairs(folder)] == [(name, str(folder))]
+    assert main(["batch", str(shared_dataset("opencv_aloe")), "--out", str(tmp_path / "aloe"), "--workers", "1",
+                 "--task", "disparity"]) == 0
+    assert (tmp_path / "aloe" / "opencv_aloe" / "disparity.pfm").is_file()
 
 
 def test_calib_replaces_a_dataset_folders_own_calibration_that_does_not_parse(tmp_path, capsys):

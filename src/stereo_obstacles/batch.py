@@ -14,7 +14,10 @@
 * image files in the folder itself paired by name: ``<key>left<rest>`` with
   ``<key>right<rest>`` (any case), or ``<key>L.<ext>`` with ``<key>R.<ext>`` where the
   letter follows a non-letter (``0001_L.png``);
-* ``left/`` and ``right/`` sub-folders holding images of the same names.
+* ``left/`` and ``right/`` sub-folders holding images of the same names;
+* when none of the above is found, the folder itself as one pair of a layout without
+  calibration that :func:`stereo_obstacles.datasets.load_pair` reads (a Middlebury 2003
+  folder, OpenCV's aloe pair).
 
 :func:`run_batch` runs :func:`process_pair` on every pair whose output folder lacks a done
 file (``done.json``, written atomically after every other output of the pair), in this
@@ -203,6 +206,8 @@ def find_pairs(input_dir: str | os.PathLike[str], *, skip: str | os.PathLike[str
             name = folder.name if frame is None else f"{folder.name}_{frame}"
             pairs.append(PairSpec(name, folder=str(folder), frame=frame))
     pairs.extend(own_pairs or _pairs_by_name(root, prefix="", warn=True))
+    if not pairs and _is_a_dataset(root):                    # one pair of a layout without calibration
+        pairs.append(PairSpec(name, folder=str(root)))      # (Middlebury 2003, OpenCV's aloe), given itself
     names = [p.name.casefold() for p in pairs]               # one output folder on a case-insensitive disk
     duplicates = sorted({p.name for p in pairs if names.count(p.name.casefold()) > 1})
     if duplicates:
