@@ -12,6 +12,8 @@ import shutil
 import numpy as np
 import pytest
 
+import stereo_obstacles
+
 from _rectification_cases import synthetic_case
 from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration, write_camera_pair_json
 from stereo_obstacles.calibration import read_calibration_json
@@ -127,6 +129,8 @@ def test_rectify_with_the_new_calibration(calibrated, chessboard, tmp_path, caps
                  "--calib", str(calibrated.with_suffix(".yml")), "--out", str(out)]) == 0
     assert "after:" in capsys.readouterr().out
     report = json.loads((out / "rectification.json").read_text())
+    assert (report["format"], report["version"]) == ("stereo-obstacles/rectification", 1)    # was "0.1.0" (review)
+    assert report["package_version"] == stereo_obstacles.__version__
     assert report["features_after"]["vertical_offset"]["median_px"] < 0.5
     assert report["features_before"]["vertical_offset"]["median_px"] > 5
     assert read_calibration_json(out / "calibration.json").doffs_px == 0.0

@@ -53,6 +53,19 @@ def test_area_outside_image_is_an_error_naming_its_corners_and_unit():
         ReferenceArea(100, 100, 120, 120, unit="px").to_pixels(50, 50)
 
 
+def test_an_area_in_pixels_reaching_past_the_image_is_cut_to_it_and_said_so(caplog):
+    # --reference 0,0,2000,2000 on a 640x480 pair was cut to the image without a word (review, session 24)
+    with caplog.at_level("WARNING", logger="stereo_obstacles.reference_area"):
+        assert ReferenceArea(0, 400, 2000, 2000, unit="px").to_pixels(480, 640) == (0, 400, 640, 480)
+    assert "reference area 0,400,2000,2000 (pixels) reaches past the 640x480 image: (0, 400, 640, 480) is used" \
+        in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="stereo_obstacles.reference_area"):
+        assert ReferenceArea(0, 400, 640, 480, unit="px").to_pixels(480, 640) == (0, 400, 640, 480)
+        assert ReferenceArea(0.0, 0.85, 1.0, 1.0).to_pixels(480, 640) == (0, 408, 640, 480)
+    assert caplog.text == ""
+
+
 def test_area_smaller_than_the_pixels_it_needs_says_so():
     rgb = _noisy((120, 140, 90))[:4, :4]                     # 16 pixels, each bright enough
     with pytest.raises(InvalidInputError, match="holds only 16 pixels; it needs at least 30"):

@@ -106,6 +106,9 @@ class ReferenceArea:
         x1, y1 = min(x1, width), min(y1, height)
         if x1 <= x0 or y1 <= y0:
             raise InvalidInputError(f"reference area {self} is empty in a {width}x{height} image")
+        if (x1, y1) != box[2:]:                 # pixels given for another image size?
+            logger.warning("reference area %s reaches past the %dx%d image: (%d, %d, %d, %d) is used", self, width,
+                           height, x0, y0, x1, y1)
         return x0, y0, x1, y1
 
 

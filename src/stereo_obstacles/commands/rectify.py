@@ -10,6 +10,10 @@ from stereo_obstacles.commands._calibration_options import CALIB_UNIT_HELP
 REPORT_FORMAT = "stereo-obstacles/rectification"
 """The ``format`` of ``rectification.json``: how a later run knows the folder holds its output."""
 
+REPORT_VERSION = 1
+"""The version of that format, a whole number as every other document's (the package version
+that wrote it is ``package_version``)."""
+
 OUTPUT_FILES = ("left.png", "right.png", "calibration.json", "rectification.json")
 """What ``rectify`` writes into its folder: the rectified pair, the rectified calibration
 (calibrated case) and the quality report."""
@@ -83,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
     if np.array_equal(left, right):                # "they look swapped" or "degenerate motion" said it badly
         raise ImageMismatchError(f"{args.left} and {args.right} are the same image; rectifying needs the two "
                                  f"cameras' images")
-    report = {"format": REPORT_FORMAT, "version": __version__, "left": str(args.left), "right": str(args.right)}
+    report = {"format": REPORT_FORMAT, "version": REPORT_VERSION, "package_version": __version__,
+              "left": str(args.left), "right": str(args.right)}
     rectified_calibration = None
     if args.uncalibrated:
         from stereo_obstacles.uncalibrated_rectification import rectify_uncalibrated
