@@ -58,6 +58,7 @@ from stereo_obstacles.colour_split import ColourCue, colour_cue
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
+from stereo_obstacles.face_joining import FaceJoiningParameters, join_obstacles, obstacles_sharing_a_face
 from stereo_obstacles.field_checks import (check_integers, check_numbers, check_positive, check_types, plain_number,
                                            plain_numbers)
 from stereo_obstacles.image_pairs import check_same_size
@@ -74,8 +75,8 @@ from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceAre
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size, warn_if_scale_raised
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
-from stereo_obstacles.textureless_fill import (TexturelessFillParameters, fill_textureless, textureless_candidates,
-                                               widen_obstacles)
+from stereo_obstacles.textureless_fill import (TexturelessFillParameters, bracketed_runs, paint_runs,
+                                               textureless_candidates, widen_obstacles)
 from stereo_obstacles.thread_pool import run_each_in_threads
 from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
 
@@ -167,6 +168,9 @@ class DetectionConfig:
     (:mod:`stereo_obstacles.textureless_fill`): the free range per direction is measured with
     them, and the obstacles' boxes, lateral extents and widths take them in (their distances do not);
     ``None`` uses the matched pixels only.
+    ``face_joining``: where the textureless fill runs, two obstacles that are the outlines of
+    one textureless face (the ends of its bracketed rows) are joined into one
+    (:mod:`stereo_obstacles.face_joining`); ``None`` keeps them apart.
     ``hidden_ground``: with a calibration, a ground plane and trusted colour labels, a group of
     obstacle pixels made mostly of ground-coloured matches that, were they ground, the right
     camera could not see behind a nearer object's left edge is rejected, with its reason
@@ -188,6 +192,7 @@ class DetectionConfig:
     standing_max_sigma_px: float = 0.75
     textureless_fill: TexturelessFillParameters | None = field(default_factory=TexturelessFillParameters)
     hidden_ground: HiddenGroundParameters | None = field(default_factory=HiddenGroundParameters)
+    face_joining: FaceJoiningParameters | None = field(default_factory=FaceJoiningParameters)
 
     def __post_init__(self) -> None:
         # a dict or None for a stage's options failed later with AttributeError (API review, session 23)
@@ -196,7 +201,8 @@ class DetectionConfig:
                            ("obstacles", ObstacleParameters), ("check_rectification", bool)))
         check_types(self, (("blind_strip", BlindStripParameters), ("visibility", VisibilityParameters),
                            ("textureless_fill", TexturelessFillParameters),
-                           ("hidden_ground", HiddenGroundParameters)), allow_none=True)
+                           ("hidden_ground", HiddenGroundParameters), ("face_joining", FaceJoiningParameters)),
+                    allow_none=True)
         check_numbers(self, (("geometric_min_height_m", 0.0, math.inf), ("geometric_min_excess_px", 0.0, math.inf)))
         check_scale(plain_number(self, "matching_scale"))
         if self.standing_significance is not None:
@@ -449,6 +455,13 @@ FOOT_REACH_PX = 2
 """A flat group within this many pixels of a reported obstacle is that obstacle's foot."""
 
 
+def _joined_groups(groups: np.ndarray, id_map: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarray:
+    """``groups`` (``int (H, W)``, the groups the obstacles of ``id_map`` were measured from) with
+    the groups of each pair of obstacle ids joined (:func:`~stereo_obstacles.face_joining.join_obstacles`)."""
+    group_of = {k: int(groups[id_map == k].flat[0]) for pair in pairs for k in pair}
+    return join_obstacles(groups, [(group_of[a], group_of[b]) for a, b in pairs])
+
+
 def _without_feet(flat_groups: np.ndarray, id_map: np.ndarray) -> np.ndarray:
     """Flat groups with those touching a reported obstacle removed.
 
@@ -616,8 +629,16 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         # the scan from the delivered disparity (no blind-strip extrapolation), textureless faces filled
         scan_ids, scan_disparity = obstacles.id_map, disparity
         if textureless is not None and ground is not None and colour_trusted:
-            scan_ids, scan_disparity = fill_textureless(textureless, scan_ids, scan_disparity, segmentation.labels,
-                                                        ground, config.textureless_fill)
+            runs = bracketed_runs(textureless, obstacles.id_map, disparity, segmentation.labels, ground,
+                                  config.textureless_fill)
+            joined = (obstacles_sharing_a_face(runs, obstacles.id_map, disparity, calibration, config.face_joining)
+                      if config.face_joining is not None else [])
+            if joined:
+                obstacles = measure_obstacles(_joined_groups(groups, obstacles.id_map, joined), measured, calibration,
+                                              ground, config.obstacles, with_scan=False)
+                runs = bracketed_runs(textureless, obstacles.id_map, disparity, segmentation.labels, ground,
+                                      config.textureless_fill)
+            scan_ids, scan_disparity = paint_runs(obstacles.id_map, disparity, runs)
             obstacles = widen_obstacles(obstacles, scan_ids, scan_disparity, calibration,
                                         config.obstacles.corridor_width_m)
         obstacles = replace(obstacles, scan=obstacle_scan(scan_ids, scan_disparity, calibration, config.obstacles))

@@ -136,6 +136,67 @@ def _mean_over_columns(contacts: np.ndarray, contact_d: np.ndarray, n_regions: i
         return np.where(n > 0, (sums[region, x1 + 1] - sums[region, x0]) / n, np.nan)
 
 
+@dataclass(frozen=True)
+class BracketedRuns:
+    """The runs of the textureless regions that :func:`fill_textureless` fills: in row ``y``,
+    columns ``x0..x1`` (inclusive), bracketed by obstacle pixels at columns ``xl`` (left) and
+    ``xr`` (right) of disparities ``d_left`` and ``d_right``. Each field is an array of one value
+    per run (``int64``; the disparities ``float32``, pixels)."""
+
+    y: np.ndarray
+    x0: np.ndarray
+    x1: np.ndarray
+    xl: np.ndarray
+    xr: np.ndarray
+    d_left: np.ndarray
+    d_right: np.ndarray
+
+
+def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray, labels: np.ndarray,
+                   ground: GroundPlane, params: TexturelessFillParameters = TexturelessFillParameters()
+                   ) -> BracketedRuns | None:
+    """The runs of the textureless regions to fill (module docstring), ``None`` when there are
+    none. The arguments are :func:`fill_textureless`'s."""
+    ids, d = _checked_maps(candidates, id_map, disparity, labels)
+    regions = empty_regions_kernel(np.ascontiguousarray(candidates, dtype=np.int32), ids, d, params.min_area_px)
+    n_regions = int(regions.max(initial=0))
+    if n_regions == 0:
+        return None
+    y, x0, x1, region, xl, xr = bracketed_runs_kernel(regions, ids, d, params.reach_px).T
+    bracketed = (xl >= 0) & (xr >= 0)
+    d_left, d_right = d[y, np.maximum(xl, 0)], d[y, np.maximum(xr, 0)]
+    bracketed &= _agree(d_left, d_right, params.end_tolerance_px, params.end_tolerance_fraction)
+    contacts, columns = ground_contacts_kernel(regions, n_regions, np.ascontiguousarray(labels, dtype=np.uint8),
+                                               Label.GROUND.value, Label.SHADOW.value, params.max_walk_px)
+    contact_d = ground.disparity_at(contacts[:, 1].astype(np.float64), contacts[:, 2].astype(np.float64))
+    standing = _standing_regions(region * ids.shape[0] + y, bracketed, d_left, d_right, contacts, contact_d, columns,
+                                 n_regions, ids.shape[0], params)
+    # each run stands where its nearer end does: the ground it meets in its own columns agrees
+    # with that end (a run between the edges of two nearer objects meets the ground behind them)
+    run_contact = _mean_over_columns(contacts, contact_d, n_regions, ids.shape[1], region, x0, x1)
+    stands = _agree(np.maximum(d_left, d_right), run_contact, params.contact_tolerance_px,
+                    params.contact_tolerance_fraction)
+    chosen = bracketed & standing[region] & stands
+    if not chosen.any():
+        return None
+    return BracketedRuns(y[chosen], x0[chosen], x1[chosen], xl[chosen], xr[chosen], d_left[chosen], d_right[chosen])
+
+
+def _checked_maps(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray,
+                  labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``id_map`` as contiguous ``int32`` and ``disparity`` as contiguous ``float32``, or
+    :class:`InvalidInputError` for ids beyond 32 bits or maps of different shapes."""
+    id_map = np.asarray(id_map)
+    if id_map.size and not (np.iinfo(np.int32).min <= id_map.min() and id_map.max() <= np.iinfo(np.int32).max):
+        raise InvalidInputError(f"id_map: obstacle ids must fit in 32 bits, got {id_map.min()}..{id_map.max()}")
+    ids = np.ascontiguousarray(id_map, dtype=np.int32)
+    d = np.ascontiguousarray(disparity, dtype=np.float32)
+    if d.shape != ids.shape or np.shape(labels) != ids.shape or np.shape(candidates) != ids.shape:
+        raise InvalidInputError(f"candidates {np.shape(candidates)}, id_map {ids.shape}, disparity {d.shape} and "
+                                f"labels {np.shape(labels)} must have one shape")
+    return ids, d
+
+
 def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray, labels: np.ndarray,
                      ground: GroundPlane, params: TexturelessFillParameters = TexturelessFillParameters()
                      ) -> tuple[np.ndarray, np.ndarray]:
@@ -164,37 +225,7 @@ def fill_textureless(candidates: np.ndarray, id_map: np.ndarray, disparity: np.n
         ``int32 (H, W)`` ids and ``float32 (H, W)`` disparities: copies of the inputs with the
         filled pixels set (the inputs themselves when nothing is filled).
     """
-    id_map = np.asarray(id_map)
-    if id_map.size and not (np.iinfo(np.int32).min <= id_map.min() and id_map.max() <= np.iinfo(np.int32).max):
-        raise InvalidInputError(f"id_map: obstacle ids must fit in 32 bits, got {id_map.min()}..{id_map.max()}")
-    ids = np.ascontiguousarray(id_map, dtype=np.int32)
-    d = np.ascontiguousarray(disparity, dtype=np.float32)
-    if d.shape != ids.shape or np.shape(labels) != ids.shape or np.shape(candidates) != ids.shape:
-        raise InvalidInputError(f"candidates {np.shape(candidates)}, id_map {ids.shape}, disparity {d.shape} and "
-                                f"labels {np.shape(labels)} must have one shape")
-    regions = empty_regions_kernel(np.ascontiguousarray(candidates, dtype=np.int32), ids, d, params.min_area_px)
-    n_regions = int(regions.max(initial=0))
-    if n_regions == 0:
-        return ids, d
-    y, x0, x1, region, xl, xr = bracketed_runs_kernel(regions, ids, d, params.reach_px).T
-    bracketed = (xl >= 0) & (xr >= 0)
-    d_left, d_right = d[y, np.maximum(xl, 0)], d[y, np.maximum(xr, 0)]
-    bracketed &= _agree(d_left, d_right, params.end_tolerance_px, params.end_tolerance_fraction)
-    contacts, columns = ground_contacts_kernel(regions, n_regions, np.ascontiguousarray(labels, dtype=np.uint8),
-                                               Label.GROUND.value, Label.SHADOW.value, params.max_walk_px)
-    contact_d = ground.disparity_at(contacts[:, 1].astype(np.float64), contacts[:, 2].astype(np.float64))
-    standing = _standing_regions(region * ids.shape[0] + y, bracketed, d_left, d_right, contacts, contact_d, columns,
-                                 n_regions, ids.shape[0], params)
-    # each run stands where its nearer end does: the ground it meets in its own columns agrees
-    # with that end (a run between the edges of two nearer objects meets the ground behind them)
-    run_contact = _mean_over_columns(contacts, contact_d, n_regions, ids.shape[1], region, x0, x1)
-    stands = _agree(np.maximum(d_left, d_right), run_contact, params.contact_tolerance_px,
-                    params.contact_tolerance_fraction)
-    chosen = bracketed & standing[region] & stands
-    if not chosen.any():
-        return ids, d
-    return _paint_runs(ids, d, y[chosen], x0[chosen], x1[chosen], xl[chosen], xr[chosen], d_left[chosen],
-                       d_right[chosen])
+    return paint_runs(id_map, disparity, bracketed_runs(candidates, id_map, disparity, labels, ground, params))
 
 
 def _standing_regions(region_rows: np.ndarray, bracketed: np.ndarray, d_left: np.ndarray, d_right: np.ndarray,
@@ -217,18 +248,21 @@ def _standing_regions(region_rows: np.ndarray, bracketed: np.ndarray, d_left: np
     return standing
 
 
-def _paint_runs(ids: np.ndarray, d: np.ndarray, y: np.ndarray, x0: np.ndarray, x1: np.ndarray, xl: np.ndarray,
-                xr: np.ndarray, d_left: np.ndarray, d_right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Copies of ``ids`` and ``d`` with each run (row ``y``, columns ``x0..x1``, bracketed at
-    ``xl`` and ``xr`` by disparities ``d_left`` and ``d_right``) given the disparities interpolated
-    between its ends and the id of its nearer end."""
-    lengths = x1 - x0 + 1
+def paint_runs(id_map: np.ndarray, disparity: np.ndarray,
+               runs: BracketedRuns | None) -> tuple[np.ndarray, np.ndarray]:
+    """``int32`` copies of ``id_map`` and ``float32`` of ``disparity`` (``(H, W)``) with each run
+    (:func:`bracketed_runs` of them) given the disparities interpolated between its ends and the
+    id of its nearer end; the maps themselves (as those types) when ``runs`` is ``None``."""
+    ids, d = np.asarray(id_map, dtype=np.int32), np.asarray(disparity, dtype=np.float32)
+    if runs is None:
+        return ids, d
+    lengths = runs.x1 - runs.x0 + 1
     run = np.repeat(np.arange(lengths.size), lengths)
-    xs = x0[run] + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
-    ys = y[run]
-    left_d, right_d = d_left[run], d_right[run]
-    t = (xs - xl[run]) / (xr[run] - xl[run])
-    nearer = np.where(left_d >= right_d, xl[run], xr[run])
+    xs = runs.x0[run] + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    ys = runs.y[run]
+    left_d, right_d = runs.d_left[run], runs.d_right[run]
+    t = (xs - runs.xl[run]) / (runs.xr[run] - runs.xl[run])
+    nearer = np.where(left_d >= right_d, runs.xl[run], runs.xr[run])
     ids, d = ids.copy(), d.copy()
     d[ys, xs] = left_d + (right_d - left_d) * t
     ids[ys, xs] = ids[ys, nearer]
@@ -306,4 +340,5 @@ def widen_obstacles(obstacle_list: ObstacleList, filled_ids: np.ndarray, filled_
     return replace(obstacle_list, obstacles=tuple(widened),
                    corridor=corridor_summary(tuple(widened), corridor_width_m))
 
-__all__ = ["TexturelessFillParameters", "fill_textureless", "textureless_candidates", "widen_obstacles"]
+__all__ = ["BracketedRuns", "TexturelessFillParameters", "bracketed_runs", "fill_textureless", "paint_runs",
+           "textureless_candidates", "widen_obstacles"]

@@ -1,0 +1,109 @@
+"""Joining obstacles that are the two outlines of one textureless face.
+
+A face of dull paint or plastic gives the matcher nothing inside its outline
+(:mod:`stereo_obstacles.textureless_fill`), so a near box or cylinder can come out as two or three
+obstacles: its left edge, its right edge, a lit strip. Each is measured on its own pixels, and the
+one that overlaps the object most need not be the nearest (a cylinder 2.79 m away listed at 2.84,
+2.88 and 2.96 m). The textureless fill finds the rows of such a face that are bracketed on both
+sides by obstacle pixels of agreeing disparity and that stand on the ground at that depth; when
+the two ends of at least ``min_runs`` of them belong to two different obstacles, both are one
+surface, and the obstacles are joined, if
+
+* the two ends of each of those runs lie within ``end_tolerance_m`` of each other in depth, and
+* the two obstacles' median depths lie within ``max_depth_gap_m`` of each other.
+
+The tolerances are in metres, not pixels of disparity, because a fixed disparity tolerance is
+many metres at 10 m: with the fill's own (1 px or 10 %), a box at 7.3 m was joined to the wall
+1.9 m behind it (``docs/pipeline.md``, "Obstacles that bracket one textureless face").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.textureless_fill import BracketedRuns
+
+__all__ = ["FaceJoiningParameters", "join_obstacles", "obstacles_sharing_a_face"]
+
+
+@dataclass(frozen=True)
+class FaceJoiningParameters:
+    """When two obstacles bracketing one textureless face are joined (module docstring)."""
+
+    min_runs: int = 5
+    end_tolerance_m: float = 0.15
+    max_depth_gap_m: float = 0.3
+
+    def __post_init__(self) -> None:
+        check_integers(self, (("min_runs", 1, 10 ** 6),))
+        check_numbers(self, (("end_tolerance_m", 0.0, math.inf), ("max_depth_gap_m", 0.0, math.inf)))
+
+
+def _within_m(d_a: np.ndarray | float, d_b: np.ndarray | float, metres: float,
+              calibration: StereoCalibration) -> np.ndarray:
+    """Whether disparities ``d_a`` and ``d_b`` (pixels) lie within ``metres`` of each other in
+    depth, to first order: ``|d_a - d_b| <= metres * (d + doffs) ** 2 / (f B)`` at the nearer one."""
+    shifted = np.maximum(d_a, d_b) + calibration.doffs_px
+    return np.abs(np.asarray(d_a) - np.asarray(d_b)) <= metres * shifted ** 2 / calibration.focal_baseline_px_m
+
+
+def obstacles_sharing_a_face(runs: BracketedRuns | None, id_map: np.ndarray, disparity: np.ndarray,
+                             calibration: StereoCalibration,
+                             params: FaceJoiningParameters = FaceJoiningParameters()) -> list[tuple[int, int]]:
+    """The pairs ``(a, b)``, ``a < b``, of obstacle ids to join (module docstring).
+
+    Parameters
+    ----------
+    runs
+        :func:`stereo_obstacles.textureless_fill.bracketed_runs` of ``id_map``; ``None``: no runs.
+    id_map
+        ``int (H, W)``: the obstacle each pixel belongs to, 0 for none.
+    disparity
+        ``float32 (H, W)`` disparity in pixels, NaN where unmatched.
+    calibration
+        The rig, for the tolerances in metres.
+    params
+        When to join.
+    """
+    if runs is None:
+        return []
+    ids = np.asarray(id_map)
+    a, b = ids[runs.y, runs.xl], ids[runs.y, runs.xr]
+    counted = (a != b) & (a > 0) & (b > 0) & _within_m(runs.d_left, runs.d_right, params.end_tolerance_m, calibration)
+    if not counted.any():
+        return []
+    pairs, counts = np.unique(np.stack([np.minimum(a, b)[counted], np.maximum(a, b)[counted]]), axis=1,
+                              return_counts=True)
+    joined = []
+    for (first, second), count in zip(pairs.T, counts):
+        if count < params.min_runs:
+            continue
+        medians = [float(np.nanmedian(disparity[ids == k])) for k in (first, second)]
+        if _within_m(*medians, params.max_depth_gap_m, calibration):
+            joined.append((int(first), int(second)))
+    return joined
+
+
+def join_obstacles(id_map: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarray:
+    """``int32 (H, W)``: ``id_map`` with each set of obstacles that ``pairs`` link (directly or
+    through others) under the smallest id among them."""
+    ids = np.asarray(id_map)
+    top = int(ids.max(initial=0))
+    root = np.arange(top + 1)
+
+    def find(k: int) -> int:
+        while root[k] != k:
+            k = root[k]
+        return k
+
+    for first, second in pairs:
+        r1, r2 = find(first), find(second)
+        root[max(r1, r2)] = min(r1, r2)
+    for k in range(top + 1):
+        root[k] = find(k)
+    return root[ids].astype(np.int32)
