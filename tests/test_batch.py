@@ -12,6 +12,7 @@ import pytest
 from _stream_frames import N_FRAMES, frames
 from stereo_obstacles.batch import (DONE_FILE, SUMMARY_FILE, BatchJob, PairSpec, find_pairs, process_pair,
                                     run_batch)
+from stereo_obstacles.atomic import MOVE_RECORD
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.cli import main
 from stereo_obstacles.errors import InputFileError, InvalidInputError
@@ -254,8 +255,11 @@ def test_a_rerun_replaces_a_pair_killed_while_its_report_moved_in(tmp_path):
     out = tmp_path / "out"
     args = ["batch", str(tmp_path / "in"), "--out", str(out), "--workers", "1"]
     assert main(args) == 0
-    stage = out / ".scene.@killed00.partial"                        # as a SIGKILL while moving in leaves it
-    stage.mkdir()
+    stage = out / ".scene.@killed00.partial"                        # as a SIGKILL while moving in leaves it:
+    stage.mkdir()                                                   # its record of the move, the last files
+    record = [[p.name, [st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns]]
+              for p in (out / "scene").iterdir() if (st := p.lstat()) and p.name != DONE_FILE]
+    (stage / MOVE_RECORD).write_text(json.dumps(record))
     for name in ("obstacles.json", "index.html"):
         (out / "scene" / name).rename(stage / name)
     (out / "scene" / DONE_FILE).unlink()

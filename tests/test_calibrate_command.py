@@ -8,6 +8,7 @@ import json
 import os
 import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -71,6 +72,17 @@ def test_pairs_without_the_board_are_rejected_by_name(chessboard, tmp_path, caps
     # files without a partner were left out without a word (review, session 24)
     assert ("3 images in " + str(tmp_path) + " have no partner of the other camera and are left out: left07.jpg, "
             "right02.jpg, right03.jpg") in caplog.text
+
+
+def test_folder_pairs_are_found_in_any_case_and_not_in_words_that_end_in_right(tmp_path, caplog):
+    from stereo_obstacles.commands.calibrate import _pairs_from_folder
+
+    for name in ("LEFT05.jpg", "RIGHT05.jpg", "camLeft_2.png", "camRight_2.png", "bright_spot.jpg", "copyright.png",
+                 "left9.png"):
+        (tmp_path / name).write_bytes(b"")
+    assert [(Path(a).name, Path(b).name) for a, b in _pairs_from_folder(str(tmp_path))] == [
+        ("LEFT05.jpg", "RIGHT05.jpg"), ("camLeft_2.png", "camRight_2.png")]
+    assert caplog.text.count("WARNING") == 1 and "1 image in" in caplog.text and "left out: left9.png" in caplog.text
 
 
 def test_a_board_size_that_does_not_fit_the_board_is_named_in_the_error(chessboard, tmp_path, capsys):

@@ -205,7 +205,9 @@ def test_an_image_size_that_is_not_two_positive_whole_numbers_is_one_clear_error
             reader(path)
 
 
-@pytest.mark.parametrize("p1", ["5", "[ 1, 2, 3 ]", "{ rows: 3 }", "abc"])
+@pytest.mark.parametrize("p1", ["5", "[ 1, 2, 3 ]", "{ rows: 3 }", "abc",
+                                "!!opencv-matrix\n   rows: 3\n   cols: 4\n   dt: d\n   data: [ 1, 2, 3 ]",
+                                "!!opencv-matrix\n   rows: 3\n   cols: 4\n   dt: q\n   data: [ 1, 2, 3 ]"])
 def test_a_projection_that_is_not_a_matrix_is_named(tmp_path, p1):
     # "P1: 5" gave OpenCV's assertion text: "OpenCV(5.0.0) .../persistence.cpp:2294: error: (-215:Assertion
     # failed) isMap() in function 'operator[]'" (review, session 24)

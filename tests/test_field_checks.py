@@ -14,6 +14,8 @@ from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 from stereo_obstacles.pipeline import DetectionConfig
 from stereo_obstacles.synthetic.render import RenderOptions
+from stereo_obstacles.synthetic.rig import RightCameraError, StereoRig
+from stereo_obstacles.synthetic.scene import Lighting
 
 
 @dataclass
@@ -81,13 +83,28 @@ def test_numpy_scalars_are_replaced_by_python_numbers_of_the_same_value():
 
 
 def _numeric_fields(instance, path=()):
-    """(path, value) of every int or float field of a dataclass and the dataclasses nested in it."""
+    """(path, value) of every number field, and tuple of numbers, of a dataclass and the
+    dataclasses nested in it."""
     for field in dataclasses.fields(instance):
         value = getattr(instance, field.name)
         if dataclasses.is_dataclass(value):
             yield from _numeric_fields(value, path + (field.name,))
-        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        elif _is_number(value) or (isinstance(value, tuple) and value and all(_is_number(v) for v in value)):
             yield path + (field.name,), value
+
+
+def _is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _numpy_forms(value):
+    """The NumPy forms a value taken from an array can have: scalars of each width, a 0-d array,
+    a tuple of NumPy scalars."""
+    if isinstance(value, tuple):
+        return [tuple(np.int64(v) if isinstance(v, int) else np.float32(v) for v in value)]
+    if isinstance(value, int):
+        return [np.int64(value), np.int32(value), np.array(value)]
+    return [np.float64(value), np.float32(value), np.longdouble(value), np.array(value)]
 
 
 def _replaced(instance, path, value):
@@ -97,20 +114,23 @@ def _replaced(instance, path, value):
 
 
 _OPTIONS = [DetectionConfig(), StereoCalibration(focal_px=554.0, cx_px=319.5, cy_px=239.5, baseline_m=0.12,
-                                                 width_px=640, height_px=480), RenderOptions()]
+                                                 width_px=640, height_px=480), RenderOptions(),
+            StereoRig(640, 480, focal_px=500.0), RightCameraError((0.5, 0.0, 0.0)), Lighting()]
 
 
 @pytest.mark.parametrize("options", _OPTIONS, ids=lambda o: type(o).__name__)
-def test_every_option_takes_a_numpy_scalar_and_stays_json_ready(options):
+def test_every_option_takes_a_numpy_number_and_stays_json_ready(options):
     """A value taken from an array (a focal length ``K[0, 0]`` of a float32 matrix, a size of an
-    int64 array) is the number it holds: accepted where the Python number is, and written to
-    JSON (the resolved configuration in obstacles.json, a calibration file) as that number."""
+    int64 array, a tuple of thresholds) is the number it holds: accepted where the Python number
+    is, hashable, and written to JSON (the resolved configuration in obstacles.json, a
+    calibration file) as that number."""
     fields = list(_numeric_fields(options))
-    assert len(fields) > 5
+    assert len(fields) >= 2
     for path, value in fields:
-        for numpy_type in ((np.int64, np.int32) if isinstance(value, int) else (np.float64, np.float32)):
-            made = _replaced(options, path, numpy_type(value))
+        for numpy_form in _numpy_forms(value):
+            made = _replaced(options, path, numpy_form)
+            hash(made)
             written = json.loads(json.dumps(dataclasses.asdict(made)))
             for name in path:
                 written = written[name]
-            assert written == pytest.approx(value, rel=1e-6), (path, numpy_type)
+            assert written == pytest.approx(list(value) if isinstance(value, tuple) else value, rel=1e-6), path

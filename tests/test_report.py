@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -212,46 +213,95 @@ def test_the_library_writer_refuses_a_scene_and_a_users_files_as_the_commands_do
     assert (tmp_path / "mine" / "index.html").read_text() == "my page"
 
 
-def test_a_report_cut_short_while_moving_in_is_replaced_by_the_next_run_and_a_users_files_are_not(tmp_path,
-                                                                                                  monkeypatch):
-    # obstacles.json is removed first and moved in last; the staging folder kept when the move is
-    # cut short tells the next run that the files there are a report's. batch and video skipped the
-    # refusal of foreign files in their own folders instead, and replaced a user's index.html in
-    # OUT/<pair> (review, session 24)
+def _cut_short(out, monkeypatch, calibrated=True):
+    """Write a report into ``out`` (which holds one) and stop it where it moves obstacles.json in."""
     import os
 
-    out = tmp_path / "out"
-    _write(out)
     real_replace = os.replace
 
-    def killed_at_obstacles_json(src, dst):
+    def stopped_at_obstacles_json(src, dst):
         if os.fspath(dst) == os.fspath(out / "obstacles.json"):          # the move in, not the staged write
             raise KeyboardInterrupt
         real_replace(src, dst)
 
-    (out / "disparity.png").write_text("the user's")                     # a former picture name
-    monkeypatch.setattr(os, "replace", killed_at_obstacles_json)
+    monkeypatch.setattr(os, "replace", stopped_at_obstacles_json)
     with pytest.raises(KeyboardInterrupt):
-        _write(out)
+        _write(out, calibrated=calibrated)
     monkeypatch.setattr(os, "replace", real_replace)
     assert not (out / "obstacles.json").exists() and (out / "disparity.pfm").is_file()
-    left = [p for p in tmp_path.iterdir() if p.name.startswith(".out.@") and p.name.endswith(".partial")]
-    assert len(left) == 1 and (left[0] / "obstacles.json").is_file()     # kept: the report's mark
+
+
+def test_a_report_cut_short_while_moving_in_is_replaced_by_the_next_run(tmp_path, monkeypatch):
+    # obstacles.json is removed first and moved in last. The staging folder, kept with its record
+    # of the move, tells the next run which files there are the report's. batch and video skipped
+    # the refusal of foreign files in their own folders instead, and replaced a user's index.html
+    # in OUT/<pair> (review, session 24)
+    out = tmp_path / "out"
+    _write(out)
+    (out / "disparity.png").write_text("the user's")                     # a former picture name
+    _cut_short(out, monkeypatch)
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith(".out.@") and p.name.endswith(".partial")]
+    assert len(kept) == 1 and (kept[0] / "obstacles.json").is_file()
     report.check_report_folder(out)
     _write(out)
     assert report.holds_a_report(out) and (out / "disparity.png").read_text() == "the user's"
-    # the same files without that mark are a user's: refused, with why, nothing touched
-    mine = tmp_path / "mine"
-    mine.mkdir()
-    for name in ("index.html", "labels.png"):
-        (mine / name).write_text("mine")
-    with pytest.raises(OutputError, match="holds labels.png, index.html but no report of this tool .*nor one of a "
-                                          "report cut short while moving in"):
-        _write(mine)
-    assert {p.name: p.read_text() for p in mine.iterdir()} == {"index.html": "mine", "labels.png": "mine"}
-    (mine / "obstacles.json").write_text('{"mine": 1}')                   # another tool's obstacles.json
+
+
+def test_a_users_file_put_where_a_cut_short_report_was_is_refused(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    _write(out)
+    _cut_short(out, monkeypatch)
+    (out / "labels.png").unlink()
+    (out / "labels.png").write_text("mine, written after")                # not the file the move recorded
+    with pytest.raises(OutputError, match="holds labels.png but no report of this tool .*nor files a report's move "
+                                          "cut short left"):
+        _write(out)
+    assert (out / "labels.png").read_text() == "mine, written after"
+
+
+def test_a_run_killed_before_its_move_began_vouches_for_nothing(tmp_path):
+    # its staging folder holds obstacles.json (written first) but no record of a move: a folder of
+    # that name made later with a user's files in it was replaced, and that folder deleted (review)
+    import shutil
+
+    _write(tmp_path / "done")
+    shutil.copytree(tmp_path / "done", tmp_path / ".site.@killed00.partial")
+    (tmp_path / "site").mkdir()
+    (tmp_path / "site" / "index.html").write_text("<h1>mine</h1>")
+    with pytest.raises(OutputError, match="holds index.html but no report of this tool"):
+        _write(tmp_path / "site")
+    assert (tmp_path / "site" / "index.html").read_text() == "<h1>mine</h1>"
+
+
+def test_the_mark_of_a_cut_short_move_is_found_however_the_folder_is_named(tmp_path, monkeypatch):
+    # --out . inside the folder put the staging folder inside it, where --out R did not look (review)
+    from stereo_obstacles.atomic import moved_in_files
+
+    real = tmp_path / "real"
+    _write(real)
+    (tmp_path / "link").symlink_to(real)
+    monkeypatch.chdir(real)
+    _cut_short(real, monkeypatch)
+    assert not any(p.name.endswith(".partial") for p in real.iterdir())
+    for spelled in (Path("."), real, tmp_path / "link", Path("..") / "real"):
+        assert "disparity.pfm" in moved_in_files(spelled), spelled
+    report.check_report_folder(Path("."))
+
+
+def test_an_uncalibrated_run_after_a_cut_short_calibrated_one_removes_its_depth_files(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    _write(out, calibrated=False)
+    _cut_short(out, monkeypatch, calibrated=True)
+    assert (out / "depth.npy").is_file()
+    _write(out, calibrated=False)
+    assert not any((out / name).exists() for name in report.CALIBRATED_ONLY)
+
+
+def test_another_tools_obstacles_json_is_not_written_over(tmp_path):
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "obstacles.json").write_text('{"mine": 1}')
     with pytest.raises(OutputError, match="not a report of this tool"):
-        report.check_report_folder(mine)
+        report.check_report_folder(tmp_path / "mine")
 
 
 def test_a_report_is_not_written_over_a_scene_or_another_tools_obstacles_json(tmp_path):

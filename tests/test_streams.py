@@ -168,6 +168,9 @@ def test_a_missing_source_is_named_not_taken_for_an_image_sequence(tmp_path):
     left, _ = write_videos(tmp_path)
     with pytest.raises(InputFileError, match=r"^\S*missing.avi does not exist \(a video file, a folder of images"):
         open_source([str(left), str(tmp_path / "missing.avi")])
+    (tmp_path / "broken.avi").symlink_to(tmp_path / "nowhere.avi")           # a dangling link too (review)
+    with pytest.raises(InputFileError, match=r"^\S*broken.avi does not exist"):
+        open_source([str(left), str(tmp_path / "broken.avi")])
     with pytest.raises(InputFileError, match=r"left image sequence \S*nodir does not exist"):
         open_source([str(tmp_path / "nodir"), str(tmp_path)], kind="images")
 

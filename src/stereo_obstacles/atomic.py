@@ -11,6 +11,7 @@ Those of a run killed outright are removed by the next write of the same name
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import shutil
 import stat
@@ -19,7 +20,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from stereo_obstacles.errors import OutputError
-from stereo_obstacles.temporaries import create_temporary_file, create_temporary_folder, release
+from stereo_obstacles.temporaries import create_temporary_file, create_temporary_folder, release, temporary_folders
 
 
 def _current_umask() -> int:
@@ -207,6 +208,58 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
     return write_bytes_atomic(path, text.encode("utf-8"))
 
 
+MOVE_RECORD = ".moved-in.json"
+"""Written into a staging folder just before its files are moved into their folder: every file
+the move puts there or replaces, with the device, inode, size and modification time it has (a
+rename keeps them). A move cut short keeps the staging folder with it (:func:`moved_in_files`)."""
+
+
+def _staging_name(out_dir: Path) -> Path:
+    """The path whose name and folder the staging folders of ``out_dir`` take: ``out_dir`` with
+    links and ``.``/``..`` resolved, so that ``--out .`` inside it, ``--out R`` beside it and a link
+    to it share them."""
+    return Path(os.path.realpath(out_dir))
+
+
+def _file_stamp(path: Path) -> list[int] | None:
+    """``[device, inode, size, modification time in ns]`` of the regular file ``path`` (not
+    followed through a link), ``None`` when there is none."""
+    try:
+        st = path.lstat()
+    except OSError:
+        return None
+    return [st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns] if stat.S_ISREG(st.st_mode) else None
+
+
+def _record_move(stage: Path, final: Path, files: list[Path], removed: tuple[str, ...]) -> None:
+    """Write :data:`MOVE_RECORD` into ``stage``: the ``files`` (in ``stage``) about to be moved into
+    ``final``, and the files of ``final`` the move replaces or removes (the ``removed`` names)."""
+    names = [f.relative_to(stage).as_posix() for f in files]
+    stamps = [[name, _file_stamp(stage / name)] for name in names]
+    stamps += [[name, _file_stamp(final / name)] for name in dict.fromkeys(names + list(removed))]
+    record = [[name, stamp] for name, stamp in stamps if stamp is not None]
+    (stage / MOVE_RECORD).write_text(json.dumps(record), encoding="utf-8")
+
+
+def moved_in_files(out_dir: str | os.PathLike[str]) -> set[str]:
+    """The names (relative paths) of the files now in ``out_dir`` that a move into it by
+    :func:`staged_directory` put there or was about to replace when it was cut short (killed,
+    interrupted, a rename that failed): the same file, by device, inode, size and modification
+    time, as its staging folder's :data:`MOVE_RECORD` lists. A file written or changed since, a
+    user's among them, is not one of them; a run killed before its move began left no record."""
+    final = Path(out_dir)
+    vouched = set()
+    for stage in temporary_folders(_staging_name(final)):
+        try:
+            record = json.loads((stage / MOVE_RECORD).read_text(encoding="utf-8"))
+            listed = {(name, tuple(stamp)) for name, stamp in record}
+        except (OSError, UnicodeDecodeError, ValueError, TypeError):
+            continue                                   # no record: killed before its move began
+        vouched |= {name for name, stamp in listed if (stamp_now := _file_stamp(final / name)) is not None
+                    and tuple(stamp_now) == stamp}
+    return vouched
+
+
 @contextlib.contextmanager
 def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = (),
                      stale: tuple[str, ...] = ()) -> Iterator[Path]:
@@ -224,16 +277,17 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     ``stale`` names files of an earlier run that this one does not write (a depth map beside an
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
 
-    A move cut short (an interrupt, a failed rename) keeps the staging folder, holding what was
-    not moved: it tells the next run that the files in ``out_dir`` are this set's, not a user's
-    (:func:`stereo_obstacles.temporaries.unheld_folders`). Staging folders of ``out_dir`` left
-    by killed runs are removed first once a minute old.
+    Before the move into an existing ``out_dir`` begins, :data:`MOVE_RECORD` lists the files it
+    puts there or replaces; a move cut short (interrupted, killed, a rename that failed) keeps
+    the staging folder with it, which tells the next run which files there are this set's
+    (:func:`moved_in_files`). Staging folders of ``out_dir`` left by killed runs are removed
+    first once nobody holds them and they are a minute old.
     """
     final = Path(out_dir)
     check_output_folder(final)
     prepare_parent(final)
     try:
-        stage = create_temporary_folder(final)
+        stage = create_temporary_folder(_staging_name(final))
     except OSError as exc:
         raise OutputError(f"cannot write to folder {final.parent}: {exc.strerror or exc}") from exc
     moving = False
@@ -243,11 +297,13 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         if not final.exists():
             os.replace(stage, final)
             return
+        files = sorted((src for src in stage.rglob("*") if src.is_file()),
+                       key=lambda f: (f.relative_to(stage).as_posix() in last, f))
+        _record_move(stage, final, files, last + stale)
         moving = True
         for name in last + stale:
             (final / name).unlink(missing_ok=True)
-        files = [src for src in stage.rglob("*") if src.is_file()]
-        for src in sorted(files, key=lambda f: (f.relative_to(stage).as_posix() in last, f)):
+        for src in files:
             dest = final / src.relative_to(stage)
             dest.parent.mkdir(parents=True, exist_ok=True)
             os.replace(src, dest)
@@ -258,5 +314,5 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         raise OutputError(f"cannot write to {final}: {exc.strerror or exc}") from exc
     finally:
         release(stage)
-        if not moving:                       # else kept: the mark of a set half moved in
+        if not moving:                       # else kept, with its record of the move
             shutil.rmtree(stage, ignore_errors=True)

@@ -266,12 +266,19 @@ def opencv_image_size(node, source: str) -> tuple[int, int] | None:
 
 def _opencv_matrix(node, name: str, source: str) -> np.ndarray | None:
     """The matrix of an OpenCV ``FileStorage`` node, ``None`` when the file has none; a node that
-    is not a matrix (``P1: 5``) is refused naming it, not with OpenCV's assertion text."""
+    is not a readable matrix (``P1: 5``, 3 values for 3 x 4) is refused naming it, not with
+    OpenCV's assertion text."""
+    import cv2
+
     if node.empty():
         return None
-    if not _is_matrix_node(node):
-        raise CalibrationError(f"{source}: {name} must be a matrix (!!opencv-matrix with rows, cols, dt and data)")
-    return node.mat()
+    if _is_matrix_node(node):
+        try:
+            return node.mat()
+        except cv2.error:                        # rows x cols not the count of data, a dt OpenCV does not know
+            pass
+    raise CalibrationError(f"{source}: {name} must be a matrix (!!opencv-matrix with rows, cols, dt and data, "
+                           f"rows x cols values)")
 
 
 def _read_opencv_storage(path: Path, length_unit: str | None) -> StereoCalibration:

@@ -28,16 +28,31 @@ def is_whole_number(value: object) -> bool:
     return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
-def plain_number(owner: object, name: str) -> object:
-    """``owner.name``, a NumPy integer or floating-point scalar replaced on ``owner`` (a frozen
-    dataclass too) by the Python number of the same value: a field that came from an array
-    (``K[0, 0]``, ``image.shape`` of a NumPy array of sizes) is then JSON-ready, and a narrow
-    integer cannot overflow in the sizes computed from it. Any other value is returned as it is."""
-    value = getattr(owner, name)
-    if isinstance(value, (np.integer, np.floating)):
-        value = value.item()
-        object.__setattr__(owner, name, value)
+def python_number(value: object) -> object:
+    """``value`` as a Python number when it is a NumPy integer or floating-point scalar (a
+    ``longdouble`` too) or a 0-d array of one; a tuple with each such element converted; any
+    other value as it is."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value[()]
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    if isinstance(value, tuple) and any(isinstance(v, (np.generic, np.ndarray)) for v in value):
+        return tuple(python_number(v) for v in value)
     return value
+
+
+def plain_number(owner: object, name: str) -> object:
+    """``owner.name``, replaced on ``owner`` (a frozen dataclass too) by :func:`python_number` of
+    it: a field that came from an array (``K[0, 0]``, ``image.shape`` of a NumPy array of sizes,
+    a tuple of thresholds) is then JSON-ready, and a narrow integer cannot overflow in the sizes
+    computed from it."""
+    value = getattr(owner, name)
+    plain = python_number(value)
+    if plain is not value:
+        object.__setattr__(owner, name, plain)
+    return plain
 
 
 def plain_numbers(owner: object) -> None:
@@ -112,4 +127,4 @@ def check_types(owner: object, kinds: Iterable[tuple[str, type]], *, allow_none:
             raise InvalidInputError(f"{name} must be {expected}, got {type(value).__name__}")
 
 
-__all__ = ["plain_number", "plain_numbers", "check_numbers", "check_positive", "check_integers", "check_types"]
+__all__ = ["python_number", "plain_number", "plain_numbers", "check_numbers", "check_positive", "check_integers", "check_types"]

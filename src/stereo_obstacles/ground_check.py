@@ -50,7 +50,7 @@ from stereo_obstacles._ground_check_kernel import (PATCH_AT_BORDER, PATCH_FLAT, 
                                                    patch_disparities_kernel, window_variance_kernel)
 from stereo_obstacles.colour import check_rgb
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.field_checks import check_integers, check_numbers, plain_numbers
 from stereo_obstacles.ground_plane import GroundPlane, PlaneFitParameters, fit_plane_points
 from stereo_obstacles.quantiles import median
 
@@ -140,6 +140,7 @@ class GroundCheckParameters:
         default_factory=lambda: PlaneFitParameters(inlier_threshold_px=0.5, min_inliers=10, min_slope_y=0.03))
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         check_integers(self, (("window_px", 3, 255), ("vote_window_px", 1, 255), ("patch_rows_px", 3, 255),
                               ("patch_cols_px", 3, 255)), odd=True)
         grid = self.patch_grid

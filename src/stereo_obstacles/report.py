@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from stereo_obstacles import __version__
-from stereo_obstacles.atomic import refuse_foreign_files, staged_directory, write_text_atomic
+from stereo_obstacles.atomic import moved_in_files, refuse_foreign_files, staged_directory, write_text_atomic
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.depth import points_from_depth
 from stereo_obstacles.errors import InvalidInputError, OutputError
@@ -46,7 +46,6 @@ from stereo_obstacles.obstacles import Obstacle, ObstacleList
 from stereo_obstacles.pictures import (
     depth_picture, describe_detection, disparity_picture, draw_obstacles, labels_picture, obstacle_colour, scan_picture)
 from stereo_obstacles.point_cloud import write_ply
-from stereo_obstacles.temporaries import unheld_folders
 
 logger = logging.getLogger(__name__)
 
@@ -255,19 +254,13 @@ def holds_a_report(folder) -> bool:
     return is_document_of(Path(folder) / "obstacles.json", OBSTACLES_FORMAT)
 
 
-def _cut_short_while_moving_in(folder: Path) -> bool:
-    """Whether a report was being moved into ``folder`` when its run was cut short: a staging
-    folder of ``folder`` nobody holds still has the report's ``obstacles.json`` (moved last)."""
-    return any(holds_a_report(stage) for stage in unheld_folders(folder))
-
-
 def check_report_folder(folder) -> None:
     """Raise :class:`OutputError` when a report written into ``folder`` would replace files that
     are not an earlier report's: a rendered scene's ground truth (``scene.json`` beside it), an
     ``obstacles.json`` of another kind, or, without a report of this tool there, any file of
-    the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``). A report cut
-    short while moving in (killed, interrupted) counts as one: the staging folder it left beside
-    ``folder`` still holds its ``obstacles.json``."""
+    the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``) but those a
+    report's move put there or was replacing when it was cut short (killed, interrupted:
+    :func:`stereo_obstacles.atomic.moved_in_files`)."""
     folder = Path(folder)
     if (folder / "scene.json").is_file():
         raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
@@ -275,9 +268,9 @@ def check_report_folder(folder) -> None:
     if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
-    refuse_foreign_files(folder, OUTPUT_FILES, ours=holds_a_report(folder) or _cut_short_while_moving_in(folder),
-                         what="report", missing="no obstacles.json of it, nor one of a report cut short while "
-                                            "moving in")
+    moved_in = moved_in_files(folder)
+    refuse_foreign_files(folder, [name for name in OUTPUT_FILES if name not in moved_in], ours=holds_a_report(folder),
+                         what="report", missing="no obstacles.json of it, nor files a report's move cut short left")
 
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")
@@ -353,7 +346,9 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
                 + ["labels_picture.png"] + (["scan_picture.png"] if with_scan else []))
     earlier_report = holds_a_report(out_dir)                             # else the files there are the user's
     former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
-    stale = (tuple(name for name in CALIBRATED_ONLY if earlier_report and name not in data_files + pictures)
+    # a report cut short while moving in counts too: its depth files go when this one has none
+    ours = earlier_report or bool(moved_in_files(out_dir) & set(OUTPUT_FILES))
+    stale = (tuple(name for name in CALIBRATED_ONLY if ours and name not in data_files + pictures)
              + (FORMER_PICTURE_NAMES if former_kind else ()))
     with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,

@@ -268,7 +268,7 @@ def _list_images(spec: str | os.PathLike[str], side: str) -> list[Path]:
         files = [p for p in Path(text).iterdir() if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS]
     elif glob.has_magic(text):
         files = [Path(p) for p in glob.glob(text) if Path(p).is_file()]
-    elif not os.path.lexists(text):
+    elif not os.path.exists(text):
         raise InputFileError(f"{side} image sequence {text} does not exist (a folder of images or a glob pattern)")
     else:
         raise InputFileError(f"{side} image sequence {text}: not a folder and not a glob pattern")
@@ -480,7 +480,7 @@ def open_source(sources: Sequence[str], *, kind: str = "auto", fps: float = 30.0
         raise InvalidInputError(f"kind must be one of {list(SOURCE_KINDS)}, got {kind!r}")
     sources = [str(s) for s in sources]
     if kind == "auto":
-        missing = [s for s in sources if not s.isdigit() and not glob.has_magic(s) and not os.path.lexists(s)]
+        missing = [s for s in sources if not s.isdigit() and not glob.has_magic(s) and not os.path.exists(s)]
         if missing:                 # named, not taken for an image sequence beside a video (review)
             raise InputFileError(f"{missing[0]} does not exist (a video file, a folder of images, a glob pattern "
                                  f"or a camera index was expected)")

@@ -31,7 +31,7 @@ try:
 except ImportError:                           # Windows: temporaries are neither held nor cleaned up
     fcntl = None
 
-__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "release", "unheld_folders"]
+__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "release", "temporary_folders"]
 
 ABANDONED_AFTER_S = 60.0
 """A temporary nobody holds is removed only when it was last changed this many seconds ago."""
@@ -73,10 +73,10 @@ def release(path: Path) -> None:
         os.close(fd)
 
 
-def _abandoned(entry: os.DirEntry, now: float, min_age_s: float = ABANDONED_AFTER_S) -> bool:
-    """Whether nobody holds ``entry`` and it has not changed for ``min_age_s`` seconds."""
+def _abandoned(entry: os.DirEntry, now: float) -> bool:
+    """Whether nobody holds ``entry`` and it has not changed for :data:`ABANDONED_AFTER_S`."""
     try:
-        if now - entry.stat(follow_symlinks=False).st_mtime < min_age_s:
+        if now - entry.stat(follow_symlinks=False).st_mtime < ABANDONED_AFTER_S:
             return False
         fd = os.open(entry.path, os.O_RDONLY | os.O_NOFOLLOW)      # a symbolic link fails here: not ours
     except OSError:
@@ -102,15 +102,11 @@ def _temporaries(folder: Path, name: str, ending: str) -> list[os.DirEntry]:
         return []
 
 
-def unheld_folders(final: Path, ending: str = ".partial") -> list[Path]:
-    """The staging folders of ``final`` that nobody holds, of any age: what a run left that was
-    killed while moving its files into ``final`` (:func:`stereo_obstacles.atomic.staged_directory`
-    keeps its folder when the move is cut short). None where ``flock`` is not there."""
-    if fcntl is None:
-        return []
-    now = time.time()
-    return [Path(e.path) for e in _temporaries(final.parent, final.name, ending)
-            if e.is_dir(follow_symlinks=False) and _abandoned(e, now, min_age_s=0.0)]
+def temporary_folders(final: Path, ending: str = ".partial") -> list[Path]:
+    """The staging folders of ``final`` there are now, held or not, of any age (real folders, not
+    links): a writer's, or what a run left that was cut short
+    (:func:`stereo_obstacles.atomic.moved_in_files`)."""
+    return [Path(e.path) for e in _temporaries(final.parent, final.name, ending) if e.is_dir(follow_symlinks=False)]
 
 
 def _remove_abandoned(folder: Path, name: str, ending: str) -> None:

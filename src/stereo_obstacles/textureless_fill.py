@@ -48,7 +48,7 @@ from stereo_obstacles._textureless_fill_kernel import (bracketed_runs_kernel, em
                                                        ground_contacts_kernel)
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real
+from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real, plain_numbers
 from stereo_obstacles.ground_plane import GroundPlane
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacles import EXTENT_PERCENTILES, ObstacleList, corridor_summary
@@ -74,6 +74,7 @@ class TexturelessFillParameters:
     edge_thresholds: tuple[float, float] = (20.0, 60.0)
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         check_integers(self, (("min_area_px", 1, 10 ** 9), ("reach_px", 1, 1000), ("max_walk_px", 1, 10 ** 5)))
         check_numbers(self, (("end_tolerance_px", 0.0, 1000.0), ("end_tolerance_fraction", 0.0, 1.0),
                              ("min_bracketed_fraction", 0.0, 1.0), ("contact_tolerance_px", 0.0, 1000.0),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 
 from stereo_obstacles.commands._arguments import output_path
 
@@ -34,9 +35,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm")
 
 
+def _side_word(name: str, side: str) -> re.Match | None:
+    """Where ``side`` (``left`` or ``right``, any case) first stands in ``name`` as a word of its
+    own: at the start, after a non-letter, or capitalised after a small letter (``camLeft``); not
+    the end of a longer word (``bright``, ``copyright``)."""
+    for match in re.finditer(side, name, flags=re.IGNORECASE):
+        i = match.start()
+        if i == 0 or not name[i - 1].isalpha() or (name[i].isupper() and name[i - 1].islower()):
+            return match
+    return None
+
+
 def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
-    """The image pairs of ``folder`` whose names differ only in ``left``/``right`` (or ``Right``),
-    in name order; a warning names the files without a partner, which are left out."""
+    """The image pairs of ``folder`` whose names differ only in ``left``/``right`` (any case), in
+    name order; a warning names the files without a partner, which are left out."""
     import logging
     from pathlib import Path
 
@@ -46,19 +58,16 @@ def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
     if not root.is_dir():
         raise InputFileError(f"--folder {folder} is not a folder")
     images = sorted(p for p in root.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file())
+    rights = {p.name.lower(): p for p in images if _side_word(p.name, "right")}
     pairs, unpaired = [], []
-    for left in (p for p in images if "left" in p.name.lower()):
-        index = left.name.lower().index("left")
-        right = left.with_name(left.name[:index] + "right" + left.name[index + 4:])
-        if not right.is_file():
-            right = left.with_name(left.name[:index] + "Right" + left.name[index + 4:])
-        if right.is_file():
-            pairs.append((str(left), str(right)))
-        else:
+    for left in (p for p in images if _side_word(p.name, "left")):
+        word = _side_word(left.name, "left")
+        right = rights.pop((left.name[:word.start()] + "right" + left.name[word.end():]).lower(), None)
+        if right is None:
             unpaired.append(left.name)
-    partnered = {Path(right).name for _, right in pairs}
-    unpaired += [p.name for p in images if "right" in p.name.lower() and "left" not in p.name.lower()
-                 and p.name not in partnered]
+        else:
+            pairs.append((str(left), str(right)))
+    unpaired += [p.name for p in rights.values()]
     if not pairs:
         raise InputFileError(f"--folder {folder} holds no image pairs named *left*/*right*")
     if unpaired:

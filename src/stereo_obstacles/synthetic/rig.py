@@ -21,7 +21,7 @@ import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import plain_numbers
+from stereo_obstacles.field_checks import plain_numbers, python_number
 
 
 def _check_number(name: str, value: float, lo: float, hi: float) -> None:
@@ -60,6 +60,7 @@ class StereoRig:
     cy_px: float | None = None
 
     def __post_init__(self) -> None:
+        plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         for name in ("width_px", "height_px"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or not 16 <= value <= 8192:
@@ -156,7 +157,8 @@ class RightCameraError:
         if not isinstance(self.rotation_deg, (tuple, list, np.ndarray)):
             raise InvalidInputError(f"right camera rotation_deg needs 3 angles (degrees about x, y, z), got "
                                     f"{self.rotation_deg!r}")
-        rot = tuple(self.rotation_deg)
+        rot = tuple(python_number(angle) for angle in np.asarray(self.rotation_deg, dtype=object).ravel()) \
+            if isinstance(self.rotation_deg, np.ndarray) else tuple(python_number(a) for a in self.rotation_deg)
         if len(rot) != 3:
             raise InvalidInputError(f"right camera rotation_deg needs 3 angles, got {len(rot)}")
         for angle in rot:
