@@ -255,7 +255,7 @@ def test_a_rerun_replaces_a_pair_killed_while_its_report_moved_in(tmp_path):
     out = tmp_path / "out"
     args = ["batch", str(tmp_path / "in"), "--out", str(out), "--workers", "1"]
     assert main(args) == 0
-    stage = out / ".scene.@killed00.partial"                        # as a SIGKILL while moving in leaves it:
+    stage = out / ".scene.@killed00.moving"                         # as a SIGKILL while moving in leaves it:
     stage.mkdir()                                                   # its record of the move, the last files
     record = [[p.name, [st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns]]
               for p in (out / "scene").iterdir() if (st := p.lstat()) and p.name != DONE_FILE]

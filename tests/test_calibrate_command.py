@@ -243,6 +243,28 @@ def test_detect_uncalibrated_makes_no_distances_and_says_what_its_disparities_ar
         "a larger disparity means a nearer obstacle.")
 
 
+def test_rectify_cut_short_while_moving_in_leaves_no_report_beside_mixed_images_and_is_replaced(synthetic_files,
+                                                                                              tmp_path, monkeypatch):
+    # files moved in name order, rectification.json before right.png: a run stopped there left the
+    # new report beside the old right image, taken for a whole earlier run (review, session 24)
+    out = tmp_path / "r"
+    pair = [str(synthetic_files / "left.png"), str(synthetic_files / "right.png")]
+    assert main(["rectify", *pair, "--uncalibrated", "--out", str(out)]) == 0
+    real_replace = os.replace
+
+    def stopped_at_the_right_image(src, dst):
+        if os.fspath(dst) == os.fspath(out / "right.png"):
+            raise KeyboardInterrupt
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", stopped_at_the_right_image)
+    assert main(["rectify", *pair, "--calib", str(synthetic_files / "rig.json"), "--out", str(out)]) == 130
+    monkeypatch.setattr(os, "replace", real_replace)
+    assert not (out / "rectification.json").exists()
+    assert main(["rectify", *pair, "--calib", str(synthetic_files / "rig.json"), "--out", str(out)]) == 0
+    assert json.loads((out / "rectification.json").read_text())["format"] == "stereo-obstacles/rectification"
+
+
 def test_rectify_uncalibrated_over_a_calibrated_run_leaves_no_calibration_of_other_images(synthetic_files, tmp_path,
                                                                                         capsys):
     out = tmp_path / "r"

@@ -50,6 +50,10 @@ def test_too_few_rows_or_obstacles_whose_own_depths_differ_are_not_joined():
     disparity[ids == 2] = 20.0                                                # its own pixels 0.77 m behind
     assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == []
     assert obstacles_sharing_a_face(None, ids, disparity, RIG) == []
+    # 1.108 and 1.494 m: 0.39 m apart, though the first-order gap at the nearer one read 0.29 m (review)
+    runs, ids, disparity = _two_outlines(60.0, 60.0)
+    disparity[ids == 2] = 44.5
+    assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == []
 
 
 def test_joined_sets_take_their_smallest_id():

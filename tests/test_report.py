@@ -240,7 +240,7 @@ def test_a_report_cut_short_while_moving_in_is_replaced_by_the_next_run(tmp_path
     _write(out)
     (out / "disparity.png").write_text("the user's")                     # a former picture name
     _cut_short(out, monkeypatch)
-    kept = [p for p in tmp_path.iterdir() if p.name.startswith(".out.@") and p.name.endswith(".partial")]
+    kept = [p for p in tmp_path.iterdir() if p.name.startswith(".out.@") and p.name.endswith(".moving")]
     assert len(kept) == 1 and (kept[0] / "obstacles.json").is_file()
     report.check_report_folder(out)
     _write(out)
@@ -282,10 +282,53 @@ def test_the_mark_of_a_cut_short_move_is_found_however_the_folder_is_named(tmp_p
     (tmp_path / "link").symlink_to(real)
     monkeypatch.chdir(real)
     _cut_short(real, monkeypatch)
-    assert not any(p.name.endswith(".partial") for p in real.iterdir())
+    assert not any(p.name.startswith(".") for p in real.iterdir())
     for spelled in (Path("."), real, tmp_path / "link", Path("..") / "real"):
         assert "disparity.pfm" in moved_in_files(spelled), spelled
     report.check_report_folder(Path("."))
+
+
+def test_the_record_of_a_cut_short_move_outlives_writes_that_do_not_replace_its_files(tmp_path, monkeypatch):
+    # it was lost to the next write's clean-up of staging folders a minute old, even when that
+    # write stopped before its move, or wrote other files (rectify into the same folder): the
+    # half-moved report was then refused for good (review)
+    import os
+    import time
+
+    from stereo_obstacles.atomic import staged_directory
+
+    out = tmp_path / "out"
+    _write(out)
+    _cut_short(out, monkeypatch)
+    for kept in tmp_path.glob(".out.@*"):
+        os.utime(kept, (time.time() - 600, time.time() - 600))
+    monkeypatch.setattr(report, "write_pfm", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt()))
+    with pytest.raises(KeyboardInterrupt):                                # stopped while writing
+        _write(out)
+    monkeypatch.undo()
+    with staged_directory(out) as stage:                                  # another writer's files
+        (stage / "notes.txt").write_text("other")
+    _write(out)
+    assert report.holds_a_report(out) and (out / "notes.txt").is_file()
+    assert not list(tmp_path.glob(".out.@*"))                             # spent once replaced
+
+
+def test_a_folder_whose_parent_cannot_take_the_staging_folder_gets_it_inside(tmp_path, monkeypatch):
+    # --out . at a mount point put the staging folder in the parent, on another file system:
+    # "cannot write to .: Invalid cross-device link", the earlier report's obstacles.json gone (review)
+    import os
+
+    out = tmp_path / "out"
+    _write(out)
+    real_access = os.access
+    monkeypatch.setattr(os, "access", lambda path, mode, **kw: False if os.fspath(path) == os.fspath(tmp_path)
+                        else real_access(path, mode, **kw))
+    _cut_short(out, monkeypatch)
+    monkeypatch.setattr(os, "access", lambda path, mode, **kw: False if os.fspath(path) == os.fspath(tmp_path)
+                        else real_access(path, mode, **kw))
+    assert [p.name.endswith(".moving") for p in out.iterdir() if p.name.startswith(".")] == [True]
+    _write(out)
+    assert report.holds_a_report(out) and not [p for p in out.iterdir() if p.name.startswith(".")]
 
 
 def test_an_uncalibrated_run_after_a_cut_short_calibrated_one_removes_its_depth_files(tmp_path, monkeypatch):

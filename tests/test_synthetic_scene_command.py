@@ -165,6 +165,28 @@ def test_frame_folders_that_are_not_this_commands_are_refused_before_rendering(t
     assert "is not a frame this command wrote" in capsys.readouterr().err
 
 
+def test_a_sequence_cut_short_while_moving_in_leaves_no_frame_passing_for_a_whole_scene(tmp_path, monkeypatch):
+    # frame_0001 held seed 4's depth, disparity and labels beside seed 3's images and scene.json,
+    # and passed for a scene: wrong ground truth without a word (review, session 24)
+    from stereo_obstacles.synthetic.scene_files import holds_a_scene
+
+    out = tmp_path / "walk"
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "3", "--frames", "2"]) == 0
+    real_replace = os.replace
+
+    def stopped_at_the_second_left_image(src, dst):
+        if os.fspath(dst) == os.fspath(out / "frame_0001" / "left.png"):
+            raise KeyboardInterrupt
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", stopped_at_the_second_left_image)
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 130   # Ctrl-C
+    monkeypatch.setattr(os, "replace", real_replace)
+    assert not holds_a_scene(out / "frame_0001")
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 0   # replaced
+    assert all(json.loads((out / f / "scene.json").read_text())["seed"] == 4 for f in ("frame_0000", "frame_0001"))
+
+
 def test_an_earlier_frame_that_cannot_be_removed_is_an_error_not_a_crash(tmp_path, capsys):
     out = tmp_path / "walk"
     assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "3"]) == 0

@@ -253,9 +253,13 @@ def test_a_shorter_rerun_removes_the_frame_reports_of_the_earlier_run(tmp_path, 
                      "--max-frames", "2"]) == 143
     assert sorted(p.name for p in frames_out.iterdir()) == kept
     capsys.readouterr()
+    import shutil                       # the staging folder a frame's move cut short keeps is no frame report (review)
+    shutil.copytree(frames_out / "0003", frames_out / ".0003.@killed00.moving")
     with caplog.at_level("WARNING", logger="stereo_obstacles"):
         assert main(["video", str(left_dir), str(right_dir), "--frames-out", str(frames_out), "--max-frames", "2"]) == 0
     assert f"removed {N_FRAMES - 2} frame reports of an earlier run over this source" in capsys.readouterr().err
+    assert (frames_out / ".0003.@killed00.moving" / "obstacles.json").is_file()
+    shutil.rmtree(frames_out / ".0003.@killed00.moving")
     assert "also holds 1 frame report of another source (or of this one named otherwise)" in caplog.text
     assert sorted(p.name for p in frames_out.iterdir()) == sorted(["notes", "my_detect_run", "0010", "0000", "0001"])
 

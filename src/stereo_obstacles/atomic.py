@@ -20,7 +20,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from stereo_obstacles.errors import OutputError
-from stereo_obstacles.temporaries import create_temporary_file, create_temporary_folder, release, temporary_folders
+from stereo_obstacles.temporaries import (create_temporary_file, create_temporary_folder, release, rename_temporary,
+                                          temporary_folders, unheld)
 
 
 def _current_umask() -> int:
@@ -123,8 +124,12 @@ def refuse_foreign_files(folder: str | os.PathLike[str], names: Iterable[str], *
                          missing: str) -> None:
     """Raise :class:`OutputError` when ``folder`` holds files of the ``names`` a run writes but
     not a ``what`` of this tool (``ours`` false; ``missing`` says what is not there, such as
-    ``"no scene.json of it"``): a run would replace a user's own files of those names."""
-    theirs = [] if ours else [name for name in names if (Path(folder) / name).exists()]
+    ``"no scene.json of it"``): a run would replace a user's own files of those names. Files a
+    move into ``folder`` cut short put there or was replacing are not a user's
+    (:func:`moved_in_files`)."""
+    present = [] if ours else [name for name in names if (Path(folder) / name).exists()]
+    vouched = moved_in_files(folder) if present else set()
+    theirs = [name for name in present if name not in vouched]
     if theirs:
         raise OutputError(f"{folder} holds {', '.join(theirs)} but no {what} of this tool ({missing}): a {what} "
                           f"would replace them; write it elsewhere, or delete them")
@@ -213,12 +218,22 @@ MOVE_RECORD = ".moved-in.json"
 the move puts there or replaces, with the device, inode, size and modification time it has (a
 rename keeps them). A move cut short keeps the staging folder with it (:func:`moved_in_files`)."""
 
+STAGING, MOVING = ".partial", ".moving"
+"""The endings of a staging folder's name while its files are written, and from the moment its
+record is written and its move begins."""
 
-def _staging_name(out_dir: Path) -> Path:
+
+def _staging_place(out_dir: Path) -> Path:
     """The path whose name and folder the staging folders of ``out_dir`` take: ``out_dir`` with
-    links and ``.``/``..`` resolved, so that ``--out .`` inside it, ``--out R`` beside it and a link
-    to it share them."""
-    return Path(os.path.realpath(out_dir))
+    links and ``.``/``..`` resolved (``--out .`` inside it, ``--out R`` beside it and a link to it
+    share them), or, when its parent is on another file system (a mount point) or cannot be
+    written, a path inside it (a rename cannot cross file systems)."""
+    real = Path(os.path.realpath(out_dir))
+    try:
+        beside = os.stat(real.parent).st_dev == os.stat(real).st_dev and os.access(real.parent, os.W_OK)
+    except OSError:                                    # not there yet: made in its parent
+        beside = True
+    return real if beside else real / real.name
 
 
 def _file_stamp(path: Path) -> list[int] | None:
@@ -241,6 +256,33 @@ def _record_move(stage: Path, final: Path, files: list[Path], removed: tuple[str
     (stage / MOVE_RECORD).write_text(json.dumps(record), encoding="utf-8")
 
 
+def _recorded_stamps(stage: Path) -> set[tuple[str, tuple]]:
+    """The ``(name, stamp)`` pairs of ``stage``'s :data:`MOVE_RECORD`; none when it has no
+    readable one (a run killed before its move began, or something else of that name)."""
+    path = stage / MOVE_RECORD
+    try:
+        if not stat.S_ISREG(path.lstat().st_mode):
+            return set()
+        return {(str(name), tuple(stamp)) for name, stamp in json.loads(path.read_text(encoding="utf-8"))}
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, RecursionError):
+        return set()
+
+
+def _still_there(stage: Path, final: Path) -> set[str]:
+    """The names of the files of ``final`` that ``stage``'s :data:`MOVE_RECORD` lists and that
+    are still those files (device, inode, size and modification time)."""
+    return {name for name, stamp in _recorded_stamps(stage)
+            if (now := _file_stamp(final / name)) is not None and tuple(now) == stamp}
+
+
+def _remove_spent_records(place: Path, final: Path) -> None:
+    """Remove the kept staging folders of moves into ``final`` cut short whose files are all
+    gone or replaced (by a move that completed), and that nobody holds."""
+    for stage in temporary_folders(place, MOVING):
+        if not _still_there(stage, final) and unheld(stage):
+            shutil.rmtree(stage, ignore_errors=True)
+
+
 def moved_in_files(out_dir: str | os.PathLike[str]) -> set[str]:
     """The names (relative paths) of the files now in ``out_dir`` that a move into it by
     :func:`staged_directory` put there or was about to replace when it was cut short (killed,
@@ -249,14 +291,8 @@ def moved_in_files(out_dir: str | os.PathLike[str]) -> set[str]:
     user's among them, is not one of them; a run killed before its move began left no record."""
     final = Path(out_dir)
     vouched = set()
-    for stage in temporary_folders(_staging_name(final)):
-        try:
-            record = json.loads((stage / MOVE_RECORD).read_text(encoding="utf-8"))
-            listed = {(name, tuple(stamp)) for name, stamp in record}
-        except (OSError, UnicodeDecodeError, ValueError, TypeError):
-            continue                                   # no record: killed before its move began
-        vouched |= {name for name, stamp in listed if (stamp_now := _file_stamp(final / name)) is not None
-                    and tuple(stamp_now) == stamp}
+    for stage in temporary_folders(_staging_place(final), MOVING):
+        vouched |= _still_there(stage, final)
     return vouched
 
 
@@ -280,16 +316,18 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     Before the move into an existing ``out_dir`` begins, :data:`MOVE_RECORD` lists the files it
     puts there or replaces; a move cut short (interrupted, killed, a rename that failed) keeps
     the staging folder with it, which tells the next run which files there are this set's
-    (:func:`moved_in_files`). Staging folders of ``out_dir`` left by killed runs are removed
-    first once nobody holds them and they are a minute old.
+    (:func:`moved_in_files`) until a move into ``out_dir`` completes. Staging folders of runs
+    killed while still writing are removed first once nobody holds them and they are a minute old.
     """
     final = Path(out_dir)
     check_output_folder(final)
-    prepare_parent(final)
+    if not final.is_dir():                       # an existing folder's parent need not be writable
+        prepare_parent(final)
+    place = _staging_place(final)
     try:
-        stage = create_temporary_folder(_staging_name(final))
+        stage = create_temporary_folder(place, STAGING)
     except OSError as exc:
-        raise OutputError(f"cannot write to folder {final.parent}: {exc.strerror or exc}") from exc
+        raise OutputError(f"cannot write to folder {place.parent}: {exc.strerror or exc}") from exc
     moving = False
     try:
         yield stage
@@ -297,17 +335,19 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         if not final.exists():
             os.replace(stage, final)
             return
-        files = sorted((src for src in stage.rglob("*") if src.is_file()),
-                       key=lambda f: (f.relative_to(stage).as_posix() in last, f))
-        _record_move(stage, final, files, last + stale)
+        names = sorted((src.relative_to(stage) for src in stage.rglob("*") if src.is_file()),
+                       key=lambda name: (name.as_posix() in last, name))
+        _record_move(stage, final, [stage / name for name in names], last + stale)
+        stage = rename_temporary(stage, STAGING, MOVING)      # from here on, the record vouches
         moving = True
         for name in last + stale:
             (final / name).unlink(missing_ok=True)
-        for src in files:
-            dest = final / src.relative_to(stage)
+        for name in names:
+            dest = final / name
             dest.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(src, dest)
+            os.replace(stage / name, dest)
         moving = False
+        _remove_spent_records(place, final)
     except OSError as exc:
         if isinstance(exc, OutputError):
             raise

@@ -12,6 +12,9 @@ surface, and the obstacles are joined, if
 * the two ends of each of those runs lie within ``end_tolerance_m`` of each other in depth, and
 * the two obstacles' median depths lie within ``max_depth_gap_m`` of each other.
 
+Joins chain: three pieces of a long face, each pair within the tolerances, make one obstacle
+that may span more in depth (the pieces of a wall receding from the camera are one wall).
+
 The tolerances are in metres, not pixels of disparity, because a fixed disparity tolerance is
 many metres at 10 m: with the fill's own (1 px or 10 %), a box at 7.3 m was joined to the wall
 1.9 m behind it (``docs/pipeline.md``, "Obstacles that bracket one textureless face").
@@ -47,9 +50,12 @@ class FaceJoiningParameters:
 def _within_m(d_a: np.ndarray | float, d_b: np.ndarray | float, metres: float,
               calibration: StereoCalibration) -> np.ndarray:
     """Whether disparities ``d_a`` and ``d_b`` (pixels) lie within ``metres`` of each other in
-    depth, to first order: ``|d_a - d_b| <= metres * (d + doffs) ** 2 / (f B)`` at the nearer one."""
-    shifted = np.maximum(d_a, d_b) + calibration.doffs_px
-    return np.abs(np.asarray(d_a) - np.asarray(d_b)) <= metres * shifted ** 2 / calibration.focal_baseline_px_m
+    depth, ``Z = f B / (d + doffs)``; not where either has no positive ``d + doffs``."""
+    shifted_a = np.asarray(d_a, dtype=np.float64) + calibration.doffs_px
+    shifted_b = np.asarray(d_b, dtype=np.float64) + calibration.doffs_px
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gap = calibration.focal_baseline_px_m * np.abs(1.0 / shifted_a - 1.0 / shifted_b)
+    return (shifted_a > 0) & (shifted_b > 0) & (gap <= metres)
 
 
 def obstacles_sharing_a_face(runs: BracketedRuns | None, id_map: np.ndarray, disparity: np.ndarray,

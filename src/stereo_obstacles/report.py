@@ -260,7 +260,7 @@ def check_report_folder(folder) -> None:
     ``obstacles.json`` of another kind, or, without a report of this tool there, any file of
     the names a report writes (:data:`OUTPUT_FILES`: a user's own ``index.html``) but those a
     report's move put there or was replacing when it was cut short (killed, interrupted:
-    :func:`stereo_obstacles.atomic.moved_in_files`)."""
+    :func:`stereo_obstacles.atomic.refuse_foreign_files`)."""
     folder = Path(folder)
     if (folder / "scene.json").is_file():
         raise OutputError(f"{folder} holds a rendered scene: its obstacles.json, labels.png, depth.npy and "
@@ -268,9 +268,8 @@ def check_report_folder(folder) -> None:
     if (folder / "obstacles.json").is_file() and not holds_a_report(folder):
         raise OutputError(f"{folder} holds an obstacles.json that is not a report of this tool; write the report "
                           f"elsewhere")
-    moved_in = moved_in_files(folder)
-    refuse_foreign_files(folder, [name for name in OUTPUT_FILES if name not in moved_in], ours=holds_a_report(folder),
-                         what="report", missing="no obstacles.json of it, nor files a report's move cut short left")
+    refuse_foreign_files(folder, OUTPUT_FILES, ours=holds_a_report(folder), what="report",
+                         missing="no obstacles.json of it, nor files a report's move cut short left")
 
 
 FORMER_PICTURE_NAMES = ("disparity.png", "depth.png")

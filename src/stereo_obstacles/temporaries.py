@@ -31,7 +31,8 @@ try:
 except ImportError:                           # Windows: temporaries are neither held nor cleaned up
     fcntl = None
 
-__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "release", "temporary_folders"]
+__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "release", "rename_temporary",
+           "temporary_folders", "unheld"]
 
 ABANDONED_AFTER_S = 60.0
 """A temporary nobody holds is removed only when it was last changed this many seconds ago."""
@@ -78,16 +79,9 @@ def _abandoned(entry: os.DirEntry, now: float) -> bool:
     try:
         if now - entry.stat(follow_symlinks=False).st_mtime < ABANDONED_AFTER_S:
             return False
-        fd = os.open(entry.path, os.O_RDONLY | os.O_NOFOLLOW)      # a symbolic link fails here: not ours
     except OSError:
         return False
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:                            # held by a live writer, or locks are refused here
-        return False
-    finally:
-        os.close(fd)
-    return True
+    return unheld(Path(entry.path))
 
 
 def _temporaries(folder: Path, name: str, ending: str) -> list[os.DirEntry]:
@@ -102,11 +96,40 @@ def _temporaries(folder: Path, name: str, ending: str) -> list[os.DirEntry]:
         return []
 
 
-def temporary_folders(final: Path, ending: str = ".partial") -> list[Path]:
-    """The staging folders of ``final`` there are now, held or not, of any age (real folders, not
-    links): a writer's, or what a run left that was cut short
-    (:func:`stereo_obstacles.atomic.moved_in_files`)."""
+def temporary_folders(final: Path, ending: str) -> list[Path]:
+    """The temporary folders of ``final`` whose names end in ``ending`` there are now, held or
+    not, of any age (real folders, not links)."""
     return [Path(e.path) for e in _temporaries(final.parent, final.name, ending) if e.is_dir(follow_symlinks=False)]
+
+
+def rename_temporary(path: Path, ending: str, new_ending: str) -> Path:
+    """Rename the temporary ``path`` (``.NAME.@xxxxxxxx`` plus ``ending``) to end in ``new_ending``
+    instead, still held by this process when it was; ``OSError`` when it cannot be."""
+    renamed = path.with_name(path.name[:-len(ending)] + new_ending)
+    os.rename(path, renamed)
+    with _held_guard:
+        if path in _held:
+            _held[renamed] = _held.pop(path)
+    return renamed
+
+
+def unheld(path: Path) -> bool:
+    """Whether nobody holds the temporary ``path`` now, of any age (for temporaries only ever made
+    held, as a staging folder renamed by :func:`rename_temporary`); ``False`` where ``flock`` is
+    not there or refused: it cannot be told."""
+    if fcntl is None:
+        return False
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)      # a symbolic link fails here: not ours
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:                            # held by a live writer, or locks are refused here
+        return False
+    finally:
+        os.close(fd)
+    return True
 
 
 def _remove_abandoned(folder: Path, name: str, ending: str) -> None:

@@ -115,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
     refuse_swapped(after)       # rectified with the calibration, the features say the images were exchanged
     # an earlier calibrated run's calibration.json would describe images this run replaces
     stale = ("calibration.json",) if rectified_calibration is None and earlier_run else ()
-    with staged_directory(args.out, stale=stale) as stage:
+    with staged_directory(args.out, last=("rectification.json",), stale=stale) as stage:   # it vouches for the set
         write_image(stage / "left.png", new_left)
         write_image(stage / "right.png", new_right)
         if rectified_calibration is not None:

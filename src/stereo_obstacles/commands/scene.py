@@ -58,16 +58,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _check_frame_folders(folder, names) -> None:
     """Raise :class:`~stereo_obstacles.errors.OutputError` when a frame folder about to be
     written already exists as something this command did not write (a link, a file, another
-    tool's folder): the frame's files would go into it, or through it elsewhere."""
+    tool's folder): the frame's files would go into it, or through it elsewhere. A frame whose
+    files a move cut short left there is this command's (:func:`~stereo_obstacles.atomic.moved_in_files`)."""
     from pathlib import Path
 
+    from stereo_obstacles.atomic import moved_in_files
     from stereo_obstacles.errors import OutputError
     from stereo_obstacles.synthetic.scene_files import holds_a_scene
 
+    vouched = None
     for name in names:
         frame = Path(folder) / name
-        if frame.is_symlink() or (frame.exists() and not (frame.is_dir() and (holds_a_scene(frame)
-                                                                               or not any(frame.iterdir())))):
+        if frame.is_symlink() or (frame.exists() and not frame.is_dir()):
+            raise OutputError(f"{frame} exists and is not a frame this command wrote; choose another --out")
+        if not frame.exists() or holds_a_scene(frame):
+            continue
+        vouched = moved_in_files(folder) if vouched is None else vouched
+        if not all(f"{name}/{p.relative_to(frame).as_posix()}" in vouched for p in frame.rglob("*") if not p.is_dir()):
             raise OutputError(f"{frame} exists and is not a frame this command wrote; choose another --out")
 
 
@@ -148,7 +155,8 @@ def run(args: argparse.Namespace) -> int:
     stale = SCENE_FILES if holds_a_scene(out) else ()          # a single scene written there before goes,
     stale += tuple(f"{name}/{file}" for name in names            # and what this render does not write
                    for file in SCENE_FILES if file not in scene_file_names(options))
-    with staged_directory(out, stale=stale) as stage:
+    # each frame's scene.json last: a move cut short leaves no frame that passes for a whole scene
+    with staged_directory(out, last=tuple(f"{name}/scene.json" for name in names), stale=stale) as stage:
         for name, pair in zip(names, frames):
             write_scene_folder(stage / name, pair)
     _remove_frames(out, keep=names)                              # and the frames of a longer sequence
