@@ -259,7 +259,7 @@ def test_a_rerun_replaces_a_pair_killed_while_its_report_moved_in(tmp_path):
     stage.mkdir()                                                   # its record of the move, the last files
     record = [[p.name, [st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns]]
               for p in (out / "scene").iterdir() if (st := p.lstat()) and p.name != DONE_FILE]
-    (stage / MOVE_RECORD).write_text(json.dumps(record))
+    (stage / MOVE_RECORD).write_text(json.dumps({"kind": "report", "files": record}))
     for name in ("obstacles.json", "index.html"):
         (out / "scene" / name).rename(stage / name)
     (out / "scene" / DONE_FILE).unlink()

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _interrupted_moves import move_stopped_at
 from _obstacle_scene import RIG, detection
 
 from stereo_obstacles import __version__, report
@@ -215,19 +216,8 @@ def test_the_library_writer_refuses_a_scene_and_a_users_files_as_the_commands_do
 
 def _cut_short(out, monkeypatch, calibrated=True):
     """Write a report into ``out`` (which holds one) and stop it where it moves obstacles.json in."""
-    import os
-
-    real_replace = os.replace
-
-    def stopped_at_obstacles_json(src, dst):
-        if os.fspath(dst) == os.fspath(out / "obstacles.json"):          # the move in, not the staged write
-            raise KeyboardInterrupt
-        real_replace(src, dst)
-
-    monkeypatch.setattr(os, "replace", stopped_at_obstacles_json)
-    with pytest.raises(KeyboardInterrupt):
+    with move_stopped_at(monkeypatch, out / "obstacles.json"), pytest.raises(KeyboardInterrupt):
         _write(out, calibrated=calibrated)
-    monkeypatch.setattr(os, "replace", real_replace)
     assert not (out / "obstacles.json").exists() and (out / "disparity.pfm").is_file()
 
 
@@ -313,22 +303,89 @@ def test_the_record_of_a_cut_short_move_outlives_writes_that_do_not_replace_its_
     assert not list(tmp_path.glob(".out.@*"))                             # spent once replaced
 
 
-def test_a_folder_whose_parent_cannot_take_the_staging_folder_gets_it_inside(tmp_path, monkeypatch):
-    # --out . at a mount point put the staging folder in the parent, on another file system:
-    # "cannot write to .: Invalid cross-device link", the earlier report's obstacles.json gone (review)
+def test_a_folder_a_file_beside_it_cannot_be_renamed_into_gets_its_staging_folder_inside(tmp_path, monkeypatch):
+    # --out . at a mount point, or a bind mount of the same file system, put the staging folder
+    # beside it: "cannot write to .: Invalid cross-device link" after the earlier report's
+    # obstacles.json was removed (reviews)
+    import errno
     import os
+
+    from stereo_obstacles import atomic
 
     out = tmp_path / "out"
     _write(out)
-    real_access = os.access
-    monkeypatch.setattr(os, "access", lambda path, mode, **kw: False if os.fspath(path) == os.fspath(tmp_path)
-                        else real_access(path, mode, **kw))
+    real_rename = os.rename
+
+    def across_mounts(src, dst):
+        if os.path.dirname(os.fspath(src)) == os.fspath(tmp_path) and os.fspath(dst).startswith(os.fspath(out)):
+            raise OSError(errno.EXDEV, "Invalid cross-device link")
+        real_rename(src, dst)
+
+    monkeypatch.setattr(os, "rename", across_mounts)
+    assert atomic._staging_place(out) == out / atomic.INSIDE
     _cut_short(out, monkeypatch)
-    monkeypatch.setattr(os, "access", lambda path, mode, **kw: False if os.fspath(path) == os.fspath(tmp_path)
-                        else real_access(path, mode, **kw))
+    monkeypatch.setattr(os, "rename", across_mounts)
     assert [p.name.endswith(".moving") for p in out.iterdir() if p.name.startswith(".")] == [True]
     _write(out)
     assert report.holds_a_report(out) and not [p for p in out.iterdir() if p.name.startswith(".")]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]            # no probe left behind
+
+
+def test_a_cut_short_scene_vouches_for_no_report_into_its_folder(tmp_path, monkeypatch):
+    # a detect report replaced the ground truth of a scene whose move was cut short: the record
+    # did not say what it was the record of (review)
+    from stereo_obstacles.synthetic import default_scene, render_pair, write_scene_folder
+
+    pair = render_pair(default_scene(160, 120))
+    scene = tmp_path / "scene"
+    write_scene_folder(scene, pair)
+    with move_stopped_at(monkeypatch, scene / "obstacles.json"), pytest.raises(KeyboardInterrupt):
+        write_scene_folder(scene, pair)
+    truth = (scene / "disparity.pfm").read_bytes()
+    with pytest.raises(OutputError, match="holds disparity.pfm, labels.png"):
+        _write(scene)
+    assert (scene / "disparity.pfm").read_bytes() == truth
+    write_scene_folder(scene, pair)                                       # the scene writer takes them
+
+
+def test_spent_records_go_when_the_folder_is_written_anew(tmp_path, monkeypatch):
+    import shutil
+
+    out = tmp_path / "out"
+    _write(out)
+    _cut_short(out, monkeypatch)
+    shutil.rmtree(out)
+    _write(out)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+def test_two_moves_into_one_folder_go_one_after_the_other(tmp_path):
+    # two runs writing one folder at once interleaved their files into a mixed set (review)
+    import threading
+    import time
+
+    from stereo_obstacles.temporaries import held_exclusively
+
+    order = []
+    first_in = threading.Event()
+
+    def first():
+        with held_exclusively(tmp_path):
+            first_in.set()
+            time.sleep(0.3)
+            order.append("first done")
+
+    def second():
+        first_in.wait()
+        with held_exclusively(tmp_path):
+            order.append("second in")
+
+    threads = [threading.Thread(target=first), threading.Thread(target=second)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert order == ["first done", "second in"]
 
 
 def test_an_uncalibrated_run_after_a_cut_short_calibrated_one_removes_its_depth_files(tmp_path, monkeypatch):

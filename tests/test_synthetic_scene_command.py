@@ -8,6 +8,7 @@ import os
 import numpy as np
 import pytest
 
+from _interrupted_moves import move_stopped_at
 from stereo_obstacles.calibration import read_calibration_json
 from stereo_obstacles.cli import main
 from stereo_obstacles.fileio import read_depth, read_disparity, read_image, read_labels
@@ -172,16 +173,8 @@ def test_a_sequence_cut_short_while_moving_in_leaves_no_frame_passing_for_a_whol
 
     out = tmp_path / "walk"
     assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "3", "--frames", "2"]) == 0
-    real_replace = os.replace
-
-    def stopped_at_the_second_left_image(src, dst):
-        if os.fspath(dst) == os.fspath(out / "frame_0001" / "left.png"):
-            raise KeyboardInterrupt
-        real_replace(src, dst)
-
-    monkeypatch.setattr(os, "replace", stopped_at_the_second_left_image)
-    assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 130   # Ctrl-C
-    monkeypatch.setattr(os, "replace", real_replace)
+    with move_stopped_at(monkeypatch, out / "frame_0001" / "left.png"):                          # Ctrl-C
+        assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 130
     assert not holds_a_scene(out / "frame_0001")
     assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 0   # replaced
     assert all(json.loads((out / f / "scene.json").read_text())["seed"] == 4 for f in ("frame_0000", "frame_0001"))

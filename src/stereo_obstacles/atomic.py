@@ -20,8 +20,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from stereo_obstacles.errors import OutputError
-from stereo_obstacles.temporaries import (create_temporary_file, create_temporary_folder, release, rename_temporary,
-                                          temporary_folders, unheld)
+from stereo_obstacles.temporaries import (create_temporary_file, create_temporary_folder, held_exclusively, release,
+                                          rename_temporary, temporary_folders, unheld)
 
 
 def _current_umask() -> int:
@@ -125,10 +125,10 @@ def refuse_foreign_files(folder: str | os.PathLike[str], names: Iterable[str], *
     """Raise :class:`OutputError` when ``folder`` holds files of the ``names`` a run writes but
     not a ``what`` of this tool (``ours`` false; ``missing`` says what is not there, such as
     ``"no scene.json of it"``): a run would replace a user's own files of those names. Files a
-    move into ``folder`` cut short put there or was replacing are not a user's
-    (:func:`moved_in_files`)."""
+    move of a ``what`` into ``folder`` cut short put there or was replacing are not a user's
+    (:func:`moved_in_files`; the writer stages it with ``kind=what``)."""
     present = [] if ours else [name for name in names if (Path(folder) / name).exists()]
-    vouched = moved_in_files(folder) if present else set()
+    vouched = moved_in_files(folder, what) if present else set()
     theirs = [name for name in present if name not in vouched]
     if theirs:
         raise OutputError(f"{folder} holds {', '.join(theirs)} but no {what} of this tool ({missing}): a {what} "
@@ -214,26 +214,48 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
 
 
 MOVE_RECORD = ".moved-in.json"
-"""Written into a staging folder just before its files are moved into their folder: every file
-the move puts there or replaces, with the device, inode, size and modification time it has (a
-rename keeps them). A move cut short keeps the staging folder with it (:func:`moved_in_files`)."""
+"""Written into a staging folder just before its files are moved into their folder: the kind of
+set (``report``, ``scene``, ...) and every file the move puts there or replaces, with the device,
+inode, size and modification time it has (a rename keeps them). A move cut short keeps the
+staging folder with it (:func:`moved_in_files`)."""
 
 STAGING, MOVING = ".partial", ".moving"
 """The endings of a staging folder's name while its files are written, and from the moment its
 record is written and its move begins."""
 
+INSIDE = ".staging"
+"""The name the staging folders of a folder take when they are made inside it."""
+
+
+def _renames_into(source: Path, destination: Path) -> bool:
+    """Whether a file made in the folder ``source`` can be renamed into the folder ``destination``
+    (not across mounts, a bind mount of the same file system included; ``source`` writable)."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".rename-probe.", dir=source)
+    except OSError:
+        return False
+    os.close(fd)
+    moved = destination / Path(probe).name
+    try:
+        os.rename(probe, moved)
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.unlink(probe)
+        return False
+    with contextlib.suppress(OSError):
+        os.unlink(moved)
+    return True
+
 
 def _staging_place(out_dir: Path) -> Path:
     """The path whose name and folder the staging folders of ``out_dir`` take: ``out_dir`` with
     links and ``.``/``..`` resolved (``--out .`` inside it, ``--out R`` beside it and a link to it
-    share them), or, when its parent is on another file system (a mount point) or cannot be
-    written, a path inside it (a rename cannot cross file systems)."""
+    share them), or, when a file made beside it cannot be renamed into it (its parent is another
+    mount, or cannot be written), :data:`INSIDE` in it, whatever it is called."""
     real = Path(os.path.realpath(out_dir))
-    try:
-        beside = os.stat(real.parent).st_dev == os.stat(real).st_dev and os.access(real.parent, os.W_OK)
-    except OSError:                                    # not there yet: made in its parent
-        beside = True
-    return real if beside else real / real.name
+    if not real.is_dir() or _renames_into(real.parent, real):
+        return real
+    return real / INSIDE
 
 
 def _file_stamp(path: Path) -> list[int] | None:
@@ -246,32 +268,37 @@ def _file_stamp(path: Path) -> list[int] | None:
     return [st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns] if stat.S_ISREG(st.st_mode) else None
 
 
-def _record_move(stage: Path, final: Path, files: list[Path], removed: tuple[str, ...]) -> None:
-    """Write :data:`MOVE_RECORD` into ``stage``: the ``files`` (in ``stage``) about to be moved into
-    ``final``, and the files of ``final`` the move replaces or removes (the ``removed`` names)."""
-    names = [f.relative_to(stage).as_posix() for f in files]
+def _record_move(stage: Path, final: Path, names: list[str], removed: tuple[str, ...], kind: str | None) -> None:
+    """Write :data:`MOVE_RECORD` into ``stage``: the set's ``kind``, the files ``names`` (relative
+    paths in ``stage``) about to be moved into ``final``, and the files of ``final`` the move
+    replaces or removes (the ``removed`` names)."""
     stamps = [[name, _file_stamp(stage / name)] for name in names]
     stamps += [[name, _file_stamp(final / name)] for name in dict.fromkeys(names + list(removed))]
-    record = [[name, stamp] for name, stamp in stamps if stamp is not None]
+    record = {"kind": kind, "files": [[name, stamp] for name, stamp in stamps if stamp is not None]}
     (stage / MOVE_RECORD).write_text(json.dumps(record), encoding="utf-8")
 
 
-def _recorded_stamps(stage: Path) -> set[tuple[str, tuple]]:
-    """The ``(name, stamp)`` pairs of ``stage``'s :data:`MOVE_RECORD`; none when it has no
-    readable one (a run killed before its move began, or something else of that name)."""
+def _recorded_stamps(stage: Path, kind: str | None) -> set[tuple[str, tuple]]:
+    """The ``(name, stamp)`` pairs of ``stage``'s :data:`MOVE_RECORD` for a set of ``kind``
+    (``None``: any); none when it has no readable one (a run killed before its move began, or
+    something else of that name)."""
     path = stage / MOVE_RECORD
     try:
         if not stat.S_ISREG(path.lstat().st_mode):
             return set()
-        return {(str(name), tuple(stamp)) for name, stamp in json.loads(path.read_text(encoding="utf-8"))}
-    except (OSError, UnicodeDecodeError, ValueError, TypeError, RecursionError):
+        record = json.loads(path.read_text(encoding="utf-8"))
+        if kind is not None and record["kind"] != kind:
+            return set()
+        return {(str(name), tuple(stamp)) for name, stamp in record["files"]}
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, KeyError, RecursionError):
         return set()
 
 
-def _still_there(stage: Path, final: Path) -> set[str]:
-    """The names of the files of ``final`` that ``stage``'s :data:`MOVE_RECORD` lists and that
-    are still those files (device, inode, size and modification time)."""
-    return {name for name, stamp in _recorded_stamps(stage)
+def _still_there(stage: Path, final: Path, kind: str | None = None) -> set[str]:
+    """The names of the files of ``final`` that ``stage``'s :data:`MOVE_RECORD` (of a set of
+    ``kind``; ``None``: any) lists and that are still those files (device, inode, size and
+    modification time)."""
+    return {name for name, stamp in _recorded_stamps(stage, kind)
             if (now := _file_stamp(final / name)) is not None and tuple(now) == stamp}
 
 
@@ -283,22 +310,23 @@ def _remove_spent_records(place: Path, final: Path) -> None:
             shutil.rmtree(stage, ignore_errors=True)
 
 
-def moved_in_files(out_dir: str | os.PathLike[str]) -> set[str]:
-    """The names (relative paths) of the files now in ``out_dir`` that a move into it by
-    :func:`staged_directory` put there or was about to replace when it was cut short (killed,
-    interrupted, a rename that failed): the same file, by device, inode, size and modification
-    time, as its staging folder's :data:`MOVE_RECORD` lists. A file written or changed since, a
-    user's among them, is not one of them; a run killed before its move began left no record."""
+def moved_in_files(out_dir: str | os.PathLike[str], kind: str | None = None) -> set[str]:
+    """The names (relative paths) of the files now in ``out_dir`` that a move of a set of ``kind``
+    (``None``: any) into it by :func:`staged_directory` put there or was about to replace when it
+    was cut short (killed, interrupted, a rename that failed): the same file, by device, inode,
+    size and modification time, as its staging folder's :data:`MOVE_RECORD` lists. A file written
+    or changed since, a user's among them, is not one of them; a run killed before its move began
+    left no record."""
     final = Path(out_dir)
     vouched = set()
     for stage in temporary_folders(_staging_place(final), MOVING):
-        vouched |= _still_there(stage, final)
+        vouched |= _still_there(stage, final, kind)
     return vouched
 
 
 @contextlib.contextmanager
 def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] = (),
-                     stale: tuple[str, ...] = ()) -> Iterator[Path]:
+                     stale: tuple[str, ...] = (), kind: str | None = None) -> Iterator[Path]:
     """Yield a hidden staging folder; on success move its files into ``out_dir``.
 
     ``out_dir`` may exist already: files of the same names are replaced, other files are
@@ -313,8 +341,9 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     ``stale`` names files of an earlier run that this one does not write (a depth map beside an
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
 
-    Before the move into an existing ``out_dir`` begins, :data:`MOVE_RECORD` lists the files it
-    puts there or replaces; a move cut short (interrupted, killed, a rename that failed) keeps
+    Before the move into an existing ``out_dir`` begins, :data:`MOVE_RECORD` names the set's
+    ``kind`` and lists the files it puts there or replaces; the move holds an exclusive lock on
+    ``out_dir`` (two runs into one folder move one after the other); a move cut short (interrupted, killed, a rename that failed) keeps
     the staging folder with it, which tells the next run which files there are this set's
     (:func:`moved_in_files`) until a move into ``out_dir`` completes. Staging folders of runs
     killed while still writing are removed first once nobody holds them and they are a minute old.
@@ -334,19 +363,21 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         _give_default_permissions(stage, folder=True)
         if not final.exists():
             os.replace(stage, final)
+            _remove_spent_records(place, final)
             return
         names = sorted((src.relative_to(stage) for src in stage.rglob("*") if src.is_file()),
                        key=lambda name: (name.as_posix() in last, name))
-        _record_move(stage, final, [stage / name for name in names], last + stale)
-        stage = rename_temporary(stage, STAGING, MOVING)      # from here on, the record vouches
-        moving = True
-        for name in last + stale:
-            (final / name).unlink(missing_ok=True)
-        for name in names:
-            dest = final / name
-            dest.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(stage / name, dest)
-        moving = False
+        with held_exclusively(final):
+            _record_move(stage, final, [name.as_posix() for name in names], last + stale, kind)
+            stage = rename_temporary(stage, STAGING, MOVING)      # from here on, the record vouches
+            moving = True
+            for name in last + stale:
+                (final / name).unlink(missing_ok=True)
+            for name in names:
+                dest = final / name
+                dest.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(stage / name, dest)
+            moving = False
         _remove_spent_records(place, final)
     except OSError as exc:
         if isinstance(exc, OutputError):

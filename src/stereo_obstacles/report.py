@@ -346,10 +346,10 @@ def write_detection_outputs(out_dir: str | os.PathLike[str], *, left: np.ndarray
     earlier_report = holds_a_report(out_dir)                             # else the files there are the user's
     former_kind = earlier_report and not (Path(out_dir) / "disparity_picture.png").is_file()
     # a report cut short while moving in counts too: its depth files go when this one has none
-    ours = earlier_report or bool(moved_in_files(out_dir) & set(OUTPUT_FILES))
+    ours = earlier_report or bool(moved_in_files(out_dir, "report") & set(OUTPUT_FILES))
     stale = (tuple(name for name in CALIBRATED_ONLY if ours and name not in data_files + pictures)
              + (FORMER_PICTURE_NAMES if former_kind else ()))
-    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale) as stage:
+    with staged_directory(out_dir, last=("obstacles.json", "index.html"), stale=stale, kind="report") as stage:
         write_obstacles_json(stage / "obstacles.json", obstacle_list, calibration,
                              config=config, timings_s=timings, inputs=inputs)
         write_pfm(stage / "disparity.pfm", disparity)

@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from stereo_obstacles import __version__
-    from stereo_obstacles.atomic import check_output_folder, refuse_foreign_files, staged_directory
+    from stereo_obstacles.atomic import check_output_folder, moved_in_files, refuse_foreign_files, staged_directory
     from stereo_obstacles.calibration import write_calibration_json
     from stereo_obstacles.camera_calibration import CameraPairCalibration, read_camera_calibration
     from stereo_obstacles.errors import CalibrationError, ImageMismatchError, OutputError
@@ -113,9 +113,12 @@ def run(args: argparse.Namespace) -> int:
     report["features_before"] = before.to_dict()
     report["features_after"] = after.to_dict()
     refuse_swapped(after)       # rectified with the calibration, the features say the images were exchanged
-    # an earlier calibrated run's calibration.json would describe images this run replaces
-    stale = ("calibration.json",) if rectified_calibration is None and earlier_run else ()
-    with staged_directory(args.out, last=("rectification.json",), stale=stale) as stage:   # it vouches for the set
+    # an earlier calibrated run's calibration.json would describe images this run replaces (one
+    # whose move was cut short too: review, session 24)
+    earlier_part = "calibration.json" in moved_in_files(args.out, "rectification")
+    stale = ("calibration.json",) if rectified_calibration is None and (earlier_run or earlier_part) else ()
+    with staged_directory(args.out, last=("rectification.json",), stale=stale,
+                          kind="rectification") as stage:   # rectification.json vouches for the set
         write_image(stage / "left.png", new_left)
         write_image(stage / "right.png", new_right)
         if rectified_calibration is not None:

@@ -73,7 +73,7 @@ def _check_frame_folders(folder, names) -> None:
             raise OutputError(f"{frame} exists and is not a frame this command wrote; choose another --out")
         if not frame.exists() or holds_a_scene(frame):
             continue
-        vouched = moved_in_files(folder) if vouched is None else vouched
+        vouched = moved_in_files(folder, "scene") if vouched is None else vouched
         if not all(f"{name}/{p.relative_to(frame).as_posix()}" in vouched for p in frame.rglob("*") if not p.is_dir()):
             raise OutputError(f"{frame} exists and is not a frame this command wrote; choose another --out")
 
@@ -156,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
     stale += tuple(f"{name}/{file}" for name in names            # and what this render does not write
                    for file in SCENE_FILES if file not in scene_file_names(options))
     # each frame's scene.json last: a move cut short leaves no frame that passes for a whole scene
-    with staged_directory(out, last=tuple(f"{name}/scene.json" for name in names), stale=stale) as stage:
+    with staged_directory(out, last=tuple(f"{name}/scene.json" for name in names), stale=stale, kind="scene") as stage:
         for name, pair in zip(names, frames):
             write_scene_folder(stage / name, pair)
     _remove_frames(out, keep=names)                              # and the frames of a longer sequence

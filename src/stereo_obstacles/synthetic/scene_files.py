@@ -157,7 +157,7 @@ def write_scene_folder(out_dir: str | os.PathLike[str], pair: SyntheticPair) -> 
     names = scene_file_names(pair.options)
     unrectified = "camera_pair.json" in names
     with staged_directory(out_dir, last=("obstacles.json", "scene.json"),
-                          stale=tuple(name for name in SCENE_FILES if name not in names)) as stage:
+                          stale=tuple(name for name in SCENE_FILES if name not in names), kind="scene") as stage:
         write_image(stage / "left.png", pair.left)
         write_image(stage / "right.png", pair.right)
         write_disparity(stage / "disparity.pfm", pair.disparity)
