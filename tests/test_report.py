@@ -359,33 +359,25 @@ def test_spent_records_go_when_the_folder_is_written_anew(tmp_path, monkeypatch)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
 
 
-def test_two_moves_into_one_folder_go_one_after_the_other(tmp_path):
-    # two runs writing one folder at once interleaved their files into a mixed set (review)
-    import threading
+def test_looking_for_records_writes_nothing_and_a_probe_a_kill_left_goes_with_the_next_write(tmp_path):
+    # the rename probe ran on every look, writing into the output folder's parent, and one left by
+    # a kill stayed for good (review)
+    import os
     import time
 
-    from stereo_obstacles.temporaries import held_exclusively
+    from stereo_obstacles.atomic import moved_in_files
 
-    order = []
-    first_in = threading.Event()
-
-    def first():
-        with held_exclusively(tmp_path):
-            first_in.set()
-            time.sleep(0.3)
-            order.append("first done")
-
-    def second():
-        first_in.wait()
-        with held_exclusively(tmp_path):
-            order.append("second in")
-
-    threads = [threading.Thread(target=first), threading.Thread(target=second)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert order == ["first done", "second in"]
+    out = tmp_path / "out"
+    _write(out)
+    before = sorted(p.name for p in tmp_path.iterdir()), sorted(p.name for p in out.iterdir())
+    moved_in_files(out)
+    report.check_report_folder(out)
+    assert (sorted(p.name for p in tmp_path.iterdir()), sorted(p.name for p in out.iterdir())) == before
+    left = tmp_path / ".out.@deadbeef.probe"
+    left.write_bytes(b"")
+    os.utime(left, (time.time() - 120, time.time() - 120))
+    _write(out)
+    assert not left.exists()
 
 
 def test_an_uncalibrated_run_after_a_cut_short_calibrated_one_removes_its_depth_files(tmp_path, monkeypatch):

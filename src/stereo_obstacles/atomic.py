@@ -20,8 +20,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from stereo_obstacles.errors import OutputError
-from stereo_obstacles.temporaries import (create_temporary_file, create_temporary_folder, held_exclusively, release,
-                                          rename_temporary, temporary_folders, unheld)
+from stereo_obstacles.temporaries import (create_temporary_file, create_temporary_folder, release, rename_temporary,
+                                          temporary_folders, unheld)
 
 
 def _current_umask() -> int:
@@ -227,15 +227,16 @@ INSIDE = ".staging"
 """The name the staging folders of a folder take when they are made inside it."""
 
 
-def _renames_into(source: Path, destination: Path) -> bool:
-    """Whether a file made in the folder ``source`` can be renamed into the folder ``destination``
-    (not across mounts, a bind mount of the same file system included; ``source`` writable)."""
+def _renames_into(folder: Path) -> bool:
+    """Whether a file made beside ``folder`` (a temporary of its name, removed by the next write
+    of it if a kill leaves it) can be renamed into it: not across mounts, a bind mount of the same
+    file system included, and not when the parent cannot be written."""
     try:
-        fd, probe = tempfile.mkstemp(prefix=".rename-probe.", dir=source)
+        probe = create_temporary_file(folder, ".probe")
     except OSError:
         return False
-    os.close(fd)
-    moved = destination / Path(probe).name
+    release(probe)
+    moved = folder / probe.name
     try:
         os.rename(probe, moved)
     except OSError:
@@ -247,15 +248,27 @@ def _renames_into(source: Path, destination: Path) -> bool:
     return True
 
 
+def _real(out_dir: Path) -> Path:
+    """``out_dir`` with links and ``.``/``..`` resolved: ``--out .`` inside it, ``--out R``
+    beside it and a link to it name one folder."""
+    return Path(os.path.realpath(out_dir))
+
+
 def _staging_place(out_dir: Path) -> Path:
-    """The path whose name and folder the staging folders of ``out_dir`` take: ``out_dir`` with
-    links and ``.``/``..`` resolved (``--out .`` inside it, ``--out R`` beside it and a link to it
-    share them), or, when a file made beside it cannot be renamed into it (its parent is another
-    mount, or cannot be written), :data:`INSIDE` in it, whatever it is called."""
-    real = Path(os.path.realpath(out_dir))
-    if not real.is_dir() or _renames_into(real.parent, real):
+    """The path whose name and folder a new staging folder of ``out_dir`` takes: its real path
+    (:func:`_real`), or, when a file made beside it cannot be renamed into it,
+    :data:`INSIDE` in it, whatever it is called. Tried once per write."""
+    real = _real(out_dir)
+    if not real.is_dir() or _renames_into(real):
         return real
     return real / INSIDE
+
+
+def _kept_records(out_dir: Path) -> list[Path]:
+    """The staging folders of moves into ``out_dir`` that began (ending in :data:`MOVING`),
+    wherever :func:`_staging_place` put them, found without writing anything."""
+    real = _real(out_dir)
+    return temporary_folders(real, MOVING) + temporary_folders(real / INSIDE, MOVING)
 
 
 def _file_stamp(path: Path) -> list[int] | None:
@@ -302,10 +315,10 @@ def _still_there(stage: Path, final: Path, kind: str | None = None) -> set[str]:
             if (now := _file_stamp(final / name)) is not None and tuple(now) == stamp}
 
 
-def _remove_spent_records(place: Path, final: Path) -> None:
+def _remove_spent_records(final: Path) -> None:
     """Remove the kept staging folders of moves into ``final`` cut short whose files are all
     gone or replaced (by a move that completed), and that nobody holds."""
-    for stage in temporary_folders(place, MOVING):
+    for stage in _kept_records(final):
         if not _still_there(stage, final) and unheld(stage):
             shutil.rmtree(stage, ignore_errors=True)
 
@@ -319,7 +332,7 @@ def moved_in_files(out_dir: str | os.PathLike[str], kind: str | None = None) -> 
     left no record."""
     final = Path(out_dir)
     vouched = set()
-    for stage in temporary_folders(_staging_place(final), MOVING):
+    for stage in _kept_records(final):
         vouched |= _still_there(stage, final, kind)
     return vouched
 
@@ -342,8 +355,7 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
 
     Before the move into an existing ``out_dir`` begins, :data:`MOVE_RECORD` names the set's
-    ``kind`` and lists the files it puts there or replaces; the move holds an exclusive lock on
-    ``out_dir`` (two runs into one folder move one after the other); a move cut short (interrupted, killed, a rename that failed) keeps
+    ``kind`` and lists the files it puts there or replaces; a move cut short (interrupted, killed, a rename that failed) keeps
     the staging folder with it, which tells the next run which files there are this set's
     (:func:`moved_in_files`) until a move into ``out_dir`` completes. Staging folders of runs
     killed while still writing are removed first once nobody holds them and they are a minute old.
@@ -363,22 +375,21 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
         _give_default_permissions(stage, folder=True)
         if not final.exists():
             os.replace(stage, final)
-            _remove_spent_records(place, final)
+            _remove_spent_records(final)
             return
         names = sorted((src.relative_to(stage) for src in stage.rglob("*") if src.is_file()),
                        key=lambda name: (name.as_posix() in last, name))
-        with held_exclusively(final):
-            _record_move(stage, final, [name.as_posix() for name in names], last + stale, kind)
-            stage = rename_temporary(stage, STAGING, MOVING)      # from here on, the record vouches
-            moving = True
-            for name in last + stale:
-                (final / name).unlink(missing_ok=True)
-            for name in names:
-                dest = final / name
-                dest.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(stage / name, dest)
-            moving = False
-        _remove_spent_records(place, final)
+        _record_move(stage, final, [name.as_posix() for name in names], last + stale, kind)
+        stage = rename_temporary(stage, STAGING, MOVING)      # from here on, the record vouches
+        moving = True
+        for name in last + stale:
+            (final / name).unlink(missing_ok=True)
+        for name in names:
+            dest = final / name
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(stage / name, dest)
+        moving = False
+        _remove_spent_records(final)
     except OSError as exc:
         if isinstance(exc, OutputError):
             raise

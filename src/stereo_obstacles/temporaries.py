@@ -24,7 +24,6 @@ import shutil
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 try:
@@ -32,8 +31,8 @@ try:
 except ImportError:                           # Windows: temporaries are neither held nor cleaned up
     fcntl = None
 
-__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "held_exclusively", "release",
-           "rename_temporary", "temporary_folders", "unheld"]
+__all__ = ["ABANDONED_AFTER_S", "create_temporary_file", "create_temporary_folder", "release", "rename_temporary",
+           "temporary_folders", "unheld"]
 
 ABANDONED_AFTER_S = 60.0
 """A temporary nobody holds is removed only when it was last changed this many seconds ago."""
@@ -131,27 +130,6 @@ def unheld(path: Path) -> bool:
     finally:
         os.close(fd)
     return True
-
-
-@contextlib.contextmanager
-def held_exclusively(folder: Path) -> Iterator[None]:
-    """Hold an exclusive ``flock`` on ``folder`` for the block, waiting for any other holder (two
-    runs moving files into one folder move one after the other); nothing where ``flock`` is not
-    there or refused."""
-    fd = None
-    if fcntl is not None:
-        try:
-            fd = os.open(folder, os.O_RDONLY)
-            fcntl.flock(fd, fcntl.LOCK_EX)
-        except OSError:
-            if fd is not None:
-                os.close(fd)
-            fd = None
-    try:
-        yield
-    finally:
-        if fd is not None:
-            os.close(fd)
 
 
 def _remove_abandoned(folder: Path, name: str, ending: str) -> None:
