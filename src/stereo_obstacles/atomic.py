@@ -4,8 +4,10 @@ A file is written to a temporary name in its destination folder and renamed over
 name only once it is whole, so an interrupted run never leaves a truncated file that looks
 finished. A set of files that belong together (a scene, a detection report) is staged in a
 hidden temporary folder beside the destination and moved in only when every file is written.
-Those of a run killed outright are removed by the next write of the same name
-(:mod:`stereo_obstacles.temporaries`).
+Those of a run killed outright while writing are removed by the next write of the same name
+(:mod:`stereo_obstacles.temporaries`); one whose move into the destination was cut short is kept
+with a record of the move, which tells the next run the files it left are the set's, not a
+user's (:func:`moved_in_files`).
 """
 
 from __future__ import annotations
@@ -355,10 +357,11 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     uncalibrated report): they are removed from ``out_dir`` with the ``last`` ones.
 
     Before the move into an existing ``out_dir`` begins, :data:`MOVE_RECORD` names the set's
-    ``kind`` and lists the files it puts there or replaces; a move cut short (interrupted, killed, a rename that failed) keeps
-    the staging folder with it, which tells the next run which files there are this set's
-    (:func:`moved_in_files`) until a move into ``out_dir`` completes. Staging folders of runs
-    killed while still writing are removed first once nobody holds them and they are a minute old.
+    ``kind`` and lists the files it puts there or replaces; a move cut short (interrupted,
+    killed, a rename that failed) keeps the staging folder with it, which tells the next run
+    which files there are this set's (:func:`moved_in_files`) until a move into ``out_dir``
+    completes. Staging folders of runs killed while still writing are removed first once nobody
+    holds them and they are a minute old.
     """
     final = Path(out_dir)
     check_output_folder(final)

@@ -33,7 +33,8 @@ Beyond the paper:
 * faces too flat to match (dark paint), which phase 1 calls obstacle but the matcher leaves
   empty but for their outlines, are filled from those outlines when they stand on the ground at
   their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
-  the obstacles' boxes, lateral extents and widths;
+  the obstacles' boxes, lateral extents and widths; two obstacles that are the outlines of one
+  such face are joined into one (:mod:`stereo_obstacles.face_joining`);
 * when the pixels that look like the reference area do not lie on a plane that can be the
   ground (the reference area is covered by a wall or a large object), the ground plane is
   fitted to the matched pixels of the lower third of the image instead, the colour labels are
@@ -170,7 +171,8 @@ class DetectionConfig:
     ``None`` uses the matched pixels only.
     ``face_joining``: where the textureless fill runs, two obstacles that are the outlines of
     one textureless face (the ends of its bracketed rows) are joined into one
-    (:mod:`stereo_obstacles.face_joining`); ``None`` keeps them apart.
+    (:mod:`stereo_obstacles.face_joining`); ``None`` keeps them apart, and so does
+    ``textureless_fill=None``, whose rows it reads.
     ``hidden_ground``: with a calibration, a ground plane and trusted colour labels, a group of
     obstacle pixels made mostly of ground-coloured matches that, were they ground, the right
     camera could not see behind a nearer object's left edge is rejected, with its reason
