@@ -164,6 +164,15 @@ def test_frame_folders_that_are_not_this_commands_are_refused_before_rendering(t
     (out / "frame_0001").write_text("a file")
     assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 1
     assert "is not a frame this command wrote" in capsys.readouterr().err
+    (out / "frame_0001").unlink()
+    (out / "frame_0001").mkdir()
+    (out / "frame_0001" / "data.csv").write_text("another tool's")      # a folder of other files
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 1
+    assert "is not a frame this command wrote" in capsys.readouterr().err
+    (out / "frame_0001" / "left.png").write_text("mine")                 # and one with a file of a scene's names
+    assert main(["scene", "--out", str(out), "--size", "48x36", "--frames", "2"]) == 1
+    assert "frame_0001 holds left.png but is not a frame this command wrote" in capsys.readouterr().err
+    assert (out / "frame_0001" / "left.png").read_text() == "mine"
 
 
 def test_a_sequence_cut_short_while_moving_in_leaves_no_frame_passing_for_a_whole_scene(tmp_path, monkeypatch):
@@ -176,6 +185,7 @@ def test_a_sequence_cut_short_while_moving_in_leaves_no_frame_passing_for_a_whol
     with move_stopped_at(monkeypatch, out / "frame_0001" / "left.png"):                          # Ctrl-C
         assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 130
     assert not holds_a_scene(out / "frame_0001")
+    (out / "frame_0001" / ".DS_Store").write_bytes(b"")                 # a note beside it does not matter (review)
     assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 0   # replaced
     assert all(json.loads((out / f / "scene.json").read_text())["seed"] == 4 for f in ("frame_0000", "frame_0001"))
 

@@ -245,8 +245,9 @@ def _renames_into(folder: Path) -> bool:
         with contextlib.suppress(OSError):
             os.unlink(probe)
         return False
-    with contextlib.suppress(OSError):
-        os.unlink(moved)
+    finally:
+        with contextlib.suppress(OSError):       # an interrupt between the two: gone all the same
+            os.unlink(moved)
     return True
 
 
@@ -345,7 +346,8 @@ def staged_directory(out_dir: str | os.PathLike[str], *, last: tuple[str, ...] =
     """Yield a hidden staging folder; on success move its files into ``out_dir``.
 
     ``out_dir`` may exist already: files of the same names are replaced, other files are
-    kept. On any exception the staging folder is deleted and ``out_dir`` is untouched.
+    kept. On an exception before the move begins the staging folder is deleted and ``out_dir``
+    is untouched; one during the move is described below.
     Only regular files at the top of the staging folder and in its sub-folders are moved.
 
     ``last`` names the files (relative paths) that vouch for the set, such as a report's

@@ -64,7 +64,7 @@ def _check_frame_folders(folder, names) -> None:
 
     from stereo_obstacles.atomic import moved_in_files
     from stereo_obstacles.errors import OutputError
-    from stereo_obstacles.synthetic.scene_files import holds_a_scene
+    from stereo_obstacles.synthetic.scene_files import SCENE_FILES, holds_a_scene
 
     vouched = None
     for name in names:
@@ -74,7 +74,12 @@ def _check_frame_folders(folder, names) -> None:
         if not frame.exists() or holds_a_scene(frame):
             continue
         vouched = moved_in_files(folder, "scene") if vouched is None else vouched
-        if not all(f"{name}/{p.relative_to(frame).as_posix()}" in vouched for p in frame.rglob("*") if not p.is_dir()):
+        present = [file for file in ("scene.json",) + SCENE_FILES if (frame / file).exists()]
+        theirs = [file for file in present if f"{name}/{file}" not in vouched]
+        if theirs:
+            raise OutputError(f"{frame} holds {', '.join(theirs)} but is not a frame this command wrote; choose "
+                              f"another --out")
+        if not present and any(frame.iterdir()):     # another tool's folder; a cut-short frame may hold notes too
             raise OutputError(f"{frame} exists and is not a frame this command wrote; choose another --out")
 
 
