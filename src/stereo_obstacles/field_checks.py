@@ -127,4 +127,5 @@ def check_types(owner: object, kinds: Iterable[tuple[str, type]], *, allow_none:
             raise InvalidInputError(f"{name} must be {expected}, got {type(value).__name__}")
 
 
-__all__ = ["python_number", "plain_number", "plain_numbers", "check_numbers", "check_positive", "check_integers", "check_types"]
+__all__ = ["python_number", "plain_number", "plain_numbers", "check_numbers", "check_positive", "check_integers",
+           "check_types"]

@@ -35,7 +35,8 @@ def remove_earlier_reports(folder, keep, source: str) -> tuple[int, int]:
     if not Path(folder).is_dir():
         return 0, 0
     others = [(frame, frame_report_source(frame)) for frame in Path(folder).iterdir()   # not a hidden staging folder
-              if frame.name not in keep and not frame.name.startswith(".") and frame.is_dir() and not frame.is_symlink()]
+              if frame.name not in keep and not frame.name.startswith(".") and frame.is_dir()
+              and not frame.is_symlink()]
     earlier = [frame for frame, of in others if of == source]
     for frame in earlier:
         remove_file_set(frame, OUTPUT_FILES, what="the earlier frame report")     # obstacles.json first
