@@ -345,7 +345,12 @@ def test_a_cut_short_scene_vouches_for_no_report_into_its_folder(tmp_path, monke
     with pytest.raises(OutputError, match="holds disparity.pfm, labels.png"):
         _write(scene)
     assert (scene / "disparity.pfm").read_bytes() == truth
+    from stereo_obstacles.datasets import load_pair
+    from stereo_obstacles.errors import InputFileError
+    with pytest.raises(InputFileError, match="the writing of its files was cut short"):
+        load_pair(scene)                                                  # no half-written ground truth read
     write_scene_folder(scene, pair)                                       # the scene writer takes them
+    assert load_pair(scene).layout == "synthetic"
 
 
 def test_spent_records_go_when_the_folder_is_written_anew(tmp_path, monkeypatch):

@@ -69,7 +69,7 @@ def test_a_sequence_replaces_a_single_scene_and_loads_back_frame_by_frame(tmp_pa
     assert main(["scene", "--out", str(out), "--size", "64x48", "--seed", "5", "--frames", "2"]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["frame_0000", "frame_0001"]    # no stale seed-7 files
     assert list_frames(out) == ("frame_0000", "frame_0001")
-    assert load_pair(out, frame="frame_0001").layout == "synthetic"
+    assert all(load_pair(out, frame=frame).layout == "synthetic" for frame in ("frame_0000", "frame_0001"))
     assert main(["scene", "--out", str(tmp_path / "one"), "--size", "64x48", "--speed", "0.1"]) == 1
     assert "give --frames N" in capsys.readouterr().err
     assert main(["scene", "--out", str(out), "--size", "64x48", "--frames", "3"]) == 0
@@ -185,9 +185,16 @@ def test_a_sequence_cut_short_while_moving_in_leaves_no_frame_passing_for_a_whol
     with move_stopped_at(monkeypatch, out / "frame_0001" / "left.png"):                          # Ctrl-C
         assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 130
     assert not holds_a_scene(out / "frame_0001")
+    from stereo_obstacles.datasets import load_pair
+    from stereo_obstacles.errors import InputFileError
+    for frame in ("frame_0000", "frame_0001"):                           # nor to the dataset reader (review)
+        with pytest.raises(InputFileError, match=rf"{frame}: the writing of its files was cut short \(.* may be of "
+                                                 r"another run than the rest\); write them again"):
+            load_pair(out / frame)
     (out / "frame_0001" / ".DS_Store").write_bytes(b"")                 # a note beside it does not matter (review)
     assert main(["scene", "--out", str(out), "--size", "48x36", "--seed", "4", "--frames", "2"]) == 0   # replaced
     assert all(json.loads((out / f / "scene.json").read_text())["seed"] == 4 for f in ("frame_0000", "frame_0001"))
+    assert all(load_pair(out, frame=frame).layout == "synthetic" for frame in ("frame_0000", "frame_0001"))
 
 
 def test_an_earlier_frame_that_cannot_be_removed_is_an_error_not_a_crash(tmp_path, capsys):

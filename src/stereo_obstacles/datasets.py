@@ -59,6 +59,7 @@ from pathlib import Path
 
 import numpy as np
 
+from stereo_obstacles.atomic import moved_in_files
 from stereo_obstacles.calibration import StereoCalibration, read_calibration_json, sized_for_images
 from stereo_obstacles.calibration_files import read_calibration
 from stereo_obstacles.errors import ImageMismatchError, InputFileError, InvalidInputError
@@ -227,6 +228,7 @@ def _recognised_pair(root: Path, frame: str | None, gt_scale: float | None) -> S
                                 f"list_frames(folder)")
     if frame is not None:
         raise InvalidInputError(f"{root} holds a single pair; frame={frame!r} does not apply")
+    _refuse_cut_short(root)
     for loader in (_load_synthetic, _load_middlebury2014, _load_middlebury2005,
                    _load_middlebury2001_2003, _load_middlebury_v2, _load_opencv_sample,
                    _load_kitti_pair):
@@ -238,6 +240,18 @@ def _recognised_pair(root: Path, frame: str | None, gt_scale: float | None) -> S
         f"{root}: no stereo pair layout recognised (expected left.png/right.png, im0/im1, "
         f"view1/view5, im2/im6, imL/imR, <name>L/<name>R, <id>_left/<id>_right, or KITTI "
         f"image_2/image_3)")
+
+
+def _refuse_cut_short(root: Path) -> None:
+    """:class:`InputFileError` when files of ``root`` are those of a move into it (or into the
+    sequence folder above it) that was cut short: they may be of two runs (a scene's images of one
+    seed beside another's ground truth, a rectified left image beside an earlier right one)."""
+    mixed = moved_in_files(root) | {name.split("/", 1)[1] for name in moved_in_files(root.parent)
+                                    if name.startswith(f"{root.name}/")}
+    if mixed:
+        shown = ", ".join(sorted(mixed)[:3]) + (", ..." if len(mixed) > 3 else "")
+        raise InputFileError(f"{root}: the writing of its files was cut short ({shown} may be of another run than "
+                             f"the rest); write them again")
 
 
 # --- layouts ---------------------------------------------------------------------------------
