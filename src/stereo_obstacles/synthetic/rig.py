@@ -157,8 +157,7 @@ class RightCameraError:
         if not isinstance(self.rotation_deg, (tuple, list, np.ndarray)):
             raise InvalidInputError(f"right camera rotation_deg needs 3 angles (degrees about x, y, z), got "
                                     f"{self.rotation_deg!r}")
-        rot = tuple(python_number(angle) for angle in np.asarray(self.rotation_deg, dtype=object).ravel()) \
-            if isinstance(self.rotation_deg, np.ndarray) else tuple(python_number(a) for a in self.rotation_deg)
+        rot = tuple(python_number(angle) for angle in self.rotation_deg)      # an array's are NumPy numbers
         if len(rot) != 3:
             raise InvalidInputError(f"right camera rotation_deg needs 3 angles, got {len(rot)}")
         for angle in rot:
