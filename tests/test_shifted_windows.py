@@ -7,7 +7,7 @@ import pytest
 
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.matching import match
-from stereo_obstacles.shifted_windows import ShiftedWindowCheck, shifted_window_check
+from stereo_obstacles.shifted_windows import ShiftedWindowCheck, shifted_window_check, shifted_window_check_map
 from stereo_obstacles.similarity import prepare_similarity, similarity_at
 
 
@@ -69,6 +69,39 @@ def test_kernel_agrees_with_reference():
         keep_t, checked_t = shifted_window_check(inputs, ys, xs, ds, n_threads=n_threads)
         np.testing.assert_array_equal(keep_t, expected)
         assert checked_t == expected_checked
+
+
+def test_map_of_matches_gives_the_verdicts_of_the_list():
+    inputs, ys, xs, ds = _unchecked_matches()
+    expected, expected_checked = _reference(inputs, ys, xs, ds)
+    d_map = np.full(inputs.shape, -1, np.int32)
+    d_map[ys, xs] = ds
+    for n_threads in (1, 2):
+        rejected, n_checked = shifted_window_check_map(inputs, d_map, n_threads=n_threads)
+        assert n_checked == expected_checked
+        np.testing.assert_array_equal(rejected[ys, xs], ~expected)
+        assert np.count_nonzero(rejected) == np.count_nonzero(~expected) > 0   # nothing rejected off the matches
+
+
+def test_map_of_matches_is_validated():
+    inputs = prepare_similarity(*_fattening_scene()[:2])
+    d_map = np.full(inputs.shape, -1, np.int32)
+    d_map[3, 2] = 5                                               # right pixel left of the image
+    with pytest.raises(InvalidInputError, match="inside"):
+        shifted_window_check_map(inputs, d_map)
+    d_map[3, 2] = -2
+    with pytest.raises(InvalidInputError, match="inside"):
+        shifted_window_check_map(inputs, d_map)
+    with pytest.raises(InvalidInputError, match="int32 of shape"):
+        shifted_window_check_map(inputs, np.full(inputs.shape, -1, np.int64))
+    with pytest.raises(InvalidInputError, match="int32 of shape"):
+        shifted_window_check_map(inputs, np.full((4, 4), -1, np.int32))
+    check = ShiftedWindowCheck(inputs)
+    check.add(np.array([3]), np.array([9]), np.array([1]))
+    d_map[3, 2] = -1
+    d_map[3, 9] = 1
+    with pytest.raises(InvalidInputError, match="each left pixel at most once"):
+        check.add_map(d_map)
 
 
 def test_check_removes_fattened_pixels():

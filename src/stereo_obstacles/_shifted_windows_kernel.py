@@ -98,6 +98,30 @@ def _add_matches(ys, xs, xrs, index, row_offset, d_map, for_max, for_min):
 
 
 @njit(cache=CACHE, nogil=True)
+def _add_match_map(disparity, d_map, for_max, for_min):
+    """Write the matches of ``disparity`` (int32 ``(h, w)``, the integer disparity of each left
+    pixel, -1 where unmatched) into the maps as :func:`_add_matches` does. Returns
+    :data:`MAPS_OK` or the status of the first invalid match (``d < -1``, ``x - d < 0``, or a
+    pixel matched before).
+
+    The test and the three writes repeat those of :func:`_add_matches` on purpose: through a
+    shared compiled helper (inlined or not) this loop took 8 ms instead of 0.3 ms at 640x480."""
+    for y in range(d_map.shape[0]):
+        for x in range(d_map.shape[1]):
+            d = disparity[y, x]
+            if d == -1:
+                continue
+            if d < 0 or x - d < 0:
+                return MAPS_OUTSIDE
+            if d_map[y, x] >= 0:
+                return MAPS_REPEATED
+            d_map[y, x] = d
+            for_max[y, x] = d
+            for_min[y, x] = d
+    return MAPS_OK
+
+
+@njit(cache=CACHE, nogil=True)
 def _count_jumps(d_map, lo, hi, jumps):
     """Write into ``jumps[y]`` (int64) for each image row y in ``[lo, hi)`` the number of pairs of
     horizontally neighbouring matches of ``d_map`` (int32 ``(h, w)``, -1 where unmatched) whose

@@ -25,7 +25,7 @@ import numpy as np
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.matching import MatchResult, MatchStats, disparity_range, match
 from stereo_obstacles.refinement import refine_disparity
-from stereo_obstacles.shifted_windows import shifted_window_check
+from stereo_obstacles.shifted_windows import shifted_window_check_map
 from stereo_obstacles.similarity import grey_pair, prepare_similarity
 
 __all__ = ["MIN_REDUCED_SIDE", "check_scale", "effective_scale", "match_at_scale", "refine_at_full_size",
@@ -117,11 +117,10 @@ def refine_at_full_size(left: np.ndarray, right: np.ndarray, estimate: np.ndarra
     disparity, similarity = refined.disparity, refined.similarity
     n_checked = n_rejected = 0
     if _match_option(options, "shifted_windows"):
-        ys, xs = np.nonzero(refined.integer_disparity >= 0)
-        keep, n_checked = shifted_window_check(inputs, ys, xs, refined.integer_disparity[ys, xs], n_threads=n_threads)
-        disparity[ys[~keep], xs[~keep]] = np.nan
-        similarity[ys[~keep], xs[~keep]] = np.nan
-        n_rejected = int(keep.size - np.count_nonzero(keep))
+        rejected, n_checked = shifted_window_check_map(inputs, refined.integer_disparity, n_threads=n_threads)
+        disparity[rejected] = np.nan
+        similarity[rejected] = np.nan
+        n_rejected = int(np.count_nonzero(rejected))
     t3 = time.perf_counter()
     n_range = d_max - d_min + 1
     stats = MatchStats(
