@@ -9,7 +9,8 @@ from _obstacle_scene import CAMERA_HEIGHT_M, GROUND, RIG, TRUE_DISTANCES_M, dete
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
-from stereo_obstacles.obstacles import ObstacleParameters, corridor_summary, measure_obstacles
+from stereo_obstacles.obstacles import (ObstacleParameters, corridor_summary, list_obstacles, measure_groups,
+                                        measure_obstacles)
 
 
 def test_pole_in_front_of_wall_is_a_separate_object_and_marking_is_rejected():
@@ -27,6 +28,23 @@ def test_pole_in_front_of_wall_is_a_separate_object_and_marking_is_rejected():
     assert set(np.unique(result.id_map).tolist()) == {0, 1, 2, 3}
     assert (result.id_map[box.box_px[1]:box.box_px[3], 150:200] == 1).mean() > 0.5
     assert (result.id_map[228:236, 225:300] == 0).all()
+
+
+def test_groups_left_out_of_the_list_are_as_if_never_grouped():
+    """The pipeline measures the flat groups before it knows which are obstacles' feet, and lists
+    the others: the same list as measuring those others alone."""
+    scene = detection()
+    mask = scene.calibrated.id_map > 0
+    mask[228:236, 225:300] = True                                 # the marking: a rejected group
+    groups = group_obstacle_pixels(scene.disparity, mask)
+    measured = measure_groups(groups, scene.disparity, RIG, GROUND)
+    assert len(measured) == 4
+    for left_out in ({1}, {int(groups[230, 250])}, {1, 3}):
+        alone = measure_obstacles(np.where(np.isin(groups, list(left_out)), 0, groups), scene.disparity, RIG, GROUND)
+        listed = list_obstacles({g: m for g, m in measured.items() if g not in left_out}, groups, scene.disparity, RIG)
+        assert listed.obstacles == alone.obstacles and listed.rejected == alone.rejected
+        np.testing.assert_array_equal(listed.id_map, alone.id_map)
+        assert listed.corridor == alone.corridor and listed.scan == alone.scan
 
 
 def test_without_calibration_results_stay_in_pixels():

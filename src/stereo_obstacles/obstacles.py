@@ -222,6 +222,17 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
         Whether to measure the free range per direction (with a calibration; the pipeline's
         list of flat groups, kept only for their rejections, needs none).
     """
+    measured = measure_groups(groups, disparity, calibration, ground, params)
+    return list_obstacles(measured, groups, disparity, calibration, params, with_scan=with_scan)
+
+
+def measure_groups(groups: np.ndarray, disparity: np.ndarray, calibration: StereoCalibration | None,
+                   ground: GroundPlane | None,
+                   params: ObstacleParameters = ObstacleParameters()) -> dict[int, Obstacle | RejectedGroup]:
+    """The first half of :func:`measure_obstacles` (same parameters): each group's obstacle (its
+    ``id`` still 0) or the reason it is rejected, by group number, in increasing order. A caller
+    may leave some groups out before :func:`list_obstacles` lists the rest (the measure of one
+    group does not depend on the others)."""
     groups = np.asarray(groups)
     d = np.asarray(disparity, dtype=np.float32)
     if groups.shape != d.shape or d.ndim != 2:
@@ -231,30 +242,39 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     order = grouped[np.argsort(flat[grouped], kind="stable")]
     bounds = np.searchsorted(flat[order], np.arange(1, int(flat.max(initial=0)) + 2))
     w = d.shape[1]
-    kept: list[tuple[Obstacle, int]] = []
-    rejected: list[RejectedGroup] = []
+    measured: dict[int, Obstacle | RejectedGroup] = {}
     for group in range(1, len(bounds)):
         index = order[bounds[group - 1]:bounds[group]]
         if index.size == 0:  # group numbers need not be contiguous
             continue
         ys, xs = np.divmod(index, w)
-        outcome = _measure_group(xs, ys, d[ys, xs].astype(np.float64), calibration, ground, params)
-        if isinstance(outcome, Obstacle):
-            kept.append((outcome, group))
-        else:
-            rejected.append(outcome)
+        measured[group] = _measure_group(xs, ys, d[ys, xs].astype(np.float64), calibration, ground, params)
+    return measured
+
+
+def list_obstacles(measured: dict[int, Obstacle | RejectedGroup], groups: np.ndarray, disparity: np.ndarray,
+                   calibration: StereoCalibration | None, params: ObstacleParameters = ObstacleParameters(), *,
+                   with_scan: bool = True) -> ObstacleList:
+    """The second half of :func:`measure_obstacles`: the obstacles of ``measured`` (from
+    :func:`measure_groups` of ``groups``, or part of it) numbered nearest first, their id map,
+    the rejections in group order, and with a calibration the corridor (and the scan when
+    ``with_scan``)."""
+    kept = [(outcome, group) for group, outcome in measured.items() if isinstance(outcome, Obstacle)]
+    rejected = tuple(outcome for outcome in measured.values() if not isinstance(outcome, Obstacle))
     kept.sort(key=lambda pair: (pair[0].distance_m if pair[0].distance_m is not None else math.inf,
                                 -pair[0].disparity_px))
     numbered = tuple(Obstacle(**{**o.__dict__, "id": i + 1}) for i, (o, _) in enumerate(kept))
-    group_to_id = np.zeros(len(bounds), dtype=np.int32)
+    groups = np.asarray(groups)
+    group_to_id = np.zeros(int(groups.max(initial=0)) + 1, dtype=np.int32)
     for i, (_, group) in enumerate(kept):
         group_to_id[group] = i + 1
-    id_map = np.take(group_to_id, groups, mode="clip")     # one pass; out-of-range numbers clipped as before
+    id_map = np.take(group_to_id, groups, mode="clip")     # one pass; negative numbers clipped to "none"
     if calibration is None:
-        return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected))
-    return ObstacleList(obstacles=numbered, id_map=id_map, rejected=tuple(rejected),
+        return ObstacleList(obstacles=numbered, id_map=id_map, rejected=rejected)
+    return ObstacleList(obstacles=numbered, id_map=id_map, rejected=rejected,
                         corridor=corridor_summary(numbered, params.corridor_width_m),
-                        scan=obstacle_scan(id_map, d, calibration, params) if with_scan else None)
+                        scan=obstacle_scan(id_map, np.asarray(disparity, dtype=np.float32), calibration, params)
+                        if with_scan else None)
 
 
 def obstacle_scan(id_map: np.ndarray, disparity: np.ndarray, calibration: StereoCalibration,

@@ -69,8 +69,8 @@ from stereo_obstacles.matching import MIN_SIZE, check_match_options, disparity_r
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
-from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, measure_obstacles,
-                                       obstacle_scan, standing_pixels)
+from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
+                                        measure_groups, measure_obstacles, obstacle_scan, standing_pixels)
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size, warn_if_scale_raised
@@ -464,16 +464,30 @@ def _joined_groups(groups: np.ndarray, id_map: np.ndarray, pairs: list[tuple[int
     return join_obstacles(groups, [(group_of[a], group_of[b]) for a, b in pairs])
 
 
-def _without_feet(flat_groups: np.ndarray, id_map: np.ndarray) -> np.ndarray:
-    """Flat groups with those touching a reported obstacle removed.
+def _feet(flat_groups: np.ndarray, id_map: np.ndarray) -> set[int]:
+    """The numbers of the flat groups (``int (H, W)``, 0: none) touching a reported obstacle
+    (``id_map``, ``int (H, W)``, 0: none).
 
     The bottom few centimetres of an object standing on the ground are as flat as a marking;
     they belong to the object and are not reported as a rejected marking.
     """
     size = 2 * FOOT_REACH_PX + 1
     near = cv2.dilate((id_map > 0).astype(np.uint8), np.ones((size, size), np.uint8)) > 0
-    feet = np.unique(flat_groups[near & (flat_groups > 0)])
-    return np.where(np.isin(flat_groups, feet), 0, flat_groups)
+    return set(np.unique(flat_groups[near & (flat_groups > 0)]).tolist())
+
+
+def _flat_groups(disparity: np.ndarray, flat_candidates: np.ndarray, calibration: StereoCalibration | None,
+                 ground: GroundPlane, config: DetectionConfig) -> tuple[np.ndarray, dict]:
+    """The flat candidates (``bool (H, W)``) grouped, and each group measured
+    (:func:`~stereo_obstacles.obstacles.measure_groups`). They are only reported as rejected, so
+    they are not split into depth layers."""
+    groups = group_obstacle_pixels(disparity, flat_candidates, replace(config.grouping, split_tolerance_px=0.0))
+    return groups, measure_groups(groups, disparity, calibration, ground, config.obstacles)
+
+
+def _depth(disparity: np.ndarray, calibration: StereoCalibration | None) -> np.ndarray | None:
+    """The depth map (``float32 (H, W)``, metres), ``None`` without a calibration."""
+    return disparity_to_depth(disparity, calibration) if calibration is not None else None
 
 
 def warm_up() -> float:
@@ -608,17 +622,17 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         (_min_excess_px, left, right, disparity, config, calibration is not None)])
     if ground is None:
         min_excess = config.geometric_min_excess_px
-    depth = disparity_to_depth(disparity, calibration) if calibration is not None else None
     candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
                                       min_excess, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
-    calls = [(partial(group_obstacle_pixels, colour=colour), disparity, standing, config.grouping)]
+    # beside the grouping of the standing pixels: the depth map and the flat groups (measured
+    # whole; the feet of the obstacles are left out of their list once the obstacles are known)
+    calls = [(partial(group_obstacle_pixels, colour=colour), disparity, standing, config.grouping),
+             (_depth, disparity, calibration)]
     if ground is not None:
-        # the flat groups, beside: only reported as rejected, so no need to split them into depth layers
-        calls.append((group_obstacle_pixels, disparity, candidates & ~standing,
-                      replace(config.grouping, split_tolerance_px=0.0)))
-    grouped = run_each_in_threads(calls)
-    groups, measured = grouped[0], disparity
+        calls.append((_flat_groups, disparity, candidates & ~standing, calibration, ground, config))
+    groups, depth, *flat = run_each_in_threads(calls)
+    measured = disparity
     hidden_rejected: tuple[RejectedGroup, ...] = ()
     if config.hidden_ground is not None and ground is not None and calibration is not None and colour_trusted:
         groups, hidden_rejected = reject_hidden_ground(groups, disparity, segmentation.labels, ground,
@@ -644,12 +658,14 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
             obstacles = widen_obstacles(obstacles, scan_ids, scan_disparity, calibration,
                                         config.obstacles.corridor_width_m)
         obstacles = replace(obstacles, scan=obstacle_scan(scan_ids, scan_disparity, calibration, config.obstacles))
-    if ground is not None:
-        flat_groups = _without_feet(grouped[1], obstacles.id_map)
-        flat = measure_obstacles(flat_groups, disparity, calibration, ground, config.obstacles, with_scan=False)
+    if flat:
+        flat_groups, flat_measured = flat[0]
+        feet = _feet(flat_groups, obstacles.id_map)
+        listed = list_obstacles({group: m for group, m in flat_measured.items() if group not in feet}, flat_groups,
+                                disparity, calibration, config.obstacles, with_scan=False)
         # groups high enough but not clearly above the plane in disparity (far, or noisy matches)
-        unclear = tuple(RejectedGroup(o.box_px, o.pixel_count, _not_clearly_raised(config)) for o in flat.obstacles)
-        obstacles = replace(obstacles, rejected=hidden_rejected + obstacles.rejected + flat.rejected + unclear)
+        unclear = tuple(RejectedGroup(o.box_px, o.pixel_count, _not_clearly_raised(config)) for o in listed.obstacles)
+        obstacles = replace(obstacles, rejected=hidden_rejected + obstacles.rejected + listed.rejected + unclear)
     timings["obstacles"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - start
     return DetectionResult(segmentation=segmentation, disparity=disparity, match_stats=matched.stats,
