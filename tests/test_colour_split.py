@@ -209,13 +209,39 @@ def test_three_objects_need_two_levels(first, third):
 
 def test_uncoloured_pixels_follow_the_nearest_coloured_part():
     """Ground-coloured pixels at the foot of a pole standing in front of a box's upper half (raised
-    by their disparity, not by their colour) go with the pole, whatever their disparity."""
+    by their disparity, not by their colour) go with the pole, whatever their disparity: within a
+    part split off by chroma, phase 1's verdict is not tried again."""
     scene = (Scene().paint(slice(10, 50), slice(20, 100), BROWN, 7.0).paint(slice(0, 80), slice(53, 67), BLUE, 7.6)
              .paint(slice(72, 80), slice(50, 70), (145, 145), 7.0, coloured=False))      # nearer brown than blue
     split = scene.split()
     assert split.max() == 1
     assert np.all(split[scene.objects == 2] == split[5, 60])
     assert np.all(split[scene.objects == 0] != split[5, 60])
+
+
+def test_an_object_coloured_like_the_ground_is_split_from_a_coloured_one_at_another_depth():
+    """A box coloured like the ground stands only by its disparity: beside a wall 1.3 px farther
+    it is split off by phase 1's verdict, though the two have one chroma."""
+    scene = (Scene().paint(slice(0, 70), slice(10, 50), GREEN, 6.8)
+             .paint(slice(30, 80), slice(50, 110), GREEN, 8.1, coloured=False))
+    split = scene.split()
+    assert split.max() == 1 and _same_parts(split, scene.objects)
+
+
+@pytest.mark.parametrize("box_disparity", [7.0, 6.9])
+def test_ground_coloured_pixels_at_the_same_depth_are_not_split_off(box_disparity):
+    """Within the gap (0.3 px here) the ground-coloured part is the same surface."""
+    scene = (Scene().paint(slice(0, 70), slice(10, 50), GREEN, 6.8)
+             .paint(slice(30, 80), slice(50, 110), GREEN, box_disparity, coloured=False))
+    assert scene.split().max() == 0
+
+
+def test_a_ground_coloured_halo_behind_an_object_is_not_split_off():
+    """The ground the matching spreads around an object lies behind it: a rim."""
+    scene = (Scene().paint(slice(10, 70), slice(20, 100), GREY, 7.0, coloured=False)
+             .paint(slice(13, 67), slice(23, 97), BLUE, 8.0))
+    assert np.count_nonzero(scene.objects == 0) >= MIN_OBJECT_PIXELS
+    assert scene.split().max() == 0
 
 
 def test_a_large_group_is_decided_on_squares_of_pixels():
