@@ -219,3 +219,17 @@ def test_evaluate_detection_says_a_warning_of_every_scene_once(capsys, caplog):
     said = [r.getMessage() for r in caplog.records if "matching scale 0.3 is raised to 0.5" in r.getMessage()]
     assert len(said) == 1                                                    # was once per scene
     assert "repeats of the warnings above not shown" in capsys.readouterr().err
+
+
+def test_evaluate_detection_writes_the_dataset_figures_as_json(tmp_path, capsys, shared_dataset):
+    import json
+
+    from stereo_obstacles import cli
+
+    out = tmp_path / "figures.json"
+    assert cli.main(["evaluate-detection", "--scenes", "1", "--size", "320x240", "--supersample", "1",
+                     "--dataset", str(shared_dataset("kitti2015_000005")), "--json", str(out)]) == 0
+    (figures,) = json.loads(out.read_text())["datasets"]
+    assert figures["name"] == "kitti2015_000005" and figures["obstacles"] > 0
+    assert set(figures["timings_s"]) >= {"matching", "obstacles", "total"}
+    assert "kitti2015_000005: density" in capsys.readouterr().out

@@ -290,6 +290,9 @@ def test_the_result_is_frozen_down_to_its_images(default_result):
             image[0, 0] = 0
     with pytest.raises(dataclasses.FrozenInstanceError):
         default_result.disparity = np.zeros(1)
+    with pytest.raises(TypeError):
+        default_result.timings_s["total"] = 0.0
+    assert default_result.timings_s["total"] > 0 and dict(default_result.timings_s)["total"] > 0
     assert np.isfinite(default_result.disparity.copy()).any()      # a copy is the caller's to change
     mine = np.zeros_like(default_result.disparity)
     dataclasses.replace(default_result, disparity=mine)

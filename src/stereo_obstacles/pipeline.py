@@ -46,8 +46,10 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from functools import partial
+from types import MappingProxyType
 
 import cv2
 import numpy as np
@@ -250,15 +252,15 @@ class DetectionResult:
         Wall seconds of each stage (``segmentation``: phase 1 and the colour cue of the
         grouping; ``rectification_check``, ``matching``, ``obstacles``) and in ``total``; the
         first two run on a second thread beside the matching, so the stages add up to more than
-        the total.
+        the total. A read-only mapping (``dict(result.timings_s)`` for a copy).
     rectification_check
         :class:`stereo_obstacles.rectification_check.RectificationCheck` of the input pair
         (a warning is logged when it is not rectified).
 
-    The result is frozen: its fields cannot be reassigned and its images (``disparity``,
-    ``depth_m``, the labels, the obstacles' ``id_map``) are read-only views, so that what a
-    caller hands on stays consistent with the obstacles measured from it (copy an array to
-    change it; the arrays a result is made from stay writeable).
+    The result is frozen: its fields cannot be reassigned, its timings cannot be changed, and
+    its images (``disparity``, ``depth_m``, the labels, the obstacles' ``id_map``) are read-only
+    views, so that what a caller hands on stays consistent with the obstacles measured from it
+    (copy an array to change it; the arrays a result is made from stay writeable).
     """
 
     segmentation: SegmentationResult
@@ -269,7 +271,7 @@ class DetectionResult:
     obstacles: ObstacleList
     calibration: StereoCalibration | None
     config: DetectionConfig
-    timings_s: dict
+    timings_s: Mapping[str, float]
     rectification_check: object = None
 
     def __post_init__(self) -> None:
@@ -278,6 +280,7 @@ class DetectionResult:
         object.__setattr__(self, "segmentation", replace(self.segmentation,
                                                          labels=_read_only(self.segmentation.labels)))
         object.__setattr__(self, "obstacles", replace(self.obstacles, id_map=_read_only(self.obstacles.id_map)))
+        object.__setattr__(self, "timings_s", MappingProxyType(dict(self.timings_s)))
 
     @property
     def density(self) -> float:

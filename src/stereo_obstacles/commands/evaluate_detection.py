@@ -68,7 +68,7 @@ def _dataset_figures(pair, config: DetectionConfig) -> dict:
             "matched": depth_agreement(result.disparity, pair.gt_disparity, pair.calibration).to_dict(),
             "obstacle_pixels": depth_agreement(result.disparity, pair.gt_disparity, pair.calibration,
                                                mask=result.obstacles.id_map > 0).to_dict(),
-            "obstacles": len(result.obstacles.obstacles), "timings_s": result.timings_s}
+            "obstacles": len(result.obstacles.obstacles), "timings_s": dict(result.timings_s)}
 
 
 def run(args: argparse.Namespace) -> int:
