@@ -228,6 +228,27 @@ def test_an_object_coloured_like_the_ground_is_split_from_a_coloured_one_at_anot
     assert split.max() == 1 and _same_parts(split, scene.objects)
 
 
+def test_a_ground_coloured_speck_apart_goes_to_the_coloured_part():
+    """Connected pieces smaller than an object go to the other cluster with phase 1's verdict too
+    (one farther than the boundary's reach from the other part, where the planes would decide)."""
+    scene = (Scene().paint(slice(0, 70), slice(24, 50), GREEN, 6.8)
+             .paint(slice(30, 80), slice(50, 110), GREEN, 8.1, coloured=False)
+             .paint(slice(10, 16), slice(2, 8), GREEN, 6.8, coloured=False))      # 16 px left of the wall
+    split = scene.split()
+    assert split.max() == 1
+    assert np.all(split[scene.objects == 2] == split[5, 30]) and split[5, 30] != split[50, 80]
+
+
+def test_a_coloured_object_of_less_than_two_objects_pixels_is_split_from_a_ground_coloured_one():
+    """Phase 1's verdict needs one object's coloured pixels, not the two the chroma clusters need."""
+    coloured_rows = 15                                                          # 15 x 12 = 180 px < 2 x 120
+    scene = (Scene().paint(slice(10, 10 + coloured_rows), slice(20, 32), GREEN, 6.8)
+             .paint(slice(5, 75), slice(32, 92), GREEN, 8.1, coloured=False))
+    assert MIN_OBJECT_PIXELS <= np.count_nonzero(scene.coloured) < 2 * MIN_OBJECT_PIXELS
+    split = scene.split()
+    assert split.max() == 1 and _same_parts(split, scene.objects)
+
+
 @pytest.mark.parametrize("box_disparity", [7.0, 6.9])
 def test_ground_coloured_pixels_at_the_same_depth_are_not_split_off(box_disparity):
     """Within the gap (0.3 px here) the ground-coloured part is the same surface."""

@@ -47,6 +47,17 @@ def test_groups_left_out_of_the_list_are_as_if_never_grouped():
         assert listed.corridor == alone.corridor and listed.scan == alone.scan
 
 
+def test_a_list_of_other_groups_is_refused():
+    scene = detection()
+    groups = group_obstacle_pixels(scene.disparity, scene.calibrated.id_map > 0)
+    measured = measure_groups(groups, scene.disparity, RIG, GROUND)
+    for bad in ({**measured, int(groups.max()) + 1: measured[1]}, {0: measured[1]}, {1.0: measured[1]}):
+        with pytest.raises(InvalidInputError, match="numbers of groups"):
+            list_obstacles(bad, groups, scene.disparity, RIG)
+    with pytest.raises(InvalidInputError, match="same 2-D shape"):
+        list_obstacles(measured, groups, scene.disparity[:-1], RIG)
+
+
 def test_without_calibration_results_stay_in_pixels():
     result = detection().uncalibrated
     assert all(o.distance_m is None and o.centre_m is None for o in result.obstacles)

@@ -44,11 +44,14 @@ def test_shadows_and_markings_are_not_obstacles(default_pair, default_result):
 def test_the_flat_bottoms_of_obstacles_are_not_reported_as_markings(default_result):
     """The bottom few centimetres of an object are flat groups touching it (five in this scene):
     not rejected markings of their own."""
+    from stereo_obstacles.pipeline import FOOT_REACH_PX
+
     id_map = default_result.obstacles.id_map
     flat = [r for r in default_result.obstacles.rejected if "flat on the ground" in r.reason]
     assert flat
-    for x0, y0, x1, y1 in (r.box_px for r in flat):
-        assert not id_map[max(0, y0 - 2):y1 + 2, max(0, x0 - 2):x1 + 2].any()
+    for x0, y0, x1, y1 in (r.box_px for r in flat):      # the box: stricter than the pixels, true in this scene
+        reach = FOOT_REACH_PX
+        assert not id_map[max(0, y0 - reach):y1 + reach, max(0, x0 - reach):x1 + reach].any()
 
 
 def test_result_shapes_units_and_timings(default_pair, default_result):

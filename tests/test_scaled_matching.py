@@ -46,6 +46,31 @@ def test_half_scale_refined_at_full_size_is_as_precise_as_full_size_matching(pai
     assert np.median(error) < 1.2 * np.median(whole_error)
 
 
+def test_the_refinement_removes_what_the_shifted_window_check_rejects(pair):
+    """Every match the check rejects (the list form's verdicts on the unchecked refinement) is
+    gone from the disparity and the similarity, and counted."""
+    from stereo_obstacles.refinement import refine_disparity
+    from stereo_obstacles.scaled_matching import refine_at_full_size
+    from stereo_obstacles.shifted_windows import shifted_window_check
+    from stereo_obstacles.similarity import grey_pair, prepare_similarity
+
+    _, small = match_at_scale(pair.left, pair.right, 0.5, max_disparity=32)
+    estimate = cv2.resize(small.disparity * 2, (320, 240), interpolation=cv2.INTER_NEAREST)
+    plain = refine_at_full_size(pair.left, pair.right, estimate, max_disparity=32, shifted_windows=False)
+    checked = refine_at_full_size(pair.left, pair.right, estimate, max_disparity=32, shifted_windows=True)
+    inputs = prepare_similarity(*grey_pair(pair.left, pair.right))            # match()'s defaults, as refined
+    refined = refine_disparity(inputs, estimate, tau=0.55, d_min=0, d_max=32)
+    np.testing.assert_array_equal(refined.disparity, plain.disparity)        # the same unchecked refinement
+    ys, xs = np.nonzero(refined.integer_disparity >= 0)
+    keep, n_checked = shifted_window_check(inputs, ys, xs, refined.integer_disparity[ys, xs])
+    rejected = np.zeros(plain.disparity.shape, bool)
+    rejected[ys[~keep], xs[~keep]] = True
+    assert rejected.any()
+    np.testing.assert_array_equal(np.isnan(checked.disparity), np.isnan(plain.disparity) | rejected)
+    np.testing.assert_array_equal(np.isnan(checked.similarity), np.isnan(plain.similarity) | rejected)
+    assert checked.stats.n_edge_rejected == rejected.sum() and checked.stats.n_edge_checked == n_checked
+
+
 def test_full_size_seeds_are_moved_and_out_of_range_ones_dropped(pair):
     ys, xs = np.nonzero(pair.nonocc & (pair.disparity > 4))
     true = [[xs[i], ys[i], round(float(pair.disparity[ys[i], xs[i]]))] for i in range(0, len(xs), len(xs) // 20)]

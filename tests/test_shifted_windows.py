@@ -89,9 +89,9 @@ def test_map_of_matches_is_validated():
     d_map[3, 2] = 5                                               # right pixel left of the image
     with pytest.raises(InvalidInputError, match="inside"):
         shifted_window_check_map(inputs, d_map)
-    d_map[3, 2] = -2
-    with pytest.raises(InvalidInputError, match="inside"):
-        shifted_window_check_map(inputs, d_map)
+    d_map[3, 2] = -2                                  # negative: unmatched (or a negative disparity, not checked)
+    rejected, n_checked = shifted_window_check_map(inputs, d_map)
+    assert not rejected.any() and n_checked == 0
     with pytest.raises(InvalidInputError, match="int32 of shape"):
         shifted_window_check_map(inputs, np.full(inputs.shape, -1, np.int64))
     with pytest.raises(InvalidInputError, match="int32 of shape"):

@@ -1,6 +1,7 @@
 """Compiled shifted-window check of final matches against foreground fattening (private).
 
-The public wrapper is :func:`stereo_obstacles.shifted_windows.shifted_window_check`.
+The public wrappers are :func:`stereo_obstacles.shifted_windows.shifted_window_check` (matches as
+lists of pixels) and :func:`~stereo_obstacles.shifted_windows.shifted_window_check_map` (as a map).
 
 The nine windows a pixel is checked with overlap: at one disparity they are built from the
 products of a ``(4 RADIUS + 1)^2`` tile (81 products instead of 9 x 25), summed along rows then
@@ -71,8 +72,8 @@ def _best_shifted(lp, rp, ml, nl, mr, nr, kind, y, x, d, products, row_sums):
 
 
 MAPS_OK, MAPS_OUTSIDE, MAPS_REPEATED = 0, 1, 2
-"""Status of :func:`_add_matches`: the matches are valid, one lies outside the image (or has
-``d < 0`` or ``x - d < 0``), a left pixel is matched twice."""
+"""Status of :func:`_add_matches` and :func:`_add_match_map`: the matches are valid, one lies
+outside the image (or has ``d < 0`` or ``x - d < 0``), a left pixel is matched twice."""
 
 
 @njit(cache=CACHE, nogil=True)
@@ -100,18 +101,18 @@ def _add_matches(ys, xs, xrs, index, row_offset, d_map, for_max, for_min):
 @njit(cache=CACHE, nogil=True)
 def _add_match_map(disparity, d_map, for_max, for_min):
     """Write the matches of ``disparity`` (int32 ``(h, w)``, the integer disparity of each left
-    pixel, -1 where unmatched) into the maps as :func:`_add_matches` does. Returns
-    :data:`MAPS_OK` or the status of the first invalid match (``d < -1``, ``x - d < 0``, or a
-    pixel matched before).
+    pixel, negative where unmatched) into the maps as :func:`_add_matches` does. Returns
+    :data:`MAPS_OK` or the status of the first invalid match (``x - d < 0``, or a pixel matched
+    before).
 
     The test and the three writes repeat those of :func:`_add_matches` on purpose: through a
     shared compiled helper (inlined or not) this loop took 8 ms instead of 0.3 ms at 640x480."""
     for y in range(d_map.shape[0]):
         for x in range(d_map.shape[1]):
             d = disparity[y, x]
-            if d == -1:
+            if d < 0:
                 continue
-            if d < 0 or x - d < 0:
+            if x - d < 0:
                 return MAPS_OUTSIDE
             if d_map[y, x] >= 0:
                 return MAPS_REPEATED

@@ -26,14 +26,17 @@ clusters are two surfaces at two depths:
 
 Only the pixels that phase 1 calls obstacle by their colour are clustered; the others (ground
 coloured, raised by their disparity: the halo at an object's foot) join the part of the nearest
-clustered pixel. When a whole group holds no two such colours at two depths, phase 1's own
-verdict is tried as the two clusters instead: an object coloured like the ground stands only by
-its disparity, and is split from a coloured object it touches by the same tests. Connected pieces of a cluster smaller than an object join the other cluster
+clustered pixel. Connected pieces of a cluster smaller than an object join the other cluster
 (texture: a brick wall's mortar). Once a split is kept, the pixels near the boundary go to the
 part whose plane they fit better, and each part is tried again, ``max_levels`` levels deep (a
 cylinder between two walls). A group of more than 8000 pixels is decided on one pixel of each
 small square (:class:`~stereo_obstacles.part_boundaries.PixelCanvas`), each other pixel
 following its square's. Measured in ``docs/pipeline.md`` ("Splitting by colour").
+
+When a whole group holds no two chroma clusters (too few coloured pixels, centres too close, or
+their medians within the gap), phase 1's own verdict is tried as the two clusters instead:
+an object coloured like the ground stands only by its disparity, and is split from a coloured
+object it touches by the same tests (``docs/pipeline.md``, session 25).
 """
 
 from __future__ import annotations
@@ -195,8 +198,9 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
     width = groups.shape[1]
     counts, coloured_counts, starts, pixels = group_runs_kernel(
         groups.ravel(), cue.coloured.ravel(), int(groups.max(initial=-1)) + 1)
-    # the first tests of _split on the counts alone: most groups need no pass over their pixels
-    large = (counts >= 2 * min_object_pixels) & (coloured_counts >= 2 * min_object_pixels)
+    # the first tests of _split on the counts alone (two objects' pixels, one object's coloured by
+    # phase 1: the least phase 1's verdict needs): most groups need no pass over their pixels
+    large = (counts >= 2 * min_object_pixels) & (coloured_counts >= min_object_pixels)
     splits = GroupSplits(groups, len(counts))
     for group in np.flatnonzero(large):
         run = pixels[starts[group]:starts[group + 1]]
@@ -219,8 +223,10 @@ def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.
     if levels == 0 or canvas.pixels() < 2 * min_object_pixels:
         return parts
     cluster = _colour_clusters(canvas, d, chroma, coloured, min_object_pixels, params)
-    # phase 1's verdict only on a whole group: within a part split off by chroma, the ground-coloured
-    # pixels follow their nearest coloured ones (the foot of a pole)
+    # phase 1's verdict only on a whole group without two chroma clusters: within a part split off by
+    # chroma, the ground-coloured pixels follow their nearest coloured ones (the foot of a pole); and
+    # tried also where the chroma clusters fail the depth tests, it split two objects more over scenes
+    # 0..419 and mended none (docs/pipeline.md, session 25)
     if cluster is None and levels == params.max_levels:
         cluster = _phase_one_clusters(canvas, d, coloured, min_object_pixels, params)
     if cluster is None:

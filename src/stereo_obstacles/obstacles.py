@@ -219,8 +219,8 @@ def measure_obstacles(groups: np.ndarray, disparity: np.ndarray,
     params
         Thresholds.
     with_scan
-        Whether to measure the free range per direction (with a calibration; the pipeline's
-        list of flat groups, kept only for their rejections, needs none).
+        Whether to measure the free range per direction (with a calibration; the pipeline
+        measures its scan once the obstacles are final, and its flat groups need none).
     """
     measured = measure_groups(groups, disparity, calibration, ground, params)
     return list_obstacles(measured, groups, disparity, calibration, params, with_scan=with_scan)
@@ -259,13 +259,19 @@ def list_obstacles(measured: dict[int, Obstacle | RejectedGroup], groups: np.nda
     :func:`measure_groups` of ``groups``, or part of it) numbered nearest first, their id map,
     the rejections in group order, and with a calibration the corridor (and the scan when
     ``with_scan``)."""
+    groups = np.asarray(groups)
+    if groups.ndim != 2 or np.shape(disparity) != groups.shape:
+        raise InvalidInputError(f"groups {groups.shape} and disparity {np.shape(disparity)} must be the same 2-D shape")
+    n_numbers = int(groups.max(initial=0)) + 1
+    if any(not (isinstance(group, (int, np.integer)) and 1 <= group < n_numbers) for group in measured):
+        raise InvalidInputError(f"measured: expected the numbers of groups in 1..{n_numbers - 1}, got "
+                                f"{sorted(measured)}")
     kept = [(outcome, group) for group, outcome in measured.items() if isinstance(outcome, Obstacle)]
     rejected = tuple(outcome for outcome in measured.values() if not isinstance(outcome, Obstacle))
     kept.sort(key=lambda pair: (pair[0].distance_m if pair[0].distance_m is not None else math.inf,
                                 -pair[0].disparity_px))
     numbered = tuple(Obstacle(**{**o.__dict__, "id": i + 1}) for i, (o, _) in enumerate(kept))
-    groups = np.asarray(groups)
-    group_to_id = np.zeros(int(groups.max(initial=0)) + 1, dtype=np.int32)
+    group_to_id = np.zeros(n_numbers, dtype=np.int32)
     for i, (_, group) in enumerate(kept):
         group_to_id[group] = i + 1
     id_map = np.take(group_to_id, groups, mode="clip")     # one pass; negative numbers clipped to "none"

@@ -71,7 +71,7 @@ from stereo_obstacles.matching import MIN_SIZE, check_match_options, disparity_r
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
-from stereo_obstacles.obstacles import (ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
+from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
                                         measure_groups, measure_obstacles, obstacle_scan, standing_pixels)
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
@@ -480,7 +480,8 @@ def _feet(flat_groups: np.ndarray, id_map: np.ndarray) -> set[int]:
 
 
 def _flat_groups(disparity: np.ndarray, flat_candidates: np.ndarray, calibration: StereoCalibration | None,
-                 ground: GroundPlane, config: DetectionConfig) -> tuple[np.ndarray, dict]:
+                 ground: GroundPlane, config: DetectionConfig
+                 ) -> tuple[np.ndarray, dict[int, Obstacle | RejectedGroup]]:
     """The flat candidates (``bool (H, W)``) grouped, and each group measured
     (:func:`~stereo_obstacles.obstacles.measure_groups`). They are only reported as rejected, so
     they are not split into depth layers."""

@@ -92,7 +92,8 @@ class ShiftedWindowCheck:
 
     def add_map(self, disparity: np.ndarray) -> None:
         """Add the matches of a whole image at once: ``disparity`` (int32, shape (H, W)) holds each
-        left pixel's integer disparity in pixels, -1 where unmatched, with the conditions of
+        left pixel's integer disparity in pixels, negative where unmatched (a negative disparity,
+        which a negative ``min_disparity`` allows, is not checked), with the other conditions of
         :meth:`add` (5x faster than :meth:`add` of the same matches: no lists of pixels)."""
         disparity = np.asarray(disparity)
         if disparity.shape != self.d_map.shape or disparity.dtype != np.int32:
@@ -197,7 +198,8 @@ def shifted_window_check_map(inputs: SimilarityInputs, disparity: np.ndarray, *,
     inputs : SimilarityInputs
         Prepared images, shape (H, W).
     disparity : ndarray of int32, shape (H, W)
-        Each left pixel's integer disparity in pixels, -1 where unmatched (``x - d >= 0``).
+        Each left pixel's integer disparity in pixels (``x - d >= 0``), negative where unmatched
+        (as in :meth:`ShiftedWindowCheck.add_map`).
     n_threads : int
         As for :func:`shifted_window_check`.
 
