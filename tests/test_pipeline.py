@@ -165,6 +165,21 @@ def test_kitti_depth_agrees_with_the_lidar_ground_truth(shared_dataset):
     assert near, "parked cars within 20 m should be reported"
 
 
+def test_a_wall_turned_away_is_not_taken_for_the_ground_without_a_calibration(shared_dataset, caplog):
+    """Middlebury Cones has no ground: its back wall slopes a little down the image (b = 0.010 px
+    per row) but more across it; taken for the ground, the cones and the mask in front of it
+    were rejected as lying under it."""
+    from stereo_obstacles.datasets import load_pair
+
+    pair = load_pair(shared_dataset("middlebury2003_cones"))
+    with caplog.at_level("WARNING", logger="stereo_obstacles"):
+        result = detect(pair.left, pair.right, None)
+    assert result.ground is None
+    assert "no ground plane (the best plane's disparity changes faster across the image" in caplog.text
+    assert not any("below the fitted ground plane" in r.reason for r in result.obstacles.rejected)
+    assert sum(o.pixel_count for o in result.obstacles.obstacles) > 0.5 * result.disparity.size
+
+
 @pytest.mark.parametrize("bad", [-0.1, float("nan")])
 def test_bad_geometric_excess_is_refused(bad):
     with pytest.raises(InvalidInputError, match="geometric_min_excess_px"):

@@ -378,13 +378,22 @@ MAX_GROUND_TILT_DEG = 45.0
 
 
 def _fit_ground(disparity: np.ndarray, mask: np.ndarray, calibration: StereoCalibration | None) -> GroundPlane:
-    """Fit the ground plane within ``mask``; with a calibration, refuse a plane standing upright."""
+    """Fit the ground plane within ``mask``; refuse a plane standing upright: with a calibration,
+    one tilted more than :data:`MAX_GROUND_TILT_DEG` from the camera's vertical; without, one
+    whose disparity changes faster across the image than down it (the ground seen by a camera
+    rolled more than 45 degrees, or a wall turned away: Middlebury Cones' back wall, b = 0.010
+    and a = -0.017 px of disparity per pixel, was taken for the ground and the cones in front
+    of it rejected as lying under it)."""
     plane = fit_ground_plane(disparity, mask=mask)
     if calibration is not None:
         tilt = tilt_from_camera_vertical_deg(plane, calibration)
         if tilt > MAX_GROUND_TILT_DEG:
             raise InvalidInputError(f"the best plane is tilted {tilt:.0f} degrees from the camera's vertical: "
                                     f"a wall or a large object, not the ground")
+    elif abs(plane.a) >= plane.b:
+        raise InvalidInputError(f"the best plane's disparity changes faster across the image than down it, "
+                                f"{plane.a:+.3f} against {plane.b:+.3f} px per pixel: a wall or a large object, "
+                                f"not the ground")
     return plane
 
 
