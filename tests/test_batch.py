@@ -87,6 +87,22 @@ def test_find_pairs_looks_into_sub_folders_of_name_paired_images(tmp_path):
                  "--max-disparity", "40"]) == 0                                # every one of them loads
 
 
+def test_batch_replaces_its_own_summary_not_a_users_file(tmp_path, capsys):
+    (tmp_path / "in").mkdir()
+    _write_pair(tmp_path / "in", "x_left.png", "x_right.png")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "batch_summary.json").write_text("mine\n")
+    args = ["batch", str(tmp_path / "in"), "--out", str(out), "--workers", "1", "--task", "disparity",
+            "--max-disparity", "40"]
+    assert main(args) == 1
+    assert "batch_summary.json exists and is not a batch summary of this tool" in capsys.readouterr().err
+    assert (out / "batch_summary.json").read_text() == "mine\n" and not (out / "x").exists()
+    (out / "batch_summary.json").unlink()
+    assert main(args) == 0 and main(args) == 0                     # its own summary is replaced on a rerun
+    assert json.loads((out / "batch_summary.json").read_text())["counts"]["skipped"] == 1
+
+
 def test_find_pairs_errors(tmp_path):
     with pytest.raises(InputFileError, match="does not exist"):
         find_pairs(tmp_path / "missing")

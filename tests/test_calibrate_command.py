@@ -56,6 +56,27 @@ def test_calibration_of_the_shared_chessboard_set(calibrated):
     assert "P1" in calibrated.with_suffix(".yml").read_text()
 
 
+def test_calibrate_replaces_its_own_yaml_not_a_users(calibrated, chessboard, tmp_path, capsys):
+    """The YAML goes beside the JSON the user names, under a name the user did not give."""
+    import shutil
+
+    written, _ = calibrated
+    args = ["calibrate", str(chessboard / "left0[1-6].jpg"), str(chessboard / "right0[1-6].jpg"), "--board", "9x6",
+            "--square", "0.025", "--out", str(tmp_path / "rig.json")]
+    (tmp_path / "rig.yml").write_text("%YAML:1.0\nmy: own\n")
+    assert main(args) == 1
+    assert "rig.yml exists and is not a calibration YAML of this tool" in capsys.readouterr().err
+    assert (tmp_path / "rig.yml").read_text() == "%YAML:1.0\nmy: own\n" and not (tmp_path / "rig.json").exists()
+    shutil.copy(written.with_suffix(".yml"), tmp_path / "rig.yml")   # one calibrate wrote, for another JSON
+    assert main(args) == 0                                          # carries the tool's comment
+    unmarked = "\n".join(line for line in (tmp_path / "rig.yml").read_text().splitlines() if "stereo-obstacles" not in line)
+    (tmp_path / "rig.yml").write_text(unmarked)                     # as written before the comment was
+    assert main(args) == 0                                          # the JSON beside it holds its matrices
+    (tmp_path / "rig.yml").write_text(unmarked)
+    shutil.copy(written, tmp_path / "rig.json")                     # a JSON of another calibration beside it
+    assert main(args) == 1 and "not a calibration YAML" in capsys.readouterr().err
+
+
 def test_pairs_without_the_board_are_rejected_by_name(chessboard, tmp_path, capsys, caplog):
     for name in ("left01.jpg", "right01.jpg", "left02.jpg", "right02.jpg", "left03.jpg", "right03.jpg"):
         (tmp_path / name).symlink_to(chessboard / name)

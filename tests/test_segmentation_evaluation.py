@@ -90,6 +90,24 @@ def test_segment_command_writes_labels_overlay_and_record(tmp_path, capsys):
     assert said.startswith(f"wrote {out}: ground ") and "obstacle" in said
 
 
+def test_segment_command_replaces_its_own_record_not_a_users_file(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    write_image(tmp_path / "in.png", np.clip(rng.normal((90, 140, 60), 3.0, (60, 80, 3)), 0, 255).astype(np.uint8))
+    args = ["segment", str(tmp_path / "in.png"), "-o", str(tmp_path / "labels.png")]
+    notes = tmp_path / "labels.png.json"
+    notes.write_text("my notes\n")
+    assert main(args) == 1
+    assert "labels.png.json exists and is not a segmentation record of this tool" in capsys.readouterr().err
+    assert notes.read_text() == "my notes\n" and not (tmp_path / "labels.png").exists()
+    notes.unlink()
+    assert main(args) == 0 and main(args) == 0                     # its own record is replaced
+    assert json.loads(notes.read_text())["format"] == "stereo-obstacles/segmentation"
+    legacy = json.loads(notes.read_text())
+    del legacy["format"]                                           # as written before the record had one
+    notes.write_text(json.dumps(legacy))
+    assert main(args) == 0
+
+
 def test_segment_command_reports_a_bad_reference(tmp_path, capsys):
     write_image(tmp_path / "in.png", np.full((20, 20, 3), (4, 2, 1), np.uint8))   # too dark
     code = main(["segment", str(tmp_path / "in.png"), "-o", str(tmp_path / "l.png")])

@@ -18,7 +18,7 @@ import os
 import shutil
 import stat
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from stereo_obstacles.errors import OutputError
@@ -135,6 +135,26 @@ def refuse_foreign_files(folder: str | os.PathLike[str], names: Iterable[str], *
     if theirs:
         raise OutputError(f"{folder} holds {', '.join(theirs)} but no {what} of this tool ({missing}): a {what} "
                           f"would replace them; write it elsewhere, or delete them")
+
+
+def refuse_foreign_file(path: str | os.PathLike[str], *, ours: Callable[[Path], bool], what: str) -> None:
+    """Raise :class:`OutputError` when ``path`` exists but ``ours`` does not recognise it as a
+    ``what`` of this tool: a file a run writes beside the one the user named (a summary, a
+    sidecar, a second format of it) would replace a user's own file of that name."""
+    target = Path(path)
+    if (target.exists() or target.is_symlink()) and not (target.is_file() and ours(target)):
+        raise OutputError(f"{target} exists and is not a {what} of this tool: it would be replaced; move it away "
+                          f"or write elsewhere")
+
+
+def json_object(path: str | os.PathLike[str]) -> dict:
+    """The JSON object in ``path``; an empty dict when the file cannot be read as one (for
+    :func:`refuse_foreign_file`'s tests of a file's fields)."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
 
 
 def remove_file_set(folder: Path, names: tuple[str, ...], *, what: str) -> None:

@@ -40,8 +40,8 @@ from pathlib import Path
 
 from stereo_obstacles.errors import InputFileError, InvalidInputError, OutputError
 
-__all__ = ["DONE_FILE", "SUMMARY_FILE", "TASKS", "BatchJob", "PairOutcome", "PairSpec", "check_done_settings",
-           "find_pairs", "finished_unreported", "output_settings", "process_pair", "run_batch", "write_summary"]
+__all__ = ["DONE_FILE", "SUMMARY_FILE", "SUMMARY_FORMAT", "TASKS", "BatchJob", "PairOutcome", "PairSpec",
+           "check_done_settings", "find_pairs", "finished_unreported", "output_settings", "process_pair", "run_batch", "write_summary"]
 
 logger = logging.getLogger(__name__)
 
@@ -52,6 +52,7 @@ DONE_FILE = "done.json"
 """Written last in a pair's output folder; its presence means the pair is complete."""
 
 SUMMARY_FILE = "batch_summary.json"
+SUMMARY_FORMAT = "stereo-obstacles/batch-summary"
 """Name of the summary written in the output folder."""
 
 _IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".bmp", ".tif", ".tiff")
@@ -620,7 +621,7 @@ def write_summary(out_dir: str | os.PathLike[str], outcomes: list[PairOutcome], 
     from stereo_obstacles.atomic import write_text_atomic
 
     counts = {status: sum(o.status == status for o in outcomes) for status in ("done", "skipped", "failed")}
-    summary = {"format": "stereo-obstacles/batch-summary", "version": 1, "package_version": __version__,
+    summary = {"format": SUMMARY_FORMAT, "version": 1, "package_version": __version__,
                "interrupted": interrupted, "seconds": round(seconds, 3), "counts": counts,
                "pairs_per_second": round(counts["done"] / seconds, 4) if seconds > 0 else None,
                "settings": settings, "pairs": [asdict(o) for o in sorted(outcomes, key=lambda o: o.name)]}

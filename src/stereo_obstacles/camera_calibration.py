@@ -176,6 +176,22 @@ def read_camera_pair_json(path: str | os.PathLike[str]) -> CameraPairCalibration
     return CameraPairCalibration.from_dict(data, source=str(path))
 
 
+OPENCV_FILE_MARK = "written by stereo-obstacles"
+"""The comment at the top of the OpenCV files :func:`write_opencv_yaml` writes (OpenCV skips it):
+how a later run knows such a file for its own (:func:`is_marked_opencv_file`)."""
+
+
+def is_marked_opencv_file(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` begins like a file :func:`write_opencv_yaml` wrote (its comment among the
+    first lines)."""
+    try:
+        with open(path, "rb") as file:
+            head = file.read(256)
+    except OSError:
+        return False
+    return OPENCV_FILE_MARK.encode() in head
+
+
 def write_opencv_yaml(path: str | os.PathLike[str], calibration: CameraPairCalibration,
                       rectified: dict[str, np.ndarray] | None = None) -> None:
     """Write ``calibration`` as OpenCV ``FileStorage`` YAML (atomically).
@@ -202,6 +218,7 @@ def write_opencv_yaml(path: str | os.PathLike[str], calibration: CameraPairCalib
     with atomic_path(path) as temporary:  # the temporary name ends in the real suffix, as OpenCV needs
         storage = cv2.FileStorage(str(temporary), cv2.FILE_STORAGE_WRITE)
         try:
+            storage.writeComment(OPENCV_FILE_MARK)
             storage.write("imageSize", np.array(calibration.image_size, dtype=np.int32).reshape(1, 2))
             storage.write("cameraMatrix1", calibration.camera_matrix_left)
             storage.write("distCoeffs1", calibration.distortion_left.reshape(1, -1))

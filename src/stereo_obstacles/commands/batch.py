@@ -51,9 +51,9 @@ def run(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from stereo_obstacles.atomic import check_output_folder
-    from stereo_obstacles.batch import (DONE_FILE, BatchJob, check_done_settings, find_pairs, finished_unreported,
-                                        run_batch, write_summary)
+    from stereo_obstacles.atomic import check_output_folder, json_object, refuse_foreign_file
+    from stereo_obstacles.batch import (DONE_FILE, SUMMARY_FILE, SUMMARY_FORMAT, BatchJob, check_done_settings,
+                                        find_pairs, finished_unreported, run_batch, write_summary)
     from stereo_obstacles.camera_calibration import read_camera_calibration
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.commands.detect import config_from_args
@@ -67,6 +67,8 @@ def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     out = Path(args.out)
     check_output_folder(out)
+    refuse_foreign_file(out / SUMMARY_FILE, ours=lambda path: json_object(path).get("format") == SUMMARY_FORMAT,
+                        what="batch summary")
     if out.resolve() == Path(args.input_dir).resolve():
         raise OutputError(f"--out {out} is the input folder: the pairs' outputs would replace their inputs")
     # read once, before any pair: a bad file is one error, a warning about it is shown once

@@ -27,7 +27,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="inner corners per row x per column (default 9x6)")
     parser.add_argument("--square", type=float, required=True, metavar="M", help="side of a square, metres")
     parser.add_argument("--out", required=True, type=output_path, metavar="FILE",
-                        help="calibration JSON to write (.json)")
+                        help="calibration JSON to write (.json); the OpenCV YAML is written beside it as FILE with .yml")
     parser.add_argument("--json", action="store_true", help="print the report as one JSON line")
     parser.set_defaults(handler=run)
 
@@ -106,12 +106,41 @@ def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
     return list(zip(lefts, rights))
 
 
+def _written_by_calibrate(yaml_path, json_path) -> bool:
+    """Whether the OpenCV YAML ``yaml_path`` is one an earlier ``calibrate`` wrote: it carries the
+    tool's comment, or (written before the comment was) it holds the camera matrices and
+    translation of the camera-pair JSON ``json_path`` beside it (a user's own ``stereo.yml`` of
+    another calibration does not)."""
+    import cv2
+    import numpy as np
+
+    from stereo_obstacles.camera_calibration import is_marked_opencv_file, read_camera_pair_json
+    from stereo_obstacles.errors import StereoObstaclesError
+
+    if is_marked_opencv_file(yaml_path):
+        return True
+    try:
+        written = read_camera_pair_json(json_path)
+    except StereoObstaclesError:
+        return False
+    storage = cv2.FileStorage(str(yaml_path), cv2.FILE_STORAGE_READ)
+    try:
+        matrices = [storage.getNode(name).mat() if storage.isOpened() else None
+                    for name in ("cameraMatrix1", "cameraMatrix2", "T")]
+    except cv2.error:
+        return False
+    finally:
+        storage.release()
+    expected = (written.camera_matrix_left, written.camera_matrix_right, written.translation_m.reshape(3, 1))
+    return all(m is not None and m.shape == e.shape and np.allclose(m, e) for m, e in zip(matrices, expected))
+
+
 def run(args: argparse.Namespace) -> int:
     """Find the boards, calibrate, write JSON + YAML, print the report."""
     import json
     from pathlib import Path
 
-    from stereo_obstacles.atomic import check_output_file
+    from stereo_obstacles.atomic import check_output_file, refuse_foreign_file
     from stereo_obstacles.camera_calibration import write_camera_pair_json, write_opencv_yaml
     from stereo_obstacles.chessboard_calibration import Board, calibrate_pairs
     from stereo_obstacles.errors import InvalidInputError, OutputError
@@ -131,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
     images = tuple(name for pair in files for name in pair)
     check_output_file(out, images)
     check_output_file(yaml_path, images)
+    refuse_foreign_file(yaml_path, ours=lambda path: _written_by_calibrate(path, out), what="calibration YAML")
     refuse_scene_files(out)
     pairs = [(f"{Path(left).name}+{Path(right).name}", read_image(left, mode="gray"), read_image(right, mode="gray"))
              for left, right in files]

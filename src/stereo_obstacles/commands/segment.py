@@ -29,7 +29,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--right", metavar="RIGHT", default=None,
                         help="right image of the rectified pair: adds the stereo ground check")
     parser.add_argument("-o", "--output", required=True, type=output_path, metavar="LABELS.png",
-                        help="label image to write (uint8 PNG with the values above)")
+                        help="label image to write (uint8 PNG with the values above); a JSON record of "
+                             "the run is written beside it as LABELS.png.json")
     parser.add_argument("--overlay", metavar="PICTURE.png", default=None, type=output_path,
                         help="also write the image with the labels blended over it")
     parser.add_argument("--reference", metavar="X0,Y0,X1,Y1", default=None,
@@ -44,6 +45,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--colour-model", choices=("log_rgb", "hsi"), default="log_rgb",
                         help="ground colours as a log-RGB colour table (default) or the paper's HSI rule")
     parser.set_defaults(handler=run)
+
+
+SIDECAR_FORMAT = "stereo-obstacles/segmentation"
+"""``format`` of the JSON record written beside the labels (``LABELS.png.json``)."""
+
+
+def _is_sidecar(path) -> bool:
+    """Whether ``path`` holds a record ``segment`` wrote (those written before it had a ``format``
+    are known by their fields)."""
+    from stereo_obstacles.atomic import json_object
+
+    data = json_object(path)
+    return data.get("format") == SIDECAR_FORMAT or {"version", "image", "reference", "fractions"} <= data.keys()
 
 
 def _ground_check_record(check: GroundCheck | None) -> dict | None:
@@ -67,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from stereo_obstacles import __version__
-    from stereo_obstacles.atomic import check_output_file, write_text_atomic
+    from stereo_obstacles.atomic import check_output_file, refuse_foreign_file, write_text_atomic
     from stereo_obstacles.fileio import check_image_path, check_labels_path, read_image, write_image, write_labels
     from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.labels import Label, colorize_labels
@@ -81,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         if target is not None:
             check_output_file(target, inputs)
             inputs += (target,)
+    refuse_foreign_file(f"{args.output}.json", ours=_is_sidecar, what="segmentation record")
     refuse_scene_files(args.output, args.overlay)
     check_labels_path(args.output)                       # the formats too, before the first file is written
     if args.overlay:
@@ -103,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         blended[y0:y1, [x0, x1 - 1]] = 255
         blended[[y0, y1 - 1], x0:x1] = 255
         write_image(args.overlay, blended)
-    sidecar = {"version": __version__, "image": str(args.image),
+    sidecar = {"format": SIDECAR_FORMAT, "version": __version__, "image": str(args.image),
                "reference": result.reference.as_dict(),
                "shadow_rule": params.shadow_rule, "colour_model": params.colour_model,
                "right_image": None if args.right is None else str(args.right),
