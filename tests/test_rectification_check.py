@@ -127,6 +127,18 @@ def test_feature_matches_find_a_known_shift(method, levels):
     assert shift == pytest.approx([-6.0, 2.0], abs=0.5)
 
 
+def test_a_12_bit_pair_in_16_bit_images_is_matched_as_its_8_bit_copy():
+    """16-bit images are read by their significant bits: 12-bit data (values up to 4080) shifted
+    by 8 bits was nearly black, and nothing matched."""
+    rng = np.random.default_rng(3)
+    image = np.kron((rng.uniform(0, 255, (160, 200)) > 128).astype(np.uint8) * 255, np.ones((2, 2), np.uint8))
+    shifted = np.roll(image, (2, -6), axis=(0, 1))
+    eight = match_features(image, shifted, method="orb", orb_levels=3)
+    twelve = match_features(image.astype(np.uint16) * 16, shifted.astype(np.uint16) * 16, method="orb", orb_levels=3)
+    assert len(twelve) == len(eight) > 20
+    np.testing.assert_array_equal(twelve.left_px, eight.left_px)
+
+
 def test_pipeline_records_the_check(pairs, caplog):
     from stereo_obstacles.pipeline import detect
 

@@ -108,6 +108,23 @@ def test_segment_command_replaces_its_own_record_not_a_users_file(tmp_path, caps
     assert main(args) == 0
 
 
+def test_segment_command_reads_a_12_bit_image_by_its_significant_bits(tmp_path):
+    """A 12-bit image in a 16-bit PNG (values up to 4080) is labelled as its 8-bit copy, as detect
+    reads it (taken as 16-bit, its reference area was too dark to use)."""
+    import cv2
+
+    rng = np.random.default_rng(0)
+    image = np.clip(rng.normal((90, 140, 60), 3.0, (60, 80, 3)), 0, 255).astype(np.uint8)
+    image[10:25, 30:45] = (200, 40, 40)
+    write_image(tmp_path / "eight.png", image)
+    cv2.imwrite(str(tmp_path / "twelve.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR).astype(np.uint16) * 16)
+    for name in ("eight", "twelve"):
+        assert main(["segment", str(tmp_path / f"{name}.png"), "-o", str(tmp_path / f"{name}_labels.png"),
+                     "--overlay", str(tmp_path / f"{name}_overlay.png")]) == 0
+    np.testing.assert_array_equal(read_labels(tmp_path / "twelve_labels.png"), read_labels(tmp_path / "eight_labels.png"))
+    assert np.array_equal(cv2.imread(str(tmp_path / "twelve_overlay.png")), cv2.imread(str(tmp_path / "eight_overlay.png")))
+
+
 def test_segment_command_reports_a_bad_reference(tmp_path, capsys):
     write_image(tmp_path / "in.png", np.full((20, 20, 3), (4, 2, 1), np.uint8))   # too dark
     code = main(["segment", str(tmp_path / "in.png"), "-o", str(tmp_path / "l.png")])

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.fileio import to_uint8
 
 logger = logging.getLogger(__name__)
 
@@ -56,7 +57,7 @@ def _grey_uint8(image: np.ndarray, name: str) -> np.ndarray:
     if grey.dtype == np.uint8:
         return np.ascontiguousarray(grey)
     if grey.dtype == np.uint16:
-        return (grey >> 8).astype(np.uint8)
+        return to_uint8(grey)[0]              # by its significant bits: 12-bit data keeps its contrast
     finite = np.nan_to_num(grey.astype(np.float64))
     lo, hi = float(finite.min()), float(finite.max())
     return np.zeros(grey.shape, np.uint8) if hi <= lo else ((finite - lo) * (255.0 / (hi - lo))).astype(np.uint8)

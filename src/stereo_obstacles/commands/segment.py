@@ -82,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
 
     from stereo_obstacles import __version__
     from stereo_obstacles.atomic import check_output_file, refuse_foreign_file, write_text_atomic
-    from stereo_obstacles.fileio import check_image_path, check_labels_path, read_image, write_image, write_labels
+    from stereo_obstacles.fileio import (check_image_path, check_labels_path, read_image, to_uint8, write_image,
+                                         write_labels)
     from stereo_obstacles.image_pairs import check_pair_of_files
     from stereo_obstacles.labels import Label, colorize_labels
     from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
@@ -104,6 +105,9 @@ def run(args: argparse.Namespace) -> int:
     right = None if args.right is None else read_image(args.right, mode="color")
     if right is not None:
         check_pair_of_files(rgb, right, args.image, f"--right {args.right}")
+        rgb, right = to_uint8(rgb, right)            # 16-bit images by their significant bits, as detect does
+    else:
+        (rgb,) = to_uint8(rgb)
     reference = ReferenceArea.parse(args.reference) if args.reference else DEFAULT_REFERENCE_AREA
     texture = (ShadowTextureParameters(min_relative_texture=0.0) if args.no_shadow_texture
                else ShadowTextureParameters())
@@ -112,8 +116,7 @@ def run(args: argparse.Namespace) -> int:
     result = segment(rgb, right=right, reference=reference, params=params)
     write_labels(args.output, result.labels)
     if args.overlay:
-        picture = rgb if rgb.dtype == np.uint8 else (rgb >> 8).astype(np.uint8)
-        blended = (0.55 * picture + 0.45 * colorize_labels(result.labels)).astype(np.uint8)
+        blended = (0.55 * rgb + 0.45 * colorize_labels(result.labels)).astype(np.uint8)
         x0, y0, x1, y1 = result.reference.box_px
         blended[y0:y1, [x0, x1 - 1]] = 255
         blended[[y0, y1 - 1], x0:x1] = 255
