@@ -3,6 +3,8 @@ read from files, one type)."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError
@@ -34,3 +36,18 @@ def check_pair_of_files(left: np.ndarray, right: np.ndarray, left_name: object, 
 
 def _kind(image: np.ndarray) -> str:
     return "grey" if image.ndim == 2 or image.shape[2] == 1 else f"{image.shape[2]}-channel"
+
+
+
+def refuse_one_file_twice(left_name: str | os.PathLike[str], right_name: str | os.PathLike[str]) -> None:
+    """Raise :class:`ImageMismatchError` when the two files of a pair are one file (given twice, or
+    by two names): the two cameras' images are needed, and an image matched with itself says only
+    that nothing stands anywhere. Two files of equal content are not refused: two cameras facing a
+    blank wall may deliver two equal uniform images."""
+    try:
+        same = os.path.samefile(left_name, right_name)
+    except OSError:
+        return                                  # a missing file is reported when it is read
+    if same:
+        raise ImageMismatchError(f"{left_name} and {right_name} are one file; a stereo pair needs the two "
+                                 f"cameras' images")

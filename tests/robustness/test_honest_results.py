@@ -4,6 +4,7 @@ an error), never a crash."""
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -14,15 +15,25 @@ from robustness._inputs import error_line
 @pytest.mark.parametrize("image, reason", [("uniform.png", "no edges to start from (textureless)"),
                                            ("smooth.png", "no seed reached the similarity threshold")])
 def test_textureless_pair_gives_density_0_and_says_why(inputs, run_cli, tmp_path, image, reason):
-    code, out, _, log = run_cli("disparity", inputs / image, inputs / image, "-o", tmp_path / "d.npy", "--json")
+    right = shutil.copy(inputs / image, tmp_path / "right.png")      # two cameras facing a blank wall
+    code, out, _, log = run_cli("disparity", inputs / image, right, "-o", tmp_path / "d.npy", "--json")
     assert code == 0
     assert json.loads(out)["density"] == 0.0
     assert np.isnan(np.load(tmp_path / "d.npy")).all()
     assert "no match:" in log and reason in log
 
 
+@pytest.mark.parametrize("command", [["detect", "--focal", "138", "--baseline", "0.12"], ["disparity"]])
+def test_one_file_given_twice_is_refused(inputs, run_cli, tmp_path, command):
+    out = ["--out", tmp_path / "o"] if command[0] == "detect" else ["-o", tmp_path / "d.npy"]
+    code, _, err, _ = run_cli(command[0], inputs / "uniform.png", f"{inputs}/./uniform.png", *out, *command[1:])
+    assert code == 1 and "are one file; a stereo pair needs the two cameras' images" in err
+    assert not (tmp_path / "o").exists() and not (tmp_path / "d.npy").exists()
+
+
 def test_textureless_pair_detects_nothing_with_a_warning(inputs, run_cli, tmp_path):
-    code, out, _, log = run_cli("detect", inputs / "uniform.png", inputs / "uniform.png", "--out", tmp_path / "o",
+    right = shutil.copy(inputs / "uniform.png", tmp_path / "right.png")
+    code, out, _, log = run_cli("detect", inputs / "uniform.png", right, "--out", tmp_path / "o",
                                 "--focal", "138", "--baseline", "0.12")
     assert code == 0 and "No obstacles found." in out
     assert "no match:" in log
@@ -30,7 +41,8 @@ def test_textureless_pair_detects_nothing_with_a_warning(inputs, run_cli, tmp_pa
 
 
 def test_identical_images_are_flagged_as_all_disparity_zero(inputs, run_cli, tmp_path):
-    code, out, _, log = run_cli("disparity", inputs / "left.png", inputs / "left.png", "-o", tmp_path / "d.npy")
+    copy = shutil.copy(inputs / "left.png", tmp_path / "copy.png")    # one file twice is refused (below)
+    code, out, _, log = run_cli("disparity", inputs / "left.png", copy, "-o", tmp_path / "d.npy")
     assert code == 0
     d = np.load(tmp_path / "d.npy")
     assert np.nanmax(np.abs(d)) < 0.5
@@ -40,8 +52,8 @@ def test_identical_images_are_flagged_as_all_disparity_zero(inputs, run_cli, tmp
 @pytest.mark.parametrize("calibrated", [True, False])
 def test_identical_images_report_no_obstacle(inputs, run_cli, tmp_path, calibrated):
     calibration = ["--calib", inputs / "scene" / "calibration.json"] if calibrated else []
-    code, out, _, log = run_cli("detect", inputs / "left.png", inputs / "left.png", "--out", tmp_path / "o",
-                                *calibration)
+    copy = shutil.copy(inputs / "left.png", tmp_path / "copy.png")
+    code, out, _, log = run_cli("detect", inputs / "left.png", copy, "--out", tmp_path / "o", *calibration)
     assert code == 0 and "No obstacles found." in out
     assert "are the left and right images the same?" in log
     if not calibrated:   # the whole image at disparity 0 was once reported as obstacle #1, confidence 1.00

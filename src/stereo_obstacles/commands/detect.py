@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.atomic import check_output_folder
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.fileio import read_image
-    from stereo_obstacles.image_pairs import check_pair_of_files
+    from stereo_obstacles.image_pairs import check_pair_of_files, refuse_one_file_twice
     from stereo_obstacles.report import OUTPUT_FILES, check_report_folder, format_obstacle_table
 
     check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))
@@ -130,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
     left = read_image(args.left, mode="color")
     right = read_image(args.right, mode="color")
     check_pair_of_files(left, right, args.left, args.right)
+    refuse_one_file_twice(args.left, args.right)
     from stereo_obstacles.commands._calibration_options import prepare_pair
 
     left, right, calibration, rectification = prepare_pair(args, left, right)

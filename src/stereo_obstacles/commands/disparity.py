@@ -85,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
     from stereo_obstacles.colorize import colorize_disparity
     from stereo_obstacles.commands._compile_notice import announce_compilation
     from stereo_obstacles.fileio import check_disparity_path, check_image_path, read_image, write_disparity, write_image
+    from stereo_obstacles.image_pairs import check_pair_of_files, refuse_one_file_twice
     from stereo_obstacles.matching import match, warn_if_range_cut_off
     from stereo_obstacles.seeds import DEFAULT_SEEDS, SEED_SOURCES
     from stereo_obstacles.synthetic.scene_files import refuse_scene_files
@@ -99,6 +100,8 @@ def run(args: argparse.Namespace) -> int:
         check_image_path(args.picture)
     left = read_image(args.left)
     right = read_image(args.right)
+    check_pair_of_files(left, right, args.left, args.right, channels=False)
+    refuse_one_file_twice(args.left, args.right)
     from stereo_obstacles.commands._calibration_options import prepare_pair
 
     left, right, _, rectification = prepare_pair(args, left, right)
