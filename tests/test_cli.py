@@ -175,3 +175,13 @@ def test_every_sentinel_kernel_exists_and_is_cached_by_numba():
     for module_name, name in SENTINEL_KERNELS:
         kernel = getattr(importlib.import_module(f"stereo_obstacles.{module_name}"), name)
         assert kernel._cache._cache_file is not None, (module_name, name)     # @njit(cache=True)
+
+
+@pytest.mark.parametrize("option, value", [("--max-distance", "-1"), ("--corridor-width", "0"),
+                                           ("--max-distance", "nan"), ("--corridor-width", "wide")])
+def test_a_length_option_out_of_range_is_named_by_its_option(tmp_path, capsys, option, value):
+    """The error named the configuration's field (max_distance_m), not the option the user typed."""
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["detect", "l.png", "r.png", "--out", str(tmp_path / "o"), option, value])
+    assert exit_info.value.code == 2
+    assert f"argument {option}: expected metres > 0" in capsys.readouterr().err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import re
 
 MIN_IMAGE_SIDE_PX = 16
@@ -62,6 +63,17 @@ def jpeg_quality(text: str) -> int:
     value = _integer_at_least(text, 1, "a JPEG quality 1..100")
     if value > 100:
         raise argparse.ArgumentTypeError(f"expected a JPEG quality 1..100, got {value}")
+    return value
+
+
+def positive_metres(text: str) -> float:
+    """argparse type: a finite length > 0, metres."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected metres > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected metres > 0, got {value}")
     return value
 
 

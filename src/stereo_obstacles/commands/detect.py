@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from stereo_obstacles.commands._arguments import output_path, positive_int
+from stereo_obstacles.commands._arguments import output_path, positive_int, positive_metres
 from stereo_obstacles.commands._calibration_options import add_calibration_options, add_rectification_options
 
 
@@ -18,9 +18,9 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--reference", default=None, metavar="X0,Y0,X1,Y1",
                        help="rectangle assumed to be ground, in fractions of the image (all <= 1) "
                             "or pixels (default: the full-width bottom 15 %%, 0,0.85,1,1)")
-    group.add_argument("--corridor-width", type=float, default=None, metavar="M",
+    group.add_argument("--corridor-width", type=positive_metres, default=None, metavar="M",
                        help="width of the walking corridor straight ahead, metres (default 1.0)")
-    group.add_argument("--max-distance", type=float, default=None, metavar="M",
+    group.add_argument("--max-distance", type=positive_metres, default=None, metavar="M",
                        help="report obstacles up to this distance, metres (default 30)")
     group.add_argument("--matching-scale", type=float, default=None, metavar="S",
                        help="grow the matches on a copy of the pair shrunk by S in (0, 1], then refine "

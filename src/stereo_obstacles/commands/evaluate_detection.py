@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from stereo_obstacles.commands._arguments import jpeg_quality, noise_levels, non_negative_int, output_path
+from stereo_obstacles.commands._arguments import jpeg_quality, noise_levels, non_negative_int, output_path, positive_metres
 
 if TYPE_CHECKING:  # imported in run(): --help stays instant
     from stereo_obstacles.pipeline import DetectionConfig
@@ -34,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "mode does (default: uncompressed)")
     parser.add_argument("--min-height", type=float, default=0.3, metavar="M",
                         help="count true obstacles at least this high (default 0.3 m)")
-    parser.add_argument("--max-distance", type=float, default=10.0, metavar="M",
+    parser.add_argument("--max-distance", type=positive_metres, default=10.0, metavar="M",
                         help="count true obstacles up to this distance (default 10 m)")
     parser.add_argument("--dataset", nargs="+", action="extend", default=[], metavar="DIR",
                         help="calibrated dataset folders (e.g. KITTI) for the depth comparison (several after "
