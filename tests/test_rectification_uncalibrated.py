@@ -68,43 +68,6 @@ def test_refuses_a_pure_rotation(synthetic):
         rectify_uncalibrated(pair.left, rotated)
 
 
-def _small_scene(seed, **render):
-    from stereo_obstacles.synthetic import RenderOptions, RightCameraError, random_scene, render_pair
-
-    rotation = render.pop("rotation_deg", (0.0, 0.0, 0.0))
-    return render_pair(random_scene(seed, width_px=320, height_px=240),
-                       RenderOptions(right_error=RightCameraError(rotation_deg=rotation)), **render)
-
-
-def test_an_already_rectified_pair_is_left_as_it_is():
-    """Its epipole, estimated from a small scene's matches, fell in the image: refused as forward
-    motion. Homographies that would put the matches farther from their rows are not used."""
-    pair = _small_scene(7)
-    rectification = rectify_uncalibrated(pair.left, pair.right)
-    np.testing.assert_array_equal(rectification.h_left, np.eye(3))
-    np.testing.assert_array_equal(rectification.h_right, np.eye(3))
-    assert rectification.quality.median_px < 0.1
-
-
-def test_a_small_pair_rolled_by_a_degree_is_rectified():
-    pair = _small_scene(7, rotation_deg=(0.0, 0.0, 1.0))
-    rectification = rectify_uncalibrated(pair.left, pair.right)
-    assert rectification.quality.median_px < 0.2 and rectification.quality.p95_px <= 1.0
-
-
-@pytest.mark.parametrize("forward_m, reason", [(0.2, "degenerate motion: the epipole"),
-                                                (0.4, "the matches stay off their rows after rectification")])
-def test_refuses_forward_motion(forward_m, reason):
-    """The same camera further forward: the matches flow out from the image centre, and no
-    rotation brings them onto their rows (at 0.4 m the estimated epipole lies outside the image,
-    and the pair was rectified with its matches 8.3 px off their rows)."""
-    from stereo_obstacles.synthetic import default_scene, render_pair
-
-    scene = default_scene(320, 240)
-    with pytest.raises(RectificationError, match=reason):
-        rectify_uncalibrated(render_pair(scene).left, render_pair(scene, forward_m=forward_m).left)
-
-
 def test_refuses_swapped_images(synthetic):
     pair, _ = synthetic
     with pytest.raises(RectificationError, match="swapped"):

@@ -44,11 +44,6 @@ PRIOR_WEIGHT = 1.0
 MODELS = ("quasi-euclidean", "hartley")
 """Rectifying homographies: rotations of the cameras fitted to the matches, or OpenCV's Hartley method."""
 
-MAX_RECTIFIED_P95_PX = 3.0
-"""After rectification the inliers' 95th percentile vertical offset must be at most this, pixels:
-more, and the pair is not two cameras side by side (a camera 0.4 m further forward passed the
-epipole test, its matches 8.3 px off their rows)."""
-
 MIN_PARALLAX_FRACTION = 0.05
 """Fewest fundamental-matrix inliers, as a fraction, that a single homography must fail to explain."""
 
@@ -284,8 +279,8 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
                                  f"of {len(matches)} (need {min_inliers})")
     left_in, right_in = matches.left_px[inlier], matches.right_px[inlier]
     _check_parallax(left_in, right_in, threshold_px)
+    _check_epipole(fundamental, width, height)
     if model == "hartley":
-        _check_epipole(fundamental, width, height)
         ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
                                                             threshold=threshold_px)
         if not ok:
@@ -295,19 +290,6 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
     h_left, h_right = _least_distortion(h_left, h_right, width, height)
     rect_left, rect_right = _transform(h_left, left_in), _transform(h_right, right_in)
     quality = vertical_offset_stats(rect_left, rect_right)
-    as_given = vertical_offset_stats(left_in, right_in)
-    if as_given.median_px <= quality.median_px:     # already rectified better than the homographies do it
-        h_left, h_right = np.eye(3), np.eye(3)
-        rect_left, rect_right, quality = left_in, right_in, as_given
-    if model != "hartley" and quality.p95_px > threshold_px:
-        # rotations that bring the matches onto their rows prove the cameras side by side; the
-        # epipole of F is asked only when they do not (estimated from a small scene's matches it
-        # fell in the image for pairs that rectify to 0.4 px)
-        _check_epipole(fundamental, width, height)
-    if quality.p95_px > MAX_RECTIFIED_P95_PX:
-        raise RectificationError(f"the matches stay off their rows after rectification (95th percentile "
-                                 f"{quality.p95_px:.1f} px): the cameras are not side by side (forward motion?) "
-                                 f"or the images do not show one scene")
     disparities = rect_left[:, 0] - rect_right[:, 0]
     low, high = np.percentile(disparities, [1, 99])
     if np.median(disparities) < 0:
