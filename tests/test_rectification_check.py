@@ -137,6 +137,11 @@ def test_a_12_bit_pair_in_16_bit_images_is_matched_as_its_8_bit_copy():
     twelve = match_features(image.astype(np.uint16) * 16, shifted.astype(np.uint16) * 16, method="orb", orb_levels=3)
     assert len(twelve) == len(eight) > 20
     np.testing.assert_array_equal(twelve.left_px, eight.left_px)
+    brighter = shifted.astype(np.uint16) * 16
+    brighter[0, 0] = 4096                                  # one pixel of 13 bits: the pair keeps one scale
+    one_scale = match_features(image.astype(np.uint16) * 16, brighter, method="orb", orb_levels=3)
+    both_halved = match_features(image // 2, shifted // 2, method="orb", orb_levels=3)
+    assert len(one_scale) == len(both_halved)
 
 
 def test_pipeline_records_the_check(pairs, caplog):

@@ -125,6 +125,21 @@ def test_segment_command_reads_a_12_bit_image_by_its_significant_bits(tmp_path):
     assert np.array_equal(cv2.imread(str(tmp_path / "twelve_overlay.png")), cv2.imread(str(tmp_path / "eight_overlay.png")))
 
 
+def test_segment_command_reads_a_12_bit_pair_with_the_right_image_as_its_8_bit_copy(tmp_path):
+    import cv2
+
+    from stereo_obstacles.synthetic import default_scene, render_pair
+
+    pair = render_pair(default_scene(320, 240))
+    for side, image in (("left", pair.left), ("right", pair.right)):
+        write_image(tmp_path / f"{side}8.png", image)
+        cv2.imwrite(str(tmp_path / f"{side}12.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR).astype(np.uint16) * 16)
+    for bits in ("8", "12"):
+        assert main(["segment", str(tmp_path / f"left{bits}.png"), "--right", str(tmp_path / f"right{bits}.png"),
+                     "-o", str(tmp_path / f"labels{bits}.png")]) == 0
+    np.testing.assert_array_equal(read_labels(tmp_path / "labels12.png"), read_labels(tmp_path / "labels8.png"))
+
+
 def test_segment_command_reports_a_bad_reference(tmp_path, capsys):
     write_image(tmp_path / "in.png", np.full((20, 20, 3), (4, 2, 1), np.uint8))   # too dark
     code = main(["segment", str(tmp_path / "in.png"), "-o", str(tmp_path / "l.png")])

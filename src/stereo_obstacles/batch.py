@@ -52,8 +52,9 @@ DONE_FILE = "done.json"
 """Written last in a pair's output folder; its presence means the pair is complete."""
 
 SUMMARY_FILE = "batch_summary.json"
-SUMMARY_FORMAT = "stereo-obstacles/batch-summary"
 """Name of the summary written in the output folder."""
+SUMMARY_FORMAT = "stereo-obstacles/batch-summary"
+"""``format`` of the summary: how a later run knows the file for its own."""
 
 _IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".bmp", ".tif", ".tiff")
 

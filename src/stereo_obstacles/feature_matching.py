@@ -47,17 +47,27 @@ class FeatureMatches:
         return int(self.left_px.shape[0])
 
 
-def _grey_uint8(image: np.ndarray, name: str) -> np.ndarray:
+def _grey(image: np.ndarray, name: str) -> np.ndarray:
+    """The grey ``(H, W)`` copy of a grey or RGB image, in its own dtype."""
     import cv2
 
     if not isinstance(image, np.ndarray) or image.ndim not in (2, 3) or (image.ndim == 3 and image.shape[2] != 3):
         raise InvalidInputError(f"{name}: expected a grey (H, W) or RGB (H, W, 3) image, got "
                                 f"{getattr(image, 'shape', type(image).__name__)}")
-    grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) if image.ndim == 3 else image
-    if grey.dtype == np.uint8:
-        return np.ascontiguousarray(grey)
-    if grey.dtype == np.uint16:
-        return to_uint8(grey)[0]              # by its significant bits: 12-bit data keeps its contrast
+    return cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) if image.ndim == 3 else image
+
+
+def _grey_pair_uint8(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Both images as ``uint8 (H, W)`` grey: 16-bit ones scaled together by their significant
+    bits (:func:`~stereo_obstacles.fileio.to_uint8`: 12-bit data keeps its contrast, and a pair
+    keeps one scale), float ones stretched from their minimum to their maximum."""
+    greys = [_grey(left, "left"), _grey(right, "right")]
+    wide = iter(to_uint8(*(grey for grey in greys if grey.dtype == np.uint16)))
+    return tuple(np.ascontiguousarray(grey) if grey.dtype == np.uint8 else next(wide) if grey.dtype == np.uint16
+                 else _stretched_uint8(grey) for grey in greys)
+
+
+def _stretched_uint8(grey: np.ndarray) -> np.ndarray:
     finite = np.nan_to_num(grey.astype(np.float64))
     lo, hi = float(finite.min()), float(finite.max())
     return np.zeros(grey.shape, np.uint8) if hi <= lo else ((finite - lo) * (255.0 / (hi - lo))).astype(np.uint8)
@@ -111,7 +121,7 @@ def match_features(left: np.ndarray, right: np.ndarray, *, method: str = "sift",
         raise InvalidInputError(f"max_features: expected an integer >= 8, got {max_features}")
     if isinstance(orb_levels, bool) or int(orb_levels) != orb_levels or not 1 <= orb_levels <= 16:
         raise InvalidInputError(f"orb_levels: expected an integer from 1 to 16, got {orb_levels}")
-    grey_left, grey_right = _grey_uint8(left, "left"), _grey_uint8(right, "right")
+    grey_left, grey_right = _grey_pair_uint8(left, right)
     if method == "sift":
         detector = cv2.SIFT_create(nfeatures=int(max_features))
         norm = cv2.NORM_L2

@@ -38,7 +38,6 @@ def _kind(image: np.ndarray) -> str:
     return "grey" if image.ndim == 2 or image.shape[2] == 1 else f"{image.shape[2]}-channel"
 
 
-
 def refuse_one_file_twice(left_name: str | os.PathLike[str], right_name: str | os.PathLike[str]) -> None:
     """Raise :class:`ImageMismatchError` when the two files of a pair are one file (given twice, or
     by two names): the two cameras' images are needed, and an image matched with itself says only

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import re
+from pathlib import Path
 
 from stereo_obstacles.commands._arguments import output_path
 
@@ -50,7 +51,6 @@ def _pairs_from_folder(folder: str) -> list[tuple[str, str]]:
     """The image pairs of ``folder`` whose names differ only in ``left``/``right`` (any case), in
     name order; a warning names the files without a partner, which are left out."""
     import logging
-    from pathlib import Path
 
     from stereo_obstacles.errors import InputFileError
 
@@ -84,7 +84,6 @@ def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
     pairs fall out of step (a file missing on one side: ``streams.first_out_of_step``)."""
     import glob
     import os
-    from pathlib import Path
 
     from stereo_obstacles.errors import InputFileError
     from stereo_obstacles.streams import first_out_of_step, natural_key, relative_paths
@@ -106,7 +105,7 @@ def _pairs_from_globs(left_glob: str, right_glob: str) -> list[tuple[str, str]]:
     return list(zip(lefts, rights))
 
 
-def _written_by_calibrate(yaml_path, json_path) -> bool:
+def _written_by_calibrate(yaml_path: Path, json_path: Path) -> bool:
     """Whether the OpenCV YAML ``yaml_path`` is one an earlier ``calibrate`` wrote: it carries the
     tool's comment, or (written before the comment was) it holds the camera matrices and
     translation of the camera-pair JSON ``json_path`` beside it (a user's own ``stereo.yml`` of
@@ -138,7 +137,6 @@ def _written_by_calibrate(yaml_path, json_path) -> bool:
 def run(args: argparse.Namespace) -> int:
     """Find the boards, calibrate, write JSON + YAML, print the report."""
     import json
-    from pathlib import Path
 
     from stereo_obstacles.atomic import check_output_file, refuse_foreign_file
     from stereo_obstacles.camera_calibration import write_camera_pair_json, write_opencv_yaml
@@ -165,8 +163,10 @@ def run(args: argparse.Namespace) -> int:
     pairs = [(f"{Path(left).name}+{Path(right).name}", read_image(left, mode="gray"), read_image(right, mode="gray"))
              for left, right in files]
     result = calibrate_pairs(pairs, board)
-    write_camera_pair_json(out, result.calibration)
+    # the YAML first: cut short between the two, a marked YAML stands beside an older JSON, which a
+    # rerun takes for its own (the other way round an older, unmarked YAML would be refused)
     write_opencv_yaml(yaml_path, result.calibration, result.rectification.opencv_matrices())
+    write_camera_pair_json(out, result.calibration)
     report = {"calibration": str(out), "opencv_yaml": str(yaml_path), **result.to_dict()}
     if args.json:
         print(json.dumps(report))

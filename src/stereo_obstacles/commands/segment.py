@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING
 from stereo_obstacles.commands._arguments import output_path
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from stereo_obstacles.ground_check import GroundCheck
 
 
@@ -51,7 +53,7 @@ SIDECAR_FORMAT = "stereo-obstacles/segmentation"
 """``format`` of the JSON record written beside the labels (``LABELS.png.json``)."""
 
 
-def _is_sidecar(path) -> bool:
+def _is_sidecar(path: Path) -> bool:
     """Whether ``path`` holds a record ``segment`` wrote (those written before it had a ``format``
     are known by their fields)."""
     from stereo_obstacles.atomic import json_object
