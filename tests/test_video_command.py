@@ -65,6 +65,15 @@ def test_image_sequences_without_temporal_seeds_and_with_frame_outputs(tmp_path,
     assert inputs["rectification_check"]["rectified"] is True and inputs["rectification_check"]["frame"] == 0
 
 
+@pytest.mark.parametrize("kind", ["videos", "sequences"])
+def test_one_source_given_twice_is_refused(tmp_path, capsys, kind):
+    """It printed "no obstacles" for every frame, after a warning."""
+    left, _ = write_videos(tmp_path / "in") if kind == "videos" else write_sequences(tmp_path / "in")
+    assert main(["video", str(left), f"{left.parent}/./{left.name}", "--jsonl", str(tmp_path / "f.jsonl")]) == 1
+    assert "are one and the same; a stereo pair needs the two cameras' images" in capsys.readouterr().err
+    assert not (tmp_path / "f.jsonl").exists()
+
+
 def test_side_by_side_video_to_stdout_jsonl(tmp_path, capfd):
     video = write_side_by_side(tmp_path / "sbs.avi")
     assert main(["video", str(video), "--max-frames", "1", "--jsonl", "-"]) == 0

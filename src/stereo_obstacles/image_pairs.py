@@ -39,8 +39,8 @@ def _kind(image: np.ndarray) -> str:
 
 
 def refuse_one_file_twice(left_name: str | os.PathLike[str], right_name: str | os.PathLike[str]) -> None:
-    """Raise :class:`ImageMismatchError` when the two files of a pair are one file (given twice, or
-    by two names): the two cameras' images are needed, and an image matched with itself says only
+    """Raise :class:`ImageMismatchError` when the two files (or folders of frames) of a pair are one
+    (given twice, or by two names): the two cameras' images are needed, and an image matched with itself says only
     that nothing stands anywhere. Two files of equal content are not refused: two cameras facing a
     blank wall may deliver two equal uniform images."""
     try:
@@ -48,5 +48,5 @@ def refuse_one_file_twice(left_name: str | os.PathLike[str], right_name: str | o
     except OSError:
         return                                  # a missing file is reported when it is read
     if same:
-        raise ImageMismatchError(f"{left_name} and {right_name} are one file; a stereo pair needs the two "
+        raise ImageMismatchError(f"{left_name} and {right_name} are one and the same; a stereo pair needs the two "
                                  f"cameras' images")

@@ -37,7 +37,7 @@ import numpy as np
 
 from stereo_obstacles.errors import ImageMismatchError, InputFileError, InvalidInputError
 from stereo_obstacles.field_checks import is_finite_real
-from stereo_obstacles.image_pairs import check_pair_of_files
+from stereo_obstacles.image_pairs import check_pair_of_files, refuse_one_file_twice
 from stereo_obstacles.fileio import read_image
 
 __all__ = ["SOURCE_KINDS", "CameraPairSource", "ImageSequenceSource", "SideBySideSource", "StereoFrame",
@@ -498,6 +498,8 @@ def open_source(sources: Sequence[str], *, kind: str = "auto", fps: float = 30.0
                                 f"got {len(sources)}: {' '.join(sources)}")
     if kind == "side-by-side":
         return SideBySideSource(sources[0])
+    if kind in ("videos", "images"):
+        refuse_one_file_twice(sources[0], sources[1])
     if kind == "videos":
         return VideoPairSource(sources[0], sources[1])
     if kind == "cameras":

@@ -27,7 +27,7 @@ def test_textureless_pair_gives_density_0_and_says_why(inputs, run_cli, tmp_path
 def test_one_file_given_twice_is_refused(inputs, run_cli, tmp_path, command):
     out = ["--out", tmp_path / "o"] if command[0] == "detect" else ["-o", tmp_path / "d.npy"]
     code, _, err, _ = run_cli(command[0], inputs / "uniform.png", f"{inputs}/./uniform.png", *out, *command[1:])
-    assert code == 1 and "are one file; a stereo pair needs the two cameras' images" in err
+    assert code == 1 and "are one and the same; a stereo pair needs the two cameras' images" in err
     assert not (tmp_path / "o").exists() and not (tmp_path / "d.npy").exists()
 
 
