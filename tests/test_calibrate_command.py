@@ -120,6 +120,14 @@ def test_a_board_size_that_does_not_fit_the_board_is_named_in_the_error(chessboa
     assert not (tmp_path / "c.json").exists() and not (tmp_path / "c.yml").exists()
 
 
+@pytest.mark.parametrize("square", ["-1", "0", "nan"])
+def test_a_square_side_out_of_range_is_named_by_its_option(tmp_path, capsys, square):
+    """The error named the board's field (square_m), not the option the user typed."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(["calibrate", "--folder", str(tmp_path), "--square", square, "--out", str(tmp_path / "c.json")])
+    assert exit_info.value.code == 2 and "argument --square: expected metres > 0" in capsys.readouterr().err
+
+
 def test_calibrate_argument_errors(chessboard, tmp_path, capsys):
     assert main(["calibrate", "--square", "0.025", "--out", str(tmp_path / "c.json")]) == 1
     assert "LEFT_GLOB and RIGHT_GLOB, or --folder" in capsys.readouterr().err

@@ -6,7 +6,7 @@ import argparse
 import re
 from pathlib import Path
 
-from stereo_obstacles.commands._arguments import output_path
+from stereo_obstacles.commands._arguments import output_path, positive_metres
 
 HELP = "calibrate a stereo rig from chessboard image pairs"
 
@@ -26,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="instead of globs: a folder whose files named *left*/*right* form the pairs")
     parser.add_argument("--board", default="9x6", metavar="CxR",
                         help="inner corners per row x per column (default 9x6)")
-    parser.add_argument("--square", type=float, required=True, metavar="M", help="side of a square, metres")
+    parser.add_argument("--square", type=positive_metres, required=True, metavar="M", help="side of a square, metres")
     parser.add_argument("--out", required=True, type=output_path, metavar="FILE",
                         help="calibration JSON to write (.json); the OpenCV YAML is written beside it as FILE with .yml")
     parser.add_argument("--json", action="store_true", help="print the report as one JSON line")
