@@ -68,42 +68,6 @@ def test_refuses_a_pure_rotation(synthetic):
         rectify_uncalibrated(pair.left, rotated)
 
 
-@pytest.mark.parametrize("seed", [7, 8, 12])
-def test_a_small_rectified_pair_whose_epipole_lands_in_the_image_is_left_as_it_is(seed):
-    """Estimated from a small scene's matches, its epipole fell in the image: refused as forward
-    motion. Its matches already lie on their rows, so the pair is used as it is."""
-    from stereo_obstacles.synthetic import random_scene, render_pair
-
-    pair = render_pair(random_scene(seed, width_px=320, height_px=240))
-    rectification = rectify_uncalibrated(pair.left, pair.right)
-    np.testing.assert_array_equal(rectification.h_left, np.eye(3))
-    np.testing.assert_array_equal(rectification.h_right, np.eye(3))
-    assert rectification.quality.p95_px < 1.0
-
-
-def test_matches_on_their_rows_flowing_both_ways_are_not_taken_for_a_rectified_pair():
-    """Forward motion seen along the epipole's row (features on a horizon): the matches keep their
-    rows but move away from the epipole, to negative disparities on its right."""
-    from stereo_obstacles.uncalibrated_rectification import _already_rectified
-
-    xs = np.linspace(10, 310, 60)
-    left = np.c_[xs, np.full_like(xs, 120.0)]
-    rectified = left - np.c_[np.full_like(xs, 6.0), np.zeros_like(xs)]            # disparity 6 px, same rows
-    forward = left + np.c_[0.05 * (xs - 160), np.zeros_like(xs)]                  # flowing out from x = 160
-    assert _already_rectified(left, rectified, 1.0) and not _already_rectified(left, forward, 1.0)
-
-
-@pytest.mark.parametrize("forward_m", [0.2])
-def test_refuses_forward_motion(forward_m):
-    """The same camera further forward: its matches leave their rows above and below the epipole,
-    so the pair does not pass for one already rectified, and its epipole is in the image."""
-    from stereo_obstacles.synthetic import default_scene, render_pair
-
-    scene = default_scene(320, 240)
-    with pytest.raises(RectificationError, match="degenerate motion: the epipole"):
-        rectify_uncalibrated(render_pair(scene).left, render_pair(scene, forward_m=forward_m).left)
-
-
 def test_refuses_swapped_images(synthetic):
     pair, _ = synthetic
     with pytest.raises(RectificationError, match="swapped"):

@@ -7,8 +7,7 @@ Steps of :func:`rectify_uncalibrated`:
 3. refusal of degenerate input (:class:`~stereo_obstacles.errors.RectificationError`): too few
    inliers, a motion without parallax (a pure rotation, or a single plane: one homography
    explains nearly every match, so ``F`` is not determined), or an epipole inside the image
-   (forward motion: no rectification keeps the image whole) unless the matches already lie on
-   their rows (the pair is then used as it is: a small rectified scene's epipole can land anywhere);
+   (forward motion: no rectification keeps the image whole);
 4. Hartley's rectifying homographies ``H1``, ``H2`` (``cv2.stereoRectifyUncalibrated``);
 5. the least distortion: rows may be remapped by any common ``y' = a y + c`` and each
    image's columns by its own affine ``x' = d x + e y + g`` without undoing the
@@ -204,28 +203,15 @@ def _check_parallax(left: np.ndarray, right: np.ndarray, threshold_px: float) ->
             f"move the cameras apart or show a scene with depth")
 
 
-def _already_rectified(left: np.ndarray, right: np.ndarray, threshold_px: float) -> bool:
-    """Whether the inlier matches (``(N, 2)`` pixels of the images as given) already lie on their
-    rows: 95 % of them within ``threshold_px`` of their row and at a disparity of at least
-    ``-threshold_px``. Such a pair whose epipole lands in the image is left as it is: the epipole
-    estimated from a small scene's matches can fall anywhere (a rectified 320 x 240 scene, offsets
-    0.03 px, had it in the image, and was refused as forward motion). A camera moved forward moves
-    its matches off their rows above and below the epipole, and to negative disparities on one
-    side of it."""
-    offsets = right - left
-    return bool(np.percentile(np.abs(offsets[:, 1]), 95) <= threshold_px
-                and np.percentile(-offsets[:, 0], 5) >= -threshold_px)
-
-
-def _epipole_in_view(fundamental: np.ndarray, width: int, height: int) -> tuple[float, float] | None:
-    """The left epipole ``(x, y)`` in pixels when it lies in or near the image (within half the
-    image's size of it: the motion is forward), else None."""
-    epipole = np.linalg.svd(fundamental)[2][-1]     # the right null vector of F
-    if abs(epipole[2]) <= 1e-12:
-        return None
-    x, y = epipole[:2] / epipole[2]
-    inside = -0.5 * width <= x <= 1.5 * width and -0.5 * height <= y <= 1.5 * height
-    return (float(x), float(y)) if inside else None
+def _check_epipole(fundamental: np.ndarray, width: int, height: int) -> None:
+    # The left epipole is the right null vector of F; inside the image the motion is forward.
+    epipole = np.linalg.svd(fundamental)[2][-1]
+    if abs(epipole[2]) > 1e-12:
+        x, y = epipole[:2] / epipole[2]
+        if -0.5 * width <= x <= 1.5 * width and -0.5 * height <= y <= 1.5 * height:
+            raise RectificationError(
+                f"degenerate motion: the epipole ({x:.0f}, {y:.0f}) px is in or near the image, so the cameras "
+                f"are not side by side (forward motion); such a pair cannot be rectified for stereo matching")
 
 
 def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "sift", ratio: float = 0.75,
@@ -293,23 +279,15 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
                                  f"of {len(matches)} (need {min_inliers})")
     left_in, right_in = matches.left_px[inlier], matches.right_px[inlier]
     _check_parallax(left_in, right_in, threshold_px)
-    epipole = _epipole_in_view(fundamental, width, height)
-    if epipole is not None and _already_rectified(left_in, right_in, threshold_px):
-        h_left, h_right = np.eye(3), np.eye(3)      # the epipole of matches already on their rows is noise
+    _check_epipole(fundamental, width, height)
+    if model == "hartley":
+        ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
+                                                            threshold=threshold_px)
+        if not ok:
+            raise RectificationError("OpenCV found no rectifying homographies for this epipolar geometry")
     else:
-        if epipole is not None:
-            raise RectificationError(
-                f"degenerate motion: the epipole ({epipole[0]:.0f}, {epipole[1]:.0f}) px is in or near the image, "
-                f"so the cameras are not side by side (forward motion); such a pair cannot be rectified for "
-                f"stereo matching")
-        if model == "hartley":
-            ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
-                                                                threshold=threshold_px)
-            if not ok:
-                raise RectificationError("OpenCV found no rectifying homographies for this epipolar geometry")
-        else:
-            h_left, h_right = _quasi_euclidean(left_in, right_in, width, height)
-        h_left, h_right = _least_distortion(h_left, h_right, width, height)
+        h_left, h_right = _quasi_euclidean(left_in, right_in, width, height)
+    h_left, h_right = _least_distortion(h_left, h_right, width, height)
     rect_left, rect_right = _transform(h_left, left_in), _transform(h_right, right_in)
     quality = vertical_offset_stats(rect_left, rect_right)
     disparities = rect_left[:, 0] - rect_right[:, 0]
