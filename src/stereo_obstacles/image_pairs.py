@@ -40,9 +40,9 @@ def _kind(image: np.ndarray) -> str:
 
 def refuse_one_file_twice(left_name: str | os.PathLike[str], right_name: str | os.PathLike[str]) -> None:
     """Raise :class:`ImageMismatchError` when the two files (or folders of frames) of a pair are one
-    (given twice, or by two names): the two cameras' images are needed, and an image matched with
-    itself says only that nothing stands anywhere. Two files of equal content are not refused: two
-    cameras facing a blank wall may deliver two equal uniform images."""
+    (given twice, or by two names): the two cameras' images are needed, and an image matched with itself says only
+    that nothing stands anywhere. Two files of equal content are not refused: two cameras facing a
+    blank wall may deliver two equal uniform images."""
     try:
         same = os.path.samefile(left_name, right_name)
     except OSError:

@@ -127,10 +127,10 @@ def run(args: argparse.Namespace) -> int:
 
     check_output_folder(args.out, OUTPUT_FILES, inputs=(args.left, args.right, args.calib))
     check_report_folder(args.out)
-    refuse_one_file_twice(args.left, args.right)        # before reading either
     left = read_image(args.left, mode="color")
     right = read_image(args.right, mode="color")
     check_pair_of_files(left, right, args.left, args.right)
+    refuse_one_file_twice(args.left, args.right)
     from stereo_obstacles.commands._calibration_options import prepare_pair
 
     left, right, calibration, rectification = prepare_pair(args, left, right)

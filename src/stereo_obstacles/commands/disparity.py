@@ -98,10 +98,10 @@ def run(args: argparse.Namespace) -> int:
     if args.picture:
         check_output_file(args.picture, inputs + (args.output,))
         check_image_path(args.picture)
-    refuse_one_file_twice(args.left, args.right)        # before reading either
     left = read_image(args.left)
     right = read_image(args.right)
     check_pair_of_files(left, right, args.left, args.right, channels=False)
+    refuse_one_file_twice(args.left, args.right)
     from stereo_obstacles.commands._calibration_options import prepare_pair
 
     left, right, _, rectification = prepare_pair(args, left, right)
