@@ -12,6 +12,7 @@ from stereo_obstacles.disparity_metrics import evaluate_disparity
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError, RectificationError
 from stereo_obstacles.matching import match
 from stereo_obstacles.rectification_evaluation import rectified_ground_truth
+from stereo_obstacles.synthetic import random_scene, render_pair
 from stereo_obstacles.uncalibrated_rectification import rectify_uncalibrated
 
 
@@ -66,6 +67,15 @@ def test_refuses_a_pure_rotation(synthetic):
     rotated = cv2.warpPerspective(pair.left, k @ turn @ np.linalg.inv(k), (320, 240))
     with pytest.raises(RectificationError, match="degenerate motion"):
         rectify_uncalibrated(pair.left, rotated)
+
+
+def test_refuses_a_zoomed_copy_on_which_opencv_finds_no_model():
+    """Scene 4's left image and a 1 % zoom of it: MAGSAC++ raises an assertion (no model from any sample),
+    which was an internal error (exit 3)."""
+    left = render_pair(random_scene(4, width_px=640, height_px=480)).left
+    zoomed = cv2.resize(cv2.resize(left, None, fx=1.01, fy=1.01), (640, 480))
+    with pytest.raises(RectificationError, match="no epipolar geometry fits the .* feature matches"):
+        rectify_uncalibrated(left, zoomed)
 
 
 def test_refuses_swapped_images(synthetic):

@@ -271,8 +271,13 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
     if len(matches) < min_inliers:
         raise RectificationError(f"too few feature matches to rectify: {len(matches)} (need {min_inliers}); "
                                  f"the images may not overlap, be too plain, or be too different")
-    fundamental, mask = cv2.findFundamentalMat(matches.left_px, matches.right_px, cv2.USAC_MAGSAC, threshold_px,
-                                               0.999)
+    try:
+        fundamental, mask = cv2.findFundamentalMat(matches.left_px, matches.right_px, cv2.USAC_MAGSAC, threshold_px,
+                                                   0.999)
+    except cv2.error as error:      # MAGSAC++ asserts when no sample yields a model (a zoomed copy, say)
+        raise RectificationError(f"no epipolar geometry fits the {len(matches)} feature matches: the two views "
+                                 f"may have no baseline between them (one a zoomed or shifted copy of the "
+                                 f"other?)") from error
     inlier = mask.ravel().astype(bool) if mask is not None else np.zeros(len(matches), bool)
     if fundamental is None or fundamental.shape != (3, 3) or np.count_nonzero(inlier) < min_inliers:
         raise RectificationError(f"too few matches agree on one epipolar geometry: {np.count_nonzero(inlier)} "
