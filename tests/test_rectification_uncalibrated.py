@@ -12,8 +12,8 @@ from stereo_obstacles.disparity_metrics import evaluate_disparity
 from stereo_obstacles.errors import ImageMismatchError, InvalidInputError, RectificationError
 from stereo_obstacles.matching import match
 from stereo_obstacles.rectification_evaluation import rectified_ground_truth
-from stereo_obstacles.synthetic import random_scene, render_pair
-from stereo_obstacles.uncalibrated_rectification import rectify_uncalibrated
+from stereo_obstacles.synthetic import default_scene, random_scene, render_pair
+from stereo_obstacles.uncalibrated_rectification import _matches_on_their_rows, rectify_uncalibrated
 
 
 @pytest.fixture(scope="module")
@@ -76,6 +76,45 @@ def test_refuses_a_zoomed_copy_on_which_opencv_finds_no_model():
     zoomed = cv2.resize(cv2.resize(left, None, fx=1.01, fy=1.01), (640, 480))
     with pytest.raises(RectificationError, match="no epipolar geometry fits the .* feature matches"):
         rectify_uncalibrated(left, zoomed)
+
+
+@pytest.mark.parametrize("seed", [7, 8, 12])
+def test_a_small_rectified_pair_whose_epipole_lands_in_the_image_is_used_as_it_is(seed):
+    """Estimated from a small scene's matches, the epipole of these rectified pairs fell in the image
+    (seed 7: at (13, 77) px), and they were refused as forward motion. Their matches lie on their
+    rows, so the pair is used as it is."""
+    pair = render_pair(random_scene(seed, width_px=320, height_px=240))
+    rectification = rectify_uncalibrated(pair.left, pair.right)
+    np.testing.assert_array_equal(rectification.h_left, np.eye(3))
+    np.testing.assert_array_equal(rectification.h_right, np.eye(3))
+    assert rectification.quality.p95_px <= 1.0 and rectification.n_inliers >= 30
+    assert rectification.disparity_range_px[0] > 0
+
+
+@pytest.mark.parametrize("seed, forward_m", [(0, 0.2), (0, 0.5), (2, 0.05), (2, 0.5)])
+def test_refuses_forward_motion(seed, forward_m):
+    """One camera, moved forward: its matches leave their rows above and below the epipole, which the
+    fundamental matrix puts in the image."""
+    scene = default_scene(320, 240) if seed == 0 else random_scene(seed, width_px=320, height_px=240)
+    with pytest.raises(RectificationError, match="degenerate motion: the epipole"):
+        rectify_uncalibrated(render_pair(scene).left, render_pair(scene, forward_m=forward_m).left)
+
+
+def test_matches_on_their_rows_show_a_rectified_pair_only_with_a_baseline():
+    grid = np.stack(np.meshgrid(np.linspace(10, 310, 10), np.linspace(10, 230, 10)), -1).reshape(-1, 2)
+    n = len(grid)
+    rectified = grid - [6.0, 0.0]                                           # disparity 6 px on every row
+    assert _matches_on_their_rows(grid, rectified, 1.0, n, 30).all()
+    static = grid.copy()
+    static[:20, 0] -= 12.0                                                   # one thing moved, the rest still
+    assert _matches_on_their_rows(grid, static, 1.0, n, 30) is None
+    along_rows = rectified + np.c_[0.1 * (grid[:, 0] - 160), np.zeros(n)]  # and flowing out from x = 160
+    assert _matches_on_their_rows(grid, along_rows, 1.0, n, 30) is None
+    zoomed = grid + 0.01 * (grid - [160.0, 120.0])                           # a 1 % zoom
+    assert _matches_on_their_rows(grid, zoomed, 1.0, n, 30) is None
+    forward = grid - [6.0, 0.0] + np.c_[np.zeros(n), 0.04 * (grid[:, 1] - 120)]   # off their rows away from y = 120
+    assert _matches_on_their_rows(grid, forward, 1.0, n, 8) is None       # 20 of 100 on their rows
+    assert _matches_on_their_rows(grid, rectified, 1.0, n, 101) is None    # fewer than min_inliers on the rows
 
 
 def test_refuses_swapped_images(synthetic):

@@ -7,7 +7,9 @@ Steps of :func:`rectify_uncalibrated`:
 3. refusal of degenerate input (:class:`~stereo_obstacles.errors.RectificationError`): too few
    inliers, a motion without parallax (a pure rotation, or a single plane: one homography
    explains nearly every match, so ``F`` is not determined), or an epipole inside the image
-   (forward motion: no rectification keeps the image whole);
+   (forward motion: no rectification keeps the image whole) -- unless the pair is already
+   rectified (:func:`_matches_on_their_rows`: the epipole of such a pair lies at infinity, and
+   estimated from a few matches it can land anywhere), which is then used as it is;
 4. Hartley's rectifying homographies ``H1``, ``H2`` (``cv2.stereoRectifyUncalibrated``);
 5. the least distortion: rows may be remapped by any common ``y' = a y + c`` and each
    image's columns by its own affine ``x' = d x + e y + g`` without undoing the
@@ -46,6 +48,12 @@ MODELS = ("quasi-euclidean", "hartley")
 
 MIN_PARALLAX_FRACTION = 0.05
 """Fewest fundamental-matrix inliers, as a fraction, that a single homography must fail to explain."""
+
+ON_ROW_FRACTION = 0.9
+"""A pair whose epipole lands in view is taken as already rectified when the matches within the
+threshold of their rows number at least this fraction of the fundamental matrix's inliers ..."""
+MIN_ON_ROW_DISPARITY = 2.0
+"""... and their median disparity is at least this many thresholds."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,15 +211,38 @@ def _check_parallax(left: np.ndarray, right: np.ndarray, threshold_px: float) ->
             f"move the cameras apart or show a scene with depth")
 
 
-def _check_epipole(fundamental: np.ndarray, width: int, height: int) -> None:
-    # The left epipole is the right null vector of F; inside the image the motion is forward.
-    epipole = np.linalg.svd(fundamental)[2][-1]
-    if abs(epipole[2]) > 1e-12:
-        x, y = epipole[:2] / epipole[2]
-        if -0.5 * width <= x <= 1.5 * width and -0.5 * height <= y <= 1.5 * height:
-            raise RectificationError(
-                f"degenerate motion: the epipole ({x:.0f}, {y:.0f}) px is in or near the image, so the cameras "
-                f"are not side by side (forward motion); such a pair cannot be rectified for stereo matching")
+def _epipole_in_view(fundamental: np.ndarray, width: int, height: int) -> tuple[float, float] | None:
+    """The left epipole ``(x, y)``, pixels, when it lies in or near the image (within half the
+    image's size of it: the motion is forward), else None."""
+    epipole = np.linalg.svd(fundamental)[2][-1]     # the right null vector of F
+    if abs(epipole[2]) <= 1e-12:
+        return None
+    x, y = epipole[:2] / epipole[2]
+    inside = -0.5 * width <= x <= 1.5 * width and -0.5 * height <= y <= 1.5 * height
+    return (float(x), float(y)) if inside else None
+
+
+def _matches_on_their_rows(left: np.ndarray, right: np.ndarray, threshold_px: float, n_inliers: int,
+                           min_inliers: int) -> np.ndarray | None:
+    """``bool (N,)``: the matches (``(N, 2)`` pixels of the images as given) that lie within
+    ``threshold_px`` of their row, when they show a pair that is already rectified; else None.
+
+    Already rectified means: these matches number at least ``min_inliers`` and at least
+    ``ON_ROW_FRACTION`` of ``n_inliers``, the fundamental matrix's inliers (the rows explain nearly
+    as much as ``F`` does); 95 % of them lie at disparities of at least ``-threshold_px``; and their
+    median disparity is at least ``MIN_ON_ROW_DISPARITY`` thresholds (a baseline, not a static
+    camera with things moving in front of it). A camera moved
+    forward moves its matches off their rows above and below the epipole and to negative
+    disparities on one side of it; a zoom moves them both ways along the rows (measured in
+    ``docs/rectification.md``)."""
+    offsets = right - left
+    on_row = np.abs(offsets[:, 1]) <= threshold_px
+    if np.count_nonzero(on_row) < max(min_inliers, ON_ROW_FRACTION * n_inliers):
+        return None
+    disparities = -offsets[on_row, 0]
+    if np.percentile(disparities, 5) < -threshold_px or np.median(disparities) < MIN_ON_ROW_DISPARITY * threshold_px:
+        return None
+    return on_row
 
 
 def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "sift", ratio: float = 0.75,
@@ -284,15 +315,27 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
                                  f"of {len(matches)} (need {min_inliers})")
     left_in, right_in = matches.left_px[inlier], matches.right_px[inlier]
     _check_parallax(left_in, right_in, threshold_px)
-    _check_epipole(fundamental, width, height)
-    if model == "hartley":
+    epipole = _epipole_in_view(fundamental, width, height)
+    if epipole is not None:
+        on_row = _matches_on_their_rows(matches.left_px, matches.right_px, threshold_px, len(left_in), min_inliers)
+        if on_row is None:
+            raise RectificationError(
+                f"degenerate motion: the epipole ({epipole[0]:.0f}, {epipole[1]:.0f}) px is in or near the image, "
+                f"so the cameras are not side by side (forward motion); such a pair cannot be rectified for "
+                f"stereo matching")
+        logger.info("the estimated epipole (%.0f, %.0f) px is in view, but %d of the %d matches already lie on "
+                    "their rows: the pair is taken as rectified and used as it is", *epipole,
+                    np.count_nonzero(on_row), len(matches))
+        left_in, right_in = matches.left_px[on_row], matches.right_px[on_row]
+        h_left, h_right = np.eye(3), np.eye(3)
+    elif model == "hartley":
         ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
                                                             threshold=threshold_px)
         if not ok:
             raise RectificationError("OpenCV found no rectifying homographies for this epipolar geometry")
+        h_left, h_right = _least_distortion(h_left, h_right, width, height)
     else:
-        h_left, h_right = _quasi_euclidean(left_in, right_in, width, height)
-    h_left, h_right = _least_distortion(h_left, h_right, width, height)
+        h_left, h_right = _least_distortion(*_quasi_euclidean(left_in, right_in, width, height), width, height)
     rect_left, rect_right = _transform(h_left, left_in), _transform(h_right, right_in)
     quality = vertical_offset_stats(rect_left, rect_right)
     disparities = rect_left[:, 0] - rect_right[:, 0]
