@@ -7,9 +7,11 @@ Steps of :func:`rectify_uncalibrated`:
 3. refusal of degenerate input (:class:`~stereo_obstacles.errors.RectificationError`): too few
    inliers, a motion without parallax (a pure rotation, or a single plane: one homography
    explains nearly every match, so ``F`` is not determined), or an epipole inside the image
-   (forward motion: no rectification keeps the image whole) -- unless the pair is already
-   rectified (:func:`_matches_on_their_rows`: the epipole of such a pair lies at infinity, and
-   estimated from a few matches it can land anywhere), which is then used as it is;
+   (forward motion: no rectification keeps the image whole) -- unless the pair is nearly
+   rectified already (:func:`_matches_on_their_rows`: the epipole of such a pair lies at
+   infinity, and estimated from a few matches it can land anywhere). Such a pair is used as it
+   is when its matches lie on their rows to ``MAX_UNCHANGED_OFFSET_PX``, and otherwise gets
+   the quasi-Euclidean homographies below, fitted to those matches (``F`` is not used);
 4. Hartley's rectifying homographies ``H1``, ``H2`` (``cv2.stereoRectifyUncalibrated``);
 5. the least distortion: rows may be remapped by any common ``y' = a y + c`` and each
    image's columns by its own affine ``x' = d x + e y + g`` without undoing the
@@ -18,7 +20,8 @@ Steps of :func:`rectify_uncalibrated`:
    scaling or shift. Left pixels then stay near where they were, and disparities keep their
    sign and size.
 
-The quality is reported as the vertical offsets of the inlier matches after rectification.
+The quality is reported as the vertical offsets of the inlier matches after rectification (the
+inliers of ``F``, or of a nearly rectified pair the matches on their rows).
 Without a calibration the rectified pair has no metric scale: depth needs a calibration.
 """
 
@@ -50,10 +53,18 @@ MIN_PARALLAX_FRACTION = 0.05
 """Fewest fundamental-matrix inliers, as a fraction, that a single homography must fail to explain."""
 
 ON_ROW_FRACTION = 0.9
-"""A pair whose epipole lands in view is taken as already rectified when the matches within the
-threshold of their rows number at least this fraction of the fundamental matrix's inliers ..."""
-MIN_ON_ROW_DISPARITY = 2.0
-"""... and their median disparity is at least this many thresholds."""
+"""A pair whose epipole lands in view is nearly rectified when its matches within the threshold
+of their rows number at least this fraction of the fundamental matrix's inliers
+(:func:`_matches_on_their_rows`)."""
+ON_ROW_PERCENTILE = 5.0
+"""... when this percentile of their disparities is at least minus the threshold ..."""
+MIN_ON_ROW_DISPARITY_THRESHOLDS = 2.0
+"""... and their median disparity at least this many thresholds (pixels per pixel of threshold)."""
+MAX_UNCHANGED_OFFSET_PX = 0.1
+"""A nearly rectified pair is used as it is when the median vertical offset of its matches on
+their rows is at most this (pixels; a rectified synthetic pair: 0.03 px); above it, a few
+tenths of a pixel cost the matcher most of its matches (0.3 px: density 90 -> 57 %), so the pair
+is rectified."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,7 +78,8 @@ class UncalibratedRectification:
     fundamental : ndarray, shape (3, 3)
         ``F`` with ``x_right^T F x_left = 0``.
     n_matches, n_inliers : int
-        Putative feature matches and inliers of ``F``.
+        Putative feature matches, and the inliers of ``F`` (of a nearly rectified pair whose
+        epipole estimate lands in view: its matches on their rows, module docstring).
     quality : VerticalOffsetStats
         Vertical offsets of the inliers after rectification.
     disparity_range_px : tuple of float
@@ -211,7 +223,7 @@ def _check_parallax(left: np.ndarray, right: np.ndarray, threshold_px: float) ->
             f"move the cameras apart or show a scene with depth")
 
 
-def _epipole_in_view(fundamental: np.ndarray, width: int, height: int) -> tuple[float, float] | None:
+def _epipole_near_image(fundamental: np.ndarray, width: int, height: int) -> tuple[float, float] | None:
     """The left epipole ``(x, y)``, pixels, when it lies in or near the image (within half the
     image's size of it: the motion is forward), else None."""
     epipole = np.linalg.svd(fundamental)[2][-1]     # the right null vector of F
@@ -224,23 +236,35 @@ def _epipole_in_view(fundamental: np.ndarray, width: int, height: int) -> tuple[
 
 def _matches_on_their_rows(left: np.ndarray, right: np.ndarray, threshold_px: float, n_inliers: int,
                            min_inliers: int) -> np.ndarray | None:
-    """``bool (N,)``: the matches (``(N, 2)`` pixels of the images as given) that lie within
-    ``threshold_px`` of their row, when they show a pair that is already rectified; else None.
+    """``bool (N,)``: the matches (``(N, 2)`` pixels of the images as given) within
+    ``threshold_px`` of their row, when they show a pair that is nearly rectified; else None.
 
-    Already rectified means: these matches number at least ``min_inliers`` and at least
-    ``ON_ROW_FRACTION`` of ``n_inliers``, the fundamental matrix's inliers (the rows explain nearly
-    as much as ``F`` does); 95 % of them lie at disparities of at least ``-threshold_px``; and their
-    median disparity is at least ``MIN_ON_ROW_DISPARITY`` thresholds (a baseline, not a static
-    camera with things moving in front of it). A camera moved
-    forward moves its matches off their rows above and below the epipole and to negative
-    disparities on one side of it; a zoom moves them both ways along the rows (measured in
-    ``docs/rectification.md``)."""
+    Nearly rectified means: these matches number at least ``min_inliers`` and at least
+    ``ON_ROW_FRACTION`` of ``n_inliers``, the fundamental matrix's inliers (the rows explain
+    nearly as much as ``F`` does); the ``ON_ROW_PERCENTILE`` percentile of their disparities is
+    at least ``-threshold_px``; and their median disparity is at least
+    ``MIN_ON_ROW_DISPARITY_THRESHOLDS`` thresholds (a baseline, not a static camera with things
+    moving in front of it). A camera moved forward moves its matches off their rows above and
+    below the epipole and to negative disparities on one side of it; a zoom moves them both
+    ways along the rows (measured in ``docs/rectification.md``).
+
+    Raises
+    ------
+    RectificationError
+        The matches on their rows lie at negative disparities (the mirror image of the rule):
+        the images look swapped.
+    """
     offsets = right - left
     on_row = np.abs(offsets[:, 1]) <= threshold_px
     if np.count_nonzero(on_row) < max(min_inliers, ON_ROW_FRACTION * n_inliers):
         return None
     disparities = -offsets[on_row, 0]
-    if np.percentile(disparities, 5) < -threshold_px or np.median(disparities) < MIN_ON_ROW_DISPARITY * threshold_px:
+    least = MIN_ON_ROW_DISPARITY_THRESHOLDS * threshold_px
+    median = float(np.median(disparities))
+    if median <= -least and np.percentile(disparities, 100 - ON_ROW_PERCENTILE) <= threshold_px:
+        raise RectificationError(f"the matches lie on their rows at negative disparities (median {median:.1f} px): "
+                                 f"the left and right images look swapped")
+    if np.percentile(disparities, ON_ROW_PERCENTILE) < -threshold_px or median < least:
         return None
     return on_row
 
@@ -263,7 +287,8 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
     min_inliers : int
         Fewest inliers accepted (at least 8).
     model : {"quasi-euclidean", "hartley"}
-        How the rectifying homographies are found (see the module docstring).
+        How the rectifying homographies are found (see the module docstring; a nearly
+        rectified pair whose epipole estimate lands in view is always quasi-Euclidean).
 
     Returns
     -------
@@ -315,7 +340,7 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
                                  f"of {len(matches)} (need {min_inliers})")
     left_in, right_in = matches.left_px[inlier], matches.right_px[inlier]
     _check_parallax(left_in, right_in, threshold_px)
-    epipole = _epipole_in_view(fundamental, width, height)
+    epipole = _epipole_near_image(fundamental, width, height)
     if epipole is not None:
         on_row = _matches_on_their_rows(matches.left_px, matches.right_px, threshold_px, len(left_in), min_inliers)
         if on_row is None:
@@ -323,11 +348,15 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
                 f"degenerate motion: the epipole ({epipole[0]:.0f}, {epipole[1]:.0f}) px is in or near the image, "
                 f"so the cameras are not side by side (forward motion); such a pair cannot be rectified for "
                 f"stereo matching")
-        logger.info("the estimated epipole (%.0f, %.0f) px is in view, but %d of the %d matches already lie on "
-                    "their rows: the pair is taken as rectified and used as it is", *epipole,
-                    np.count_nonzero(on_row), len(matches))
         left_in, right_in = matches.left_px[on_row], matches.right_px[on_row]
-        h_left, h_right = np.eye(3), np.eye(3)
+        unchanged = np.median(np.abs(right_in[:, 1] - left_in[:, 1])) <= MAX_UNCHANGED_OFFSET_PX
+        logger.info("the epipole estimated at (%.0f, %.0f) px is unreliable: %d of the %d matches lie on their "
+                    "rows, so the pair is nearly rectified and %s", *epipole, len(left_in), len(matches),
+                    "used as it is" if unchanged else "rectified from those matches")
+        if unchanged:
+            h_left, h_right = np.eye(3), np.eye(3)
+        else:
+            h_left, h_right = _least_distortion(*_quasi_euclidean(left_in, right_in, width, height), width, height)
     elif model == "hartley":
         ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
                                                             threshold=threshold_px)
