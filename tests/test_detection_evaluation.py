@@ -67,28 +67,12 @@ def test_each_truth_is_paired_with_a_detection_that_passes_the_overlap_rule():
     assert [(a.detected_id, a.lies_on) for a in alarms] == [(2, "ground"), (4, "shadow")]
 
 
-def test_the_nearest_detection_lying_mostly_on_an_obstacle_gives_its_distance():
-    """Truth 1 matched in two pieces: its top quarter at 4.1 m and its bottom half, larger, at 4.3 m."""
+def test_among_passing_detections_the_largest_overlap_gives_the_distance():
     detections, instances, labels, truths = _scene()
     id_map = detections.id_map.copy()
-    id_map[10:20, 0:20] = 5
-    comparisons, _ = compare_with_truth(_detections(id_map, {1: 4.1, 5: 4.3, 2: 5.0, 3: 7.6, 4: 9.0}), instances,
-                                        labels, truths)
-    assert {c.truth_id: c.detected_id for c in comparisons}[1] == 1
-    farther_first = _detections(id_map, {5: 4.0, 1: 4.1, 2: 5.0, 3: 7.6, 4: 9.0})     # nearness is the list's order
-    comparisons, _ = compare_with_truth(farther_first, instances, labels, truths)
-    assert {c.truth_id: c.detected_id for c in comparisons}[1] == 5
-
-
-def test_without_a_detection_lying_mostly_on_an_obstacle_the_largest_overlap_gives_the_distance():
-    detections, instances, labels, truths = _scene()
-    id_map = detections.id_map.copy()
-    id_map[40:50, 40:55] = 2                 # detection 2 (mostly ground) now covers 56 + 150 of truth 2's 300 pixels
+    id_map[40:50, 40:55] = 2                 # detection 2 now covers 56 + 150 of truth 2's 300 pixels
     comparisons, _ = compare_with_truth(_detections(id_map, {1: 4.1, 2: 8.2, 3: 7.6, 4: 9.0}), instances, labels,
                                         truths)
-    assert {c.truth_id: c.detected_id for c in comparisons}[2] == 3       # 3 lies mostly on it, 2 does not
-    id_map[id_map == 3] = 0
-    comparisons, _ = compare_with_truth(_detections(id_map, {1: 4.1, 2: 8.2, 4: 9.0}), instances, labels, truths)
     assert {c.truth_id: c.detected_id for c in comparisons}[2] == 2
 
 
