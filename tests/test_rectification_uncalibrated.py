@@ -104,6 +104,15 @@ def test_a_nearly_rectified_pair_whose_epipole_lands_in_the_image_is_rectified(r
     assert truth.vertical.median_px < 0.15 and truth.vertical.p95_px < 0.5
 
 
+def test_a_rectified_pair_is_left_as_it_is_when_a_fit_would_not_bring_its_rows_closer():
+    """Seed 8 at 640x480, rectified: its matches on their rows read a median offset of 0.14 px (the
+    keypoints' noise); homographies fitted to them do not halve it, and would leave the pair
+    0.075 px off (a review), so it is used as it is."""
+    pair = render_pair(random_scene(8, width_px=640, height_px=480))
+    rectification = rectify_uncalibrated(pair.left, pair.right)
+    np.testing.assert_array_equal(rectification.h_right, np.eye(3))
+
+
 def test_a_rectified_pair_given_right_image_first_is_called_swapped():
     """Its matches lie on their rows at negative disparities: swapped, not forward motion."""
     pair = render_pair(random_scene(7, width_px=320, height_px=240))

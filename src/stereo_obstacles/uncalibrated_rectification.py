@@ -9,9 +9,10 @@ Steps of :func:`rectify_uncalibrated`:
    explains nearly every match, so ``F`` is not determined), or an epipole inside the image
    (forward motion: no rectification keeps the image whole) -- unless the pair is nearly
    rectified already (:func:`_matches_on_their_rows`: the epipole of such a pair lies at
-   infinity, and estimated from a few matches it can land anywhere). Such a pair is used as it
-   is when its matches lie on their rows to ``MAX_UNCHANGED_OFFSET_PX``, and otherwise gets
-   the quasi-Euclidean homographies below, fitted to those matches (``F`` is not used);
+   infinity, and estimated from a few matches it can land anywhere). Such a pair gets the
+   quasi-Euclidean homographies below, fitted to those matches (``F`` is not used), when they
+   bring its rows much closer than the pair as it is (``MIN_FITTED_GAIN``), and is used as it
+   is otherwise;
 4. Hartley's rectifying homographies ``H1``, ``H2`` (``cv2.stereoRectifyUncalibrated``);
 5. the least distortion: rows may be remapped by any common ``y' = a y + c`` and each
    image's columns by its own affine ``x' = d x + e y + g`` without undoing the
@@ -57,14 +58,16 @@ ON_ROW_FRACTION = 0.9
 of their rows number at least this fraction of the fundamental matrix's inliers
 (:func:`_matches_on_their_rows`)."""
 ON_ROW_PERCENTILE = 5.0
-"""... when this percentile of their disparities is at least minus the threshold ..."""
+"""... when this percentile of their disparities is at least minus the threshold (and the pair is
+swapped when the mirror percentile, 100 minus this, is at most the threshold) ..."""
 MIN_ON_ROW_DISPARITY_THRESHOLDS = 2.0
 """... and their median disparity at least this many thresholds (pixels per pixel of threshold)."""
-MAX_UNCHANGED_OFFSET_PX = 0.1
-"""A nearly rectified pair is used as it is when the median vertical offset of its matches on
-their rows is at most this (pixels; a rectified synthetic pair: 0.03 px); above it, a few
-tenths of a pixel cost the matcher most of its matches (0.3 px: density 90 -> 57 %), so the pair
-is rectified."""
+MIN_FITTED_GAIN = 0.5
+"""A nearly rectified pair gets the homographies fitted to its matches on their rows only when
+they take the matches' median vertical offset below this fraction of what it is with the pair
+as it is. A few tenths of a pixel cost the matcher most of its matches (0.3 px: density 90 ->
+57 %), but a rectified pair's matches read 0.03-0.14 px (the keypoints' noise), and a fit to that
+noise leaves the pair a little off (0.075 px) and costs density too."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -204,6 +207,13 @@ def _quasi_euclidean(left: np.ndarray, right: np.ndarray, width: int, height: in
     return _quasi_euclidean_homographies(params, width, height)
 
 
+def _quasi_euclidean_rectification(left: np.ndarray, right: np.ndarray, width: int,
+                                   height: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(h_left, h_right)``: the quasi-Euclidean homographies fitted to the matches (``(N, 2)``
+    pixels), with the least distortion."""
+    return _least_distortion(*_quasi_euclidean(left, right, width, height), width, height)
+
+
 def _homography_maps(h: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     xs, ys = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
     source = _transform(np.linalg.inv(h), np.c_[xs.ravel(), ys.ravel()])
@@ -267,6 +277,17 @@ def _matches_on_their_rows(left: np.ndarray, right: np.ndarray, threshold_px: fl
     if np.percentile(disparities, ON_ROW_PERCENTILE) < -threshold_px or median < least:
         return None
     return on_row
+
+
+def _nearly_rectified_homographies(left: np.ndarray, right: np.ndarray, width: int,
+                                   height: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(h_left, h_right)`` of a nearly rectified pair from its matches on their rows (``(N, 2)``
+    pixels): the quasi-Euclidean homographies fitted to them when they leave at most
+    ``MIN_FITTED_GAIN`` of the matches' median vertical offset, else identities."""
+    unchanged_px = float(np.median(np.abs(right[:, 1] - left[:, 1])))
+    h_left, h_right = _quasi_euclidean_rectification(left, right, width, height)
+    fitted_px = float(np.median(np.abs(_transform(h_right, right)[:, 1] - _transform(h_left, left)[:, 1])))
+    return (h_left, h_right) if fitted_px <= MIN_FITTED_GAIN * unchanged_px else (np.eye(3), np.eye(3))
 
 
 def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "sift", ratio: float = 0.75,
@@ -346,17 +367,14 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
         if on_row is None:
             raise RectificationError(
                 f"degenerate motion: the epipole ({epipole[0]:.0f}, {epipole[1]:.0f}) px is in or near the image, "
-                f"so the cameras are not side by side (forward motion); such a pair cannot be rectified for "
-                f"stereo matching")
+                f"so the cameras are not side by side (forward motion), or the pair lies about {threshold_px:g} px "
+                f"off its rows and its epipolar geometry is poorly determined; such a pair cannot be rectified "
+                f"from its matches")
         left_in, right_in = matches.left_px[on_row], matches.right_px[on_row]
-        unchanged = np.median(np.abs(right_in[:, 1] - left_in[:, 1])) <= MAX_UNCHANGED_OFFSET_PX
+        h_left, h_right = _nearly_rectified_homographies(left_in, right_in, width, height)
         logger.info("the epipole estimated at (%.0f, %.0f) px is unreliable: %d of the %d matches lie on their "
                     "rows, so the pair is nearly rectified and %s", *epipole, len(left_in), len(matches),
-                    "used as it is" if unchanged else "rectified from those matches")
-        if unchanged:
-            h_left, h_right = np.eye(3), np.eye(3)
-        else:
-            h_left, h_right = _least_distortion(*_quasi_euclidean(left_in, right_in, width, height), width, height)
+                    "used as it is" if np.array_equal(h_right, np.eye(3)) else "rectified from those matches")
     elif model == "hartley":
         ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
                                                             threshold=threshold_px)
@@ -364,7 +382,7 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
             raise RectificationError("OpenCV found no rectifying homographies for this epipolar geometry")
         h_left, h_right = _least_distortion(h_left, h_right, width, height)
     else:
-        h_left, h_right = _least_distortion(*_quasi_euclidean(left_in, right_in, width, height), width, height)
+        h_left, h_right = _quasi_euclidean_rectification(left_in, right_in, width, height)
     rect_left, rect_right = _transform(h_left, left_in), _transform(h_right, right_in)
     quality = vertical_offset_stats(rect_left, rect_right)
     disparities = rect_left[:, 0] - rect_right[:, 0]
