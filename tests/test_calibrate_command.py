@@ -21,6 +21,7 @@ from stereo_obstacles.camera_calibration import CameraPairCalibration, read_came
 from stereo_obstacles.calibration import read_calibration_json
 from stereo_obstacles.cli import main
 from stereo_obstacles.fileio import read_disparity, read_image, write_image
+from stereo_obstacles.synthetic import random_scene, render_pair
 
 RMS_BOUND_PX = 0.6
 """OpenCV's own sample reports about 0.4-0.5 px on these 13 pairs (measured here: 0.445 px)."""
@@ -249,6 +250,16 @@ def test_rectify_uncalibrated(synthetic_files, tmp_path, capsys):
     assert report["rectification"]["vertical_offset"]["median_px"] < 0.5
     assert not (out / "calibration.json").exists()
     assert "inliers:" in capsys.readouterr().out
+
+
+def test_rectify_uncalibrated_says_when_a_pair_is_rectified_already(tmp_path, capsys):
+    pair = render_pair(random_scene(7, width_px=320, height_px=240))       # its epipole estimate lands in view
+    write_image(tmp_path / "left.png", pair.left)
+    write_image(tmp_path / "right.png", pair.right)
+    assert main(["rectify", str(tmp_path / "left.png"), str(tmp_path / "right.png"), "--uncalibrated",
+                 "--out", str(tmp_path / "r")]) == 0
+    assert "the pair is rectified already: its images are written as they are" in capsys.readouterr().out
+    np.testing.assert_array_equal(read_image(tmp_path / "r" / "right.png"), pair.right)
 
 
 def test_detect_uncalibrated_makes_no_distances_and_says_what_its_disparities_are(synthetic_files, tmp_path, capsys,

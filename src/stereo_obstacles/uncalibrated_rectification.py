@@ -100,6 +100,12 @@ class UncalibratedRectification:
     disparity_range_px: tuple[float, float]
     maps: PairMaps
 
+    @property
+    def unchanged(self) -> bool:
+        """True when both homographies are identities: the pair was rectified already and is used
+        as it is."""
+        return bool(np.array_equal(self.h_left, np.eye(3)) and np.array_equal(self.h_right, np.eye(3)))
+
     def apply(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Rectify the pair (or another frame of the same rig); see :meth:`PairMaps.apply`."""
         return self.maps.apply(left, right)
@@ -373,8 +379,7 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
         left_in, right_in = matches.left_px[on_row], matches.right_px[on_row]
         h_left, h_right = _nearly_rectified_homographies(left_in, right_in, width, height)
         logger.info("the epipole estimated at (%.0f, %.0f) px is unreliable: %d of the %d matches lie on their "
-                    "rows, so the pair is nearly rectified and %s", *epipole, len(left_in), len(matches),
-                    "used as it is" if np.array_equal(h_right, np.eye(3)) else "rectified from those matches")
+                    "rows, so the pair is nearly rectified", *epipole, len(left_in), len(matches))
     elif model == "hartley":
         ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
                                                             threshold=threshold_px)

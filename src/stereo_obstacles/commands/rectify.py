@@ -130,6 +130,8 @@ def run(args: argparse.Namespace) -> int:
         low, high = rectification.disparity_range_px
         print(f"inliers: {rectification.n_inliers} of {rectification.n_matches} matches; their "
               f"{rectification.quality.describe()}; disparities {low:.1f}..{high:.1f} px")
+        if rectification.unchanged:
+            print("the pair is rectified already: its images are written as they are")
     else:
         print(f"rectified: focal {rectified_calibration.focal_px:.2f} px, baseline "
               f"{rectified_calibration.baseline_m:.4f} m, principal point ({rectified_calibration.cx_px:.1f}, "
