@@ -9,10 +9,9 @@ Steps of :func:`rectify_uncalibrated`:
    explains nearly every match, so ``F`` is not determined), or an epipole inside the image
    (forward motion: no rectification keeps the image whole) -- unless the pair is nearly
    rectified already (:func:`_matches_on_their_rows`: the epipole of such a pair lies at
-   infinity, and estimated from a few matches it can land anywhere). Such a pair gets the
-   quasi-Euclidean homographies below, fitted to those matches (``F`` is not used), when they
-   bring its rows much closer than the pair as it is (``MIN_FITTED_GAIN``), and is used as it
-   is otherwise;
+   infinity, and estimated from a few matches it can land anywhere), which is used as it is
+   when those matches lie on their rows to the keypoints' noise and their disparities vary with
+   depth (:func:`_usable_as_it_is`), and refused otherwise;
 4. Hartley's rectifying homographies ``H1``, ``H2`` (``cv2.stereoRectifyUncalibrated``);
 5. the least distortion: rows may be remapped by any common ``y' = a y + c`` and each
    image's columns by its own affine ``x' = d x + e y + g`` without undoing the
@@ -62,13 +61,19 @@ ON_ROW_PERCENTILE = 5.0
 swapped when the mirror percentile, 100 minus this, is at most the threshold) ..."""
 MIN_ON_ROW_DISPARITY_THRESHOLDS = 2.0
 """... and their median disparity at least this many thresholds (pixels per pixel of threshold)."""
-MIN_FITTED_GAIN = 0.5
-"""A nearly rectified pair gets the homographies fitted to its matches on their rows only when
-they take the matches' median vertical offset below this fraction of what it is with the pair
-as it is. A few tenths of a pixel cost the matcher most of its matches (0.3 px: density 90 ->
-57 %), but a rectified pair's matches read 0.03-0.14 px (the keypoints' noise), and a fit to that
-noise leaves the pair a little off (0.075 px) and costs density too."""
-
+MAX_UNCHANGED_OFFSET_PX = 0.15
+"""A nearly rectified pair is used as it is only when the median vertical offset of its matches
+on their rows is at most this (pixels: rectified synthetic pairs read 0.03-0.14 px, the
+keypoints' noise; a few tenths of a pixel cost the matcher most of its matches, 0.3 px: density
+90 -> 57 %; a fit to the matches, tried instead, could go astray where they cover part of the
+image) ..."""
+MIN_DEPTH_RELIEF_THRESHOLDS = 0.6
+"""... and when their disparities vary with depth: the median distance of the disparities from
+the best quadratic in the column is at least this many thresholds. A camera turned about its
+vertical axis, without a baseline, also moves the matches along their rows, by an amount that
+depends on the column alone (a zoom: linearly): 0.10-0.47 px from the quadratic for a pan of
+0.7-3 degrees with a 1 mm baseline (scenes 1..8 at 320x240), against 1.00-5.03 px for rectified
+pairs."""
 
 @dataclass(frozen=True, eq=False)
 class UncalibratedRectification:
@@ -79,7 +84,8 @@ class UncalibratedRectification:
     h_left, h_right : ndarray, shape (3, 3)
         Homographies from original to rectified pixel coordinates.
     fundamental : ndarray, shape (3, 3)
-        ``F`` with ``x_right^T F x_left = 0``.
+        ``F`` with ``x_right^T F x_left = 0``, as estimated (not used for a pair taken as
+        rectified already, whose epipole estimate landed in view).
     n_matches, n_inliers : int
         Putative feature matches, and the inliers of ``F`` (of a nearly rectified pair whose
         epipole estimate lands in view: its matches on their rows, module docstring).
@@ -213,13 +219,6 @@ def _quasi_euclidean(left: np.ndarray, right: np.ndarray, width: int, height: in
     return _quasi_euclidean_homographies(params, width, height)
 
 
-def _quasi_euclidean_rectification(left: np.ndarray, right: np.ndarray, width: int,
-                                   height: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(h_left, h_right)``: the quasi-Euclidean homographies fitted to the matches (``(N, 2)``
-    pixels), with the least distortion."""
-    return _least_distortion(*_quasi_euclidean(left, right, width, height), width, height)
-
-
 def _homography_maps(h: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     xs, ys = np.meshgrid(np.arange(width, dtype=np.float64), np.arange(height, dtype=np.float64))
     source = _transform(np.linalg.inv(h), np.c_[xs.ravel(), ys.ravel()])
@@ -237,6 +236,29 @@ def _check_parallax(left: np.ndarray, right: np.ndarray, threshold_px: float) ->
             f"degenerate motion: one homography explains {100 * (1 - off_plane):.1f} % of the matches (a pure "
             f"rotation, no baseline, or a single flat surface), so the epipolar geometry is not determined; "
             f"move the cameras apart or show a scene with depth")
+
+
+def _fundamental_matrix(left: np.ndarray, right: np.ndarray, threshold_px: float) -> tuple:
+    """``cv2.findFundamentalMat`` of the matches (``(N, 2)`` pixels) by MAGSAC++, or by RANSAC where
+    MAGSAC++ raises (its assertion that a sample gave a model fails on some pairs: a zoomed copy,
+    and ordinary rectified pairs with a slightly rolled camera, session 26).
+
+    Raises
+    ------
+    RectificationError
+        Neither estimates one.
+    """
+    import cv2
+
+    try:
+        return cv2.findFundamentalMat(left, right, cv2.USAC_MAGSAC, threshold_px, 0.999)
+    except cv2.error:
+        pass
+    try:
+        return cv2.findFundamentalMat(left, right, cv2.FM_RANSAC, threshold_px, 0.999)
+    except cv2.error as error:
+        raise RectificationError(f"OpenCV estimates no epipolar geometry from the {len(left)} feature "
+                                 f"matches") from error
 
 
 def _epipole_near_image(fundamental: np.ndarray, width: int, height: int) -> tuple[float, float] | None:
@@ -285,15 +307,21 @@ def _matches_on_their_rows(left: np.ndarray, right: np.ndarray, threshold_px: fl
     return on_row
 
 
-def _nearly_rectified_homographies(left: np.ndarray, right: np.ndarray, width: int,
-                                   height: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(h_left, h_right)`` of a nearly rectified pair from its matches on their rows (``(N, 2)``
-    pixels): the quasi-Euclidean homographies fitted to them when they leave at most
-    ``MIN_FITTED_GAIN`` of the matches' median vertical offset, else identities."""
+def _usable_as_it_is(left: np.ndarray, right: np.ndarray, threshold_px: float, width: int) -> str | None:
+    """Why a nearly rectified pair (its matches on their rows, ``(N, 2)`` pixels, in an image
+    ``width`` pixels wide) cannot be used as it is, or None when it can
+    (``MAX_UNCHANGED_OFFSET_PX``, ``MIN_DEPTH_RELIEF_THRESHOLDS``)."""
     unchanged_px = float(np.median(np.abs(right[:, 1] - left[:, 1])))
-    h_left, h_right = _quasi_euclidean_rectification(left, right, width, height)
-    fitted_px = float(np.median(np.abs(_transform(h_right, right)[:, 1] - _transform(h_left, left)[:, 1])))
-    return (h_left, h_right) if fitted_px <= MIN_FITTED_GAIN * unchanged_px else (np.eye(3), np.eye(3))
+    if unchanged_px > MAX_UNCHANGED_OFFSET_PX:
+        return f"its matches lie {unchanged_px:.2f} px off their rows (median)"
+    disparities = left[:, 0] - right[:, 0]
+    columns = np.vander(left[:, 0] / width, 3)
+    along_columns = columns @ np.linalg.lstsq(columns, disparities, rcond=None)[0]
+    relief_px = float(np.median(np.abs(disparities - along_columns)))
+    if relief_px < MIN_DEPTH_RELIEF_THRESHOLDS * threshold_px:
+        return (f"its disparities follow the column alone (within {relief_px:.2f} px, median): a camera turned or "
+                f"zoomed without a baseline")
+    return None
 
 
 def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "sift", ratio: float = 0.75,
@@ -314,8 +342,7 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
     min_inliers : int
         Fewest inliers accepted (at least 8).
     model : {"quasi-euclidean", "hartley"}
-        How the rectifying homographies are found (see the module docstring; a nearly
-        rectified pair whose epipole estimate lands in view is always quasi-Euclidean).
+        How the rectifying homographies are found (see the module docstring).
 
     Returns
     -------
@@ -354,13 +381,7 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
     if len(matches) < min_inliers:
         raise RectificationError(f"too few feature matches to rectify: {len(matches)} (need {min_inliers}); "
                                  f"the images may not overlap, be too plain, or be too different")
-    try:
-        fundamental, mask = cv2.findFundamentalMat(matches.left_px, matches.right_px, cv2.USAC_MAGSAC, threshold_px,
-                                                   0.999)
-    except cv2.error as error:      # MAGSAC++ asserts when no sample yields a model (a zoomed copy, say)
-        raise RectificationError(f"no epipolar geometry fits the {len(matches)} feature matches: the two views "
-                                 f"may have no baseline between them (one a zoomed or shifted copy of the "
-                                 f"other?)") from error
+    fundamental, mask = _fundamental_matrix(matches.left_px, matches.right_px, threshold_px)
     inlier = mask.ravel().astype(bool) if mask is not None else np.zeros(len(matches), bool)
     if fundamental is None or fundamental.shape != (3, 3) or np.count_nonzero(inlier) < min_inliers:
         raise RectificationError(f"too few matches agree on one epipolar geometry: {np.count_nonzero(inlier)} "
@@ -369,17 +390,20 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
     _check_parallax(left_in, right_in, threshold_px)
     epipole = _epipole_near_image(fundamental, width, height)
     if epipole is not None:
+        degenerate = (f"degenerate motion: the epipole ({epipole[0]:.0f}, {epipole[1]:.0f}) px is in or near the "
+                      f"image, so the cameras are not side by side (forward motion)")
         on_row = _matches_on_their_rows(matches.left_px, matches.right_px, threshold_px, len(left_in), min_inliers)
         if on_row is None:
-            raise RectificationError(
-                f"degenerate motion: the epipole ({epipole[0]:.0f}, {epipole[1]:.0f}) px is in or near the image, "
-                f"so the cameras are not side by side (forward motion), or the pair lies about {threshold_px:g} px "
-                f"off its rows and its epipolar geometry is poorly determined; such a pair cannot be rectified "
-                f"from its matches")
+            raise RectificationError(f"{degenerate}; such a pair cannot be rectified for stereo matching")
         left_in, right_in = matches.left_px[on_row], matches.right_px[on_row]
-        h_left, h_right = _nearly_rectified_homographies(left_in, right_in, width, height)
+        reason = _usable_as_it_is(left_in, right_in, threshold_px, width)
+        if reason is not None:
+            raise RectificationError(f"{degenerate}, or the pair is nearly rectified and its epipole cannot be "
+                                     f"placed from {len(left_in)} matches on their rows, but {reason}; calibrate "
+                                     f"the cameras instead")
         logger.info("the epipole estimated at (%.0f, %.0f) px is unreliable: %d of the %d matches lie on their "
-                    "rows, so the pair is nearly rectified", *epipole, len(left_in), len(matches))
+                    "rows, so the pair is taken as rectified", *epipole, len(left_in), len(matches))
+        h_left, h_right = np.eye(3), np.eye(3)
     elif model == "hartley":
         ok, h_left, h_right = cv2.stereoRectifyUncalibrated(left_in, right_in, fundamental, (width, height),
                                                             threshold=threshold_px)
@@ -387,7 +411,7 @@ def rectify_uncalibrated(left: np.ndarray, right: np.ndarray, *, method: str = "
             raise RectificationError("OpenCV found no rectifying homographies for this epipolar geometry")
         h_left, h_right = _least_distortion(h_left, h_right, width, height)
     else:
-        h_left, h_right = _quasi_euclidean_rectification(left_in, right_in, width, height)
+        h_left, h_right = _least_distortion(*_quasi_euclidean(left_in, right_in, width, height), width, height)
     rect_left, rect_right = _transform(h_left, left_in), _transform(h_right, right_in)
     quality = vertical_offset_stats(rect_left, rect_right)
     disparities = rect_left[:, 0] - rect_right[:, 0]
