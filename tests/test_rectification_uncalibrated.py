@@ -114,10 +114,9 @@ def test_a_camera_turned_without_a_baseline_is_not_taken_for_a_rectified_pair():
         rectify_uncalibrated(pair.left, pair.right)
 
 
-def test_a_rectified_pair_is_left_as_it_is_when_a_fit_would_not_bring_its_rows_closer():
-    """Seed 8 at 640x480, rectified: its matches on their rows read a median offset of 0.14 px (the
-    keypoints' noise); homographies fitted to them do not halve it, and would leave the pair
-    0.075 px off (a review), so it is used as it is."""
+def test_a_rectified_pair_whose_matches_read_the_keypoints_noise_is_used_as_it_is():
+    """Seed 8 at 640x480, rectified: its matches on their rows read a median offset of 0.14 px, the
+    keypoints' noise (homographies fitted to them left it 0.075 px off: a review)."""
     pair = render_pair(random_scene(8, width_px=640, height_px=480))
     rectification = rectify_uncalibrated(pair.left, pair.right)
     np.testing.assert_array_equal(rectification.h_right, np.eye(3))
