@@ -137,9 +137,13 @@ def test_a_nearly_rectified_pair_is_used_as_it_is_only_on_its_rows_everywhere_an
     high = rectified + [0.0, 0.2]                                                 # 0.2 px everywhere
     assert "0.20 px off their rows (median)" in _usable_as_it_is(left, high, 1.0, 320, 240)
     right_third_off = rectified + np.c_[np.zeros(len(left)), np.where(left[:, 0] > 214, 0.5, 0.0)]
-    assert "0.50 px off their rows in a ninth of the image" in _usable_as_it_is(left, right_third_off, 1.0, 320, 240)
+    assert "0.50 px off their rows in a third of the image" in _usable_as_it_is(left, right_third_off, 1.0, 320, 240)
     keystone = rectified + np.c_[np.zeros(len(left)), 4e-5 * (left[:, 0] - 160) * (left[:, 1] - 120)]   # toe-in
     assert "off their rows in a ninth of the image" in _usable_as_it_is(left, keystone, 1.0, 320, 240)
+    middle_off = rectified + np.c_[np.zeros(len(left)), np.where(abs(left[:, 1] - 120) < 40, -0.2, 0.0)]
+    assert "0.20 px off their rows in a third of the image" in _usable_as_it_is(left, middle_off, 1.0, 320, 240)
+    sparse = np.arange(len(left)) % 14 == 0                                  # 55 matches, under 8 in every ninth
+    assert _usable_as_it_is(left[sparse], rectified[sparse], 1.0, 320, 240) is None
     middle_rows = (left[:, 1] > 80) & (left[:, 1] < 160)
     assert "too few to vouch" in _usable_as_it_is(left[middle_rows], rectified[middle_rows], 1.0, 320, 240)
     panned = left - np.c_[3.0 + 1e-4 * (left[:, 0] - 160) ** 2, np.zeros(len(left))]   # by column alone

@@ -73,6 +73,11 @@ camera left seed 8's right third, with one match, 0.2-0.4 px off; a camera toed 
 degrees left the top and bottom rows of small images 1-2 px off where only the middle rows had
 matches; reviews. A street scene's sky has no matches, so one third of the height may lack them)
 ..."""
+MAX_THIRD_OFFSET_PX = 0.15
+"""... and when their signed vertical offsets have a median of at most this (pixels, either way)
+in each third of the width or height holding ``MIN_THIRD_SHARE`` of them (a tilt, a shift and a
+focal length a little off left the middle rows 0.26-0.33 px off while most matches lay in the
+bottom rows, near 0: a review) ..."""
 MAX_CELL_OFFSET_PX = 0.2
 """... and when their signed vertical offsets have a median of at most this (pixels, either way)
 in each cell of the 3 x 3 grid of thirds holding ``MIN_CELL_MATCHES`` of them or more (rectified
@@ -331,7 +336,7 @@ def _usable_as_it_is(left: np.ndarray, right: np.ndarray, threshold_px: float, w
     """Why a nearly rectified pair (its matches on their rows, ``(N, 2)`` pixels, in an image of
     ``width`` x ``height`` pixels) cannot be used as it is, or None when it can
     (``MIN_UNCHANGED_MATCHES``, ``MAX_UNCHANGED_OFFSET_PX``, ``MIN_THIRD_SHARE``,
-    ``MAX_CELL_OFFSET_PX``, ``MIN_DEPTH_RELIEF_THRESHOLDS``)."""
+    ``MAX_THIRD_OFFSET_PX``, ``MAX_CELL_OFFSET_PX``, ``MIN_DEPTH_RELIEF_THRESHOLDS``)."""
     offsets_px = right[:, 1] - left[:, 1]
     if len(left) < MIN_UNCHANGED_MATCHES:
         return f"only {len(left)} of its matches lie on their rows (at least {MIN_UNCHANGED_MATCHES} vouch for it)"
@@ -344,11 +349,13 @@ def _usable_as_it_is(left: np.ndarray, right: np.ndarray, threshold_px: float, w
     if covered[0] < 3 or covered[1] < 2:
         return (f"its {len(left)} matches on their rows cover {covered[0]} of the thirds of the image's width and "
                 f"{covered[1]} of its height, too few to vouch for its rows")
-    cell = 3 * row + column
-    worst_px = max(abs(float(np.median(offsets_px[cell == k]))) for k in range(9)
-                   if np.count_nonzero(cell == k) >= MIN_CELL_MATCHES)
-    if worst_px > MAX_CELL_OFFSET_PX:
-        return f"its matches lie {worst_px:.2f} px off their rows in a ninth of the image (median)"
+    for parts, least, most_px, name in ((column, MIN_THIRD_SHARE * len(left), MAX_THIRD_OFFSET_PX, "a third"),
+                                        (row + 3, MIN_THIRD_SHARE * len(left), MAX_THIRD_OFFSET_PX, "a third"),
+                                        (3 * row + column, MIN_CELL_MATCHES, MAX_CELL_OFFSET_PX, "a ninth")):
+        worst_px = max((abs(float(np.median(offsets_px[parts == k]))) for k in np.unique(parts)
+                        if np.count_nonzero(parts == k) >= least), default=0.0)
+        if worst_px > most_px:
+            return f"its matches lie {worst_px:.2f} px off their rows in {name} of the image (median)"
     order = np.argsort(left[:, 0])
     columns, disparities = left[order, 0], (left[:, 0] - right[:, 0])[order]
     steps = [np.abs(disparities[k:] - disparities[:-k])[columns[k:] - columns[:-k] <= RELIEF_COLUMN_PX]
