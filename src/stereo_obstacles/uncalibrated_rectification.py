@@ -339,18 +339,19 @@ def _usable_as_it_is(left: np.ndarray, right: np.ndarray, threshold_px: float, w
     ``MAX_THIRD_OFFSET_PX``, ``MAX_CELL_OFFSET_PX``, ``MIN_DEPTH_RELIEF_THRESHOLDS``)."""
     offsets_px = right[:, 1] - left[:, 1]
     if len(left) < MIN_UNCHANGED_MATCHES:
-        return f"only {len(left)} of its matches lie on their rows (at least {MIN_UNCHANGED_MATCHES} vouch for it)"
+        return f"only {len(left)} of its matches lie on their rows ({MIN_UNCHANGED_MATCHES} are needed to vouch for it)"
     if np.median(np.abs(offsets_px)) > MAX_UNCHANGED_OFFSET_PX:
         return f"its matches lie {np.median(np.abs(offsets_px)):.2f} px off their rows (median)"
     column = np.minimum((3 * left[:, 0] / width).astype(int), 2)
     row = np.minimum((3 * left[:, 1] / height).astype(int), 2)
-    covered = (np.bincount(column, minlength=3) >= MIN_THIRD_SHARE * len(left)).sum(), (
-        np.bincount(row, minlength=3) >= MIN_THIRD_SHARE * len(left)).sum()
-    if covered[0] < 3 or covered[1] < 2:
-        return (f"its {len(left)} matches on their rows cover {covered[0]} of the thirds of the image's width and "
-                f"{covered[1]} of its height, too few to vouch for its rows")
-    for parts, least, most_px, name in ((column, MIN_THIRD_SHARE * len(left), MAX_THIRD_OFFSET_PX, "a third"),
-                                        (row + 3, MIN_THIRD_SHARE * len(left), MAX_THIRD_OFFSET_PX, "a third"),
+    share = MIN_THIRD_SHARE * len(left)
+    columns_covered = np.count_nonzero(np.bincount(column, minlength=3) >= share)
+    rows_covered = np.count_nonzero(np.bincount(row, minlength=3) >= share)
+    if columns_covered < 3 or rows_covered < 2:
+        return (f"its {len(left)} matches on their rows cover {columns_covered} of the thirds of the image's width "
+                f"and {rows_covered} of its height, too few to vouch for its rows")
+    for parts, least, most_px, name in ((column, share, MAX_THIRD_OFFSET_PX, "a third"),
+                                        (row, share, MAX_THIRD_OFFSET_PX, "a third"),
                                         (3 * row + column, MIN_CELL_MATCHES, MAX_CELL_OFFSET_PX, "a ninth")):
         worst_px = max((abs(float(np.median(offsets_px[parts == k]))) for k in np.unique(parts)
                         if np.count_nonzero(parts == k) >= least), default=0.0)
