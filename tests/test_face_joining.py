@@ -9,7 +9,7 @@ import pytest
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.face_joining import FaceJoiningParameters, join_obstacles, obstacles_sharing_a_face
+from stereo_obstacles.face_joining import FaceJoiningParameters, obstacles_sharing_a_face
 from stereo_obstacles.pipeline import DetectionConfig, detect
 from stereo_obstacles.synthetic import random_scene, render_pair
 from stereo_obstacles.textureless_fill import BracketedRuns
@@ -56,12 +56,6 @@ def test_too_few_rows_or_obstacles_whose_own_depths_differ_are_not_joined():
     assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == []
 
 
-def test_joined_sets_take_their_smallest_id():
-    ids = np.array([[0, 1, 2, 3, 4, 5]], np.int32)
-    np.testing.assert_array_equal(join_obstacles(ids, [(4, 2), (2, 5), (1, 3)]), [[0, 1, 2, 1, 2, 2]])
-    np.testing.assert_array_equal(join_obstacles(ids, []), ids)
-
-
 @pytest.mark.parametrize("field, value", [("min_runs", 0), ("min_runs", 2.0), ("end_tolerance_m", -0.1),
                                           ("max_depth_gap_m", float("nan"))])
 def test_bad_parameters_are_refused(field, value):
@@ -80,7 +74,10 @@ def test_a_near_textureless_cylinder_is_one_obstacle_not_three():
         return [o.distance_m for o in result.obstacles.obstacles
                 if np.mean(pair.instances[result.obstacles.id_map == o.id] == cylinder.obstacle_id) > 0.5]
 
-    apart = on_the_cylinder(replace(DetectionConfig(), face_joining=None))
-    joined = on_the_cylinder(DetectionConfig())
+    # the footprint joining, which also joins them, is off in both: this is the face joining's doing
+    alone = replace(DetectionConfig(), footprint_joining=None)
+    apart = on_the_cylinder(replace(alone, face_joining=None))
+    joined = on_the_cylinder(alone)
     assert len(apart) == 3 and len(joined) == 1
     assert abs(joined[0] / cylinder.nearest_depth_m - 1) < 0.04
+    assert len(on_the_cylinder(DetectionConfig())) == 1

@@ -165,7 +165,8 @@ def test_slanted_faces_of_the_synthetic_scenes_are_measured_at_their_nearest_par
                                                                                     percentile_error_pct):
     # seed 114: a wall receding from 31 to 16 px; seed 117: a low box whose top face is seen from above.
     # The detection covering most of the object is measured (the evaluation's score may come from a
-    # smaller, nearer piece: detection_evaluation.compare_with_truth)
+    # smaller, nearer piece: detection_evaluation.compare_with_truth), with the pieces left apart:
+    # joined to seed 117's nearer piece (footprint_joining), it is no longer the face alone
     from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE
     from stereo_obstacles.pipeline import DetectionConfig, detect
     from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
@@ -174,7 +175,8 @@ def test_slanted_faces_of_the_synthetic_scenes_are_measured_at_their_nearest_par
     true_distance_m = next(t.nearest_depth_m for t in pair.obstacles if t.obstacle_id == truth_id)
 
     def error_pct(obstacles: ObstacleParameters) -> float:
-        result = detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(obstacles=obstacles))
+        config = DetectionConfig(obstacles=obstacles, footprint_joining=None)
+        result = detect(pair.left, pair.right, pair.calibration, config=config)
         largest = int(np.argmax(np.bincount(result.obstacles.id_map[pair.instances == truth_id])[1:])) + 1
         distance_m = next(o.distance_m for o in result.obstacles.obstacles if o.id == largest)
         return 100 * (distance_m / true_distance_m - 1)

@@ -13,7 +13,8 @@ surface, and the obstacles are joined, if
 * the two obstacles' median depths lie within ``max_depth_gap_m`` of each other.
 
 Joins chain: three pieces of a long face, each pair within the tolerances, make one obstacle
-that may span more in depth (the pieces of a wall receding from the camera are one wall).
+that may span more in depth (the pieces of a wall receding from the camera are one wall); the
+joined obstacle is measured by :func:`stereo_obstacles.obstacle_joining.measure_joined`.
 
 The tolerances are in metres, not pixels of disparity, because a fixed disparity tolerance is
 many metres at 10 m: with the fill's own (1 px or 10 %), a box at 7.3 m was joined to the wall
@@ -31,7 +32,7 @@ from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.textureless_fill import BracketedRuns
 
-__all__ = ["FaceJoiningParameters", "join_obstacles", "obstacles_sharing_a_face"]
+__all__ = ["FaceJoiningParameters", "obstacles_sharing_a_face"]
 
 
 @dataclass(frozen=True)
@@ -93,23 +94,3 @@ def obstacles_sharing_a_face(runs: BracketedRuns | None, id_map: np.ndarray, dis
         if _within_m(*medians, params.max_depth_gap_m, calibration):
             joined.append((int(first), int(second)))
     return joined
-
-
-def join_obstacles(id_map: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarray:
-    """``int32 (H, W)``: ``id_map`` with each set of obstacles that ``pairs`` link (directly or
-    through others) under the smallest id among them."""
-    ids = np.asarray(id_map)
-    top = int(ids.max(initial=0))
-    root = np.arange(top + 1)
-
-    def find(k: int) -> int:
-        while root[k] != k:
-            k = root[k]
-        return k
-
-    for first, second in pairs:
-        r1, r2 = find(first), find(second)
-        root[max(r1, r2)] = min(r1, r2)
-    for k in range(top + 1):
-        root[k] = find(k)
-    return root[ids].astype(np.int32)

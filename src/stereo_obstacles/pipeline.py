@@ -35,6 +35,9 @@ Beyond the paper:
   their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
   the obstacles' boxes, lateral extents and widths; two obstacles that are the outlines of one
   such face are joined into one (:mod:`stereo_obstacles.face_joining`);
+* obstacles of one colour whose footprints on the ground touch are pieces of one object (a
+  pole's top above a nearer box and its foot below it) and are joined into one
+  (:mod:`stereo_obstacles.footprint_joining`);
 * when the pixels that look like the reference area do not lie on a plane that can be the
   ground (the reference area is covered by a wall or a large object), the ground plane is
   fitted to the matched pixels of the lower third of the image instead, the colour labels are
@@ -61,7 +64,8 @@ from stereo_obstacles.colour_split import ColourCue, colour_cue
 from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
-from stereo_obstacles.face_joining import FaceJoiningParameters, join_obstacles, obstacles_sharing_a_face
+from stereo_obstacles.face_joining import FaceJoiningParameters, obstacles_sharing_a_face
+from stereo_obstacles.footprint_joining import FootprintJoiningParameters, pieces_of_one_object
 from stereo_obstacles.field_checks import (check_integers, check_numbers, check_positive, check_types, plain_number,
                                            plain_numbers)
 from stereo_obstacles.image_pairs import check_same_size
@@ -73,13 +77,14 @@ from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
                                         measure_groups, measure_obstacles, obstacle_scan, standing_pixels)
+from stereo_obstacles.obstacle_joining import measure_joined
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size, warn_if_scale_raised
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
-from stereo_obstacles.textureless_fill import (TexturelessFillParameters, bracketed_runs, paint_runs,
-                                               textureless_candidates, widen_obstacles)
+from stereo_obstacles.textureless_fill import (BracketedRuns, TexturelessFillParameters, bracketed_runs,
+                                               paint_runs, textureless_candidates, widen_obstacles)
 from stereo_obstacles.thread_pool import run_each_in_threads
 from stereo_obstacles.visibility import VisibilityParameters, hidden_in_right
 
@@ -175,6 +180,11 @@ class DetectionConfig:
     one textureless face (the ends of its bracketed rows) are joined into one
     (:mod:`stereo_obstacles.face_joining`); ``None`` keeps them apart, and so does
     ``textureless_fill=None``, whose rows it reads.
+    ``footprint_joining``: with a calibration and the colour split's colour cue, obstacles of one
+    colour whose footprints on the ground plan touch are pieces of one object and are joined
+    into one (:mod:`stereo_obstacles.footprint_joining`); ``None`` keeps them apart. An
+    obstacle joined from pieces, by either joining, is measured as one, its distance kept
+    between its nearest and its largest piece's (:mod:`stereo_obstacles.obstacle_joining`).
     ``hidden_ground``: with a calibration, a ground plane and trusted colour labels, a group of
     obstacle pixels made mostly of ground-coloured matches that, were they ground, the right
     camera could not see behind a nearer object's left edge is rejected, with its reason
@@ -197,6 +207,7 @@ class DetectionConfig:
     textureless_fill: TexturelessFillParameters | None = field(default_factory=TexturelessFillParameters)
     hidden_ground: HiddenGroundParameters | None = field(default_factory=HiddenGroundParameters)
     face_joining: FaceJoiningParameters | None = field(default_factory=FaceJoiningParameters)
+    footprint_joining: FootprintJoiningParameters | None = field(default_factory=FootprintJoiningParameters)
 
     def __post_init__(self) -> None:
         # a dict or None for a stage's options failed later with AttributeError (API review, session 23)
@@ -205,7 +216,8 @@ class DetectionConfig:
                            ("obstacles", ObstacleParameters), ("check_rectification", bool)))
         check_types(self, (("blind_strip", BlindStripParameters), ("visibility", VisibilityParameters),
                            ("textureless_fill", TexturelessFillParameters),
-                           ("hidden_ground", HiddenGroundParameters), ("face_joining", FaceJoiningParameters)),
+                           ("hidden_ground", HiddenGroundParameters), ("face_joining", FaceJoiningParameters),
+                           ("footprint_joining", FootprintJoiningParameters)),
                     allow_none=True)
         check_numbers(self, (("geometric_min_height_m", 0.0, math.inf), ("geometric_min_excess_px", 0.0, math.inf)))
         check_scale(plain_number(self, "matching_scale"))
@@ -469,11 +481,19 @@ FOOT_REACH_PX = 2
 """A flat group within this many pixels of a reported obstacle is that obstacle's foot."""
 
 
-def _joined_groups(groups: np.ndarray, id_map: np.ndarray, pairs: list[tuple[int, int]]) -> np.ndarray:
-    """``groups`` (``int (H, W)``, the groups the obstacles of ``id_map`` were measured from) with
-    the groups of each pair of obstacle ids joined (:func:`~stereo_obstacles.face_joining.join_obstacles`)."""
-    group_of = {k: int(groups[id_map == k].flat[0]) for pair in pairs for k in pair}
-    return join_obstacles(groups, [(group_of[a], group_of[b]) for a, b in pairs])
+def _pieces_of_one_object(obstacles: ObstacleList, runs: BracketedRuns | None, measured: np.ndarray,
+                          disparity: np.ndarray, colour: ColourCue | None, calibration: StereoCalibration,
+                          config: DetectionConfig) -> list[tuple[int, int]]:
+    """The pairs of obstacle ids that are pieces of one object: the two outlines of a textureless
+    face (from the fill's ``runs``, :mod:`stereo_obstacles.face_joining`) and pieces of one
+    colour standing on one place of the ground (:mod:`stereo_obstacles.footprint_joining`, on
+    the ``measured`` disparity the obstacles were measured on)."""
+    pairs = []
+    if runs is not None and config.face_joining is not None:
+        pairs += obstacles_sharing_a_face(runs, obstacles.id_map, disparity, calibration, config.face_joining)
+    if colour is not None and config.footprint_joining is not None:
+        pairs += pieces_of_one_object(obstacles, measured, colour.chroma, calibration, config.footprint_joining)
+    return pairs
 
 
 def _feet(flat_groups: np.ndarray, id_map: np.ndarray) -> set[int]:
@@ -655,18 +675,19 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
                                                       config.blind_strip)
     obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles, with_scan=False)
     if calibration is not None:
-        # the scan from the delivered disparity (no blind-strip extrapolation), textureless faces filled
-        scan_ids, scan_disparity = obstacles.id_map, disparity
-        if textureless is not None and ground is not None and colour_trusted:
-            runs = bracketed_runs(textureless, obstacles.id_map, disparity, segmentation.labels, ground,
-                                  config.textureless_fill)
-            joined = (obstacles_sharing_a_face(runs, obstacles.id_map, disparity, calibration, config.face_joining)
-                      if config.face_joining is not None else [])
-            if joined:
-                obstacles = measure_obstacles(_joined_groups(groups, obstacles.id_map, joined), measured, calibration,
-                                              ground, config.obstacles, with_scan=False)
+        filling = textureless is not None and ground is not None and colour_trusted
+        runs = (bracketed_runs(textureless, obstacles.id_map, disparity, segmentation.labels, ground,
+                               config.textureless_fill) if filling else None)
+        pairs = _pieces_of_one_object(obstacles, runs, measured, disparity, colour, calibration, config)
+        if pairs:
+            groups, obstacles = measure_joined(groups, obstacles, pairs, measured, calibration, ground,
+                                               config.obstacles)
+            if filling:
                 runs = bracketed_runs(textureless, obstacles.id_map, disparity, segmentation.labels, ground,
                                       config.textureless_fill)
+        # the scan from the delivered disparity (no blind-strip extrapolation), textureless faces filled
+        scan_ids, scan_disparity = obstacles.id_map, disparity
+        if filling:
             scan_ids, scan_disparity = paint_runs(obstacles.id_map, disparity, runs)
             obstacles = widen_obstacles(obstacles, scan_ids, scan_disparity, calibration,
                                         config.obstacles.corridor_width_m)

@@ -1,0 +1,111 @@
+"""Joining the pieces of one object by their footprints on the ground."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.footprint_joining import FootprintJoiningParameters, footprint, pieces_of_one_object
+from stereo_obstacles.obstacles import measure_obstacles
+
+RIG = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)   # f B = 42 px m
+GREY = (128, 128)
+
+
+class Scene:
+    """Obstacles painted as rectangles of one depth and one chroma on a 240 x 320 image."""
+
+    def __init__(self):
+        self.groups = np.zeros((240, 320), np.int32)
+        self.disparity = np.full((240, 320), np.nan, np.float32)
+        self.chroma = np.full((240, 320, 2), 128, np.uint8)
+
+    def paint(self, group, rows, columns, z_m, chroma=GREY):
+        self.groups[rows, columns] = group
+        self.disparity[rows, columns] = RIG.focal_baseline_px_m / z_m
+        self.chroma[rows, columns] = chroma
+        return self
+
+    def pairs(self, params=FootprintJoiningParameters()):
+        """The pairs to join, as group numbers (the obstacles' ids are numbered nearest first)."""
+        obstacles = measure_obstacles(self.groups, self.disparity, RIG, None, with_scan=False)
+        group_of = {o.id: int(self.groups[obstacles.id_map == o.id][0]) for o in obstacles.obstacles}
+        return [(group_of[a], group_of[b]) for a, b in
+                pieces_of_one_object(obstacles, self.disparity, self.chroma, RIG, params)]
+
+
+def _pole(top_z_m=4.0, bottom_z_m=4.0, bottom_chroma=GREY):
+    """A pole 20 columns wide seen in two pieces, above and below a gap (a nearer box)."""
+    return (Scene().paint(1, slice(10, 60), slice(100, 120), top_z_m)
+            .paint(2, slice(100, 200), slice(100, 120), bottom_z_m, bottom_chroma))
+
+
+def test_the_pieces_of_a_pole_above_and_below_a_gap_are_joined():
+    assert _pole().pairs() == [(2, 1)]                    # the larger piece takes the smaller
+    assert _pole(bottom_z_m=4.25).pairs() == [(2, 1)]     # 0.25 m apart: within the gap
+
+
+def test_pieces_of_two_colours_or_two_depths_are_not():
+    assert _pole(bottom_chroma=(128, 140)).pairs() == []               # 12 apart in (a*, b*)
+    assert _pole(bottom_chroma=(128, 137)).pairs() == [(2, 1)]         # 9 apart: one colour
+    assert _pole(bottom_z_m=4.4).pairs() == []                         # 0.4 m behind
+
+
+def test_an_objects_fattened_edge_does_not_touch_its_neighbour():
+    # a box at 4 m and, beside it, a wall 1 m behind whose 4 columns next to the box carry the box's
+    # disparity, as the matching spreads it over the background
+    scene = Scene().paint(1, slice(50, 150), slice(60, 120), 4.0).paint(2, slice(50, 150), slice(120, 200), 5.0)
+    scene.disparity[50:150, 120:124] = RIG.focal_baseline_px_m / 4.0
+    touching_anywhere = FootprintJoiningParameters(min_close_fraction=0.0)
+    assert scene.pairs() == [] and scene.pairs(touching_anywhere) == []
+    assert scene.pairs(replace(touching_anywhere, edge_columns=0)) == [(2, 1)]
+
+
+def test_an_obstacle_that_touches_with_a_few_columns_only_is_not_a_piece():
+    # a pole 40 columns wide 0.41 m behind a box, beside it; the box's obstacle took 3 columns of
+    # the pole's pixels at 4.12 m: they touch about 9 of the pole's 40 footprint columns
+    scene = Scene().paint(1, slice(100, 160), slice(60, 160), 4.0).paint(2, slice(10, 200), slice(160, 200), 4.41)
+    scene.paint(1, slice(60, 100), slice(160, 163), 4.12)
+    every_column = FootprintJoiningParameters(edge_columns=0)
+    assert scene.pairs(every_column) == []
+    assert scene.pairs(replace(every_column, min_close_fraction=0.0)) == [(2, 1)]   # the larger takes it
+
+
+def test_joins_make_stars_not_chains():
+    # A touches B, B touches C, A does not touch C: B joins A (the largest), C stays apart
+    scene = (Scene().paint(1, slice(50, 150), slice(40, 100), 4.0)
+             .paint(2, slice(50, 90), slice(100, 120), 4.1)
+             .paint(3, slice(50, 90), slice(120, 150), 4.3))
+    assert scene.pairs() == [(1, 2)]
+
+
+def test_footprint_points_are_column_medians_in_metres():
+    xs = np.repeat(np.arange(150, 162), 4)                  # 12 columns of 4 pixels at 4.2 m
+    d = np.full(xs.shape, 10.0)
+    d[1] = np.nan                                           # column 150 keeps 3 matches
+    xs, d = np.append(xs, [170, 170]), np.append(d, [10.0, 10.0])     # column 170: 2 matches, left out
+    points = footprint(xs, d, RIG)
+    np.testing.assert_allclose(points[:, 1], 4.2)
+    np.testing.assert_allclose(points[:, 0], (np.arange(154, 158) - 160) * 4.2 / 350)   # 4 edge columns trimmed
+    assert footprint(xs[:20], d[:20], RIG).shape == (5, 2)  # 5 columns, too few to trim
+    assert footprint(xs, np.full(xs.shape, np.nan), RIG).shape == (0, 2)
+
+
+def test_a_footprint_leaves_out_columns_at_or_behind_infinity():
+    xs = np.repeat(np.arange(10), 3)
+    d = np.where(xs < 5, 10.0, -1.0)                        # doffs 0: d <= 0 has no depth
+    assert len(footprint(xs, d, RIG, FootprintJoiningParameters(edge_columns=0))) == 5
+    assert len(footprint(xs, d, replace(RIG, doffs_px=2.0), FootprintJoiningParameters(edge_columns=0))) == 10
+
+
+@pytest.mark.parametrize("field, value", [("max_gap_m", -0.1), ("max_gap_m", float("inf")),
+                                          ("min_close_columns", 0), ("min_close_columns", 2.5),
+                                          ("min_close_fraction", 1.5), ("max_chroma_distance", float("nan")),
+                                          ("edge_columns", -1), ("min_column_pixels", 0)])
+def test_bad_parameters_are_refused(field, value):
+    with pytest.raises(InvalidInputError, match=field):
+        FootprintJoiningParameters(**{field: value})

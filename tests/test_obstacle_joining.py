@@ -1,0 +1,90 @@
+"""Obstacles found in pieces, joined and measured as one."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.near_face import SlantedFaceParameters
+from stereo_obstacles.obstacle_joining import join_obstacles, measure_joined
+from stereo_obstacles.obstacles import ObstacleParameters, measure_obstacles
+
+RIG = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)   # f B = 42 px m
+
+
+def test_joined_sets_take_their_smallest_id():
+    ids = np.array([[0, 1, 2, 3, 4, 5]], np.int32)
+    np.testing.assert_array_equal(join_obstacles(ids, [(4, 2), (2, 5), (1, 3)]), [[0, 1, 2, 1, 2, 2]])
+    np.testing.assert_array_equal(join_obstacles(ids, []), ids)
+
+
+def _pieces():
+    """A small near piece (group 1, 4.0 m), a large far piece of the same object (group 2, 4.4 m)
+    and another object (group 3, 6.0 m), measured without a ground plane."""
+    groups = np.zeros((120, 200), np.int32)
+    disparity = np.full((120, 200), np.nan, np.float32)
+    groups[10:26, 40:56], disparity[10:26, 40:56] = 1, 42 / 4.0
+    groups[30:110, 40:120], disparity[30:110, 40:120] = 2, 42 / 4.4
+    groups[30:60, 150:190], disparity[30:60, 150:190] = 3, 42 / 6.0
+    return groups, disparity, measure_obstacles(groups, disparity, RIG, None, with_scan=False)
+
+
+def test_joined_pieces_are_one_obstacle_measured_as_one():
+    groups, disparity, pieces = _pieces()
+    near, far, other = pieces.obstacles
+    joined, obstacles = measure_joined(groups, pieces, [(far.id, near.id)], disparity, RIG, None)
+    assert joined.dtype == np.int32 and joined[15, 45] == joined[50, 50] == 1 and joined[40, 160] == 3
+    assert len(obstacles.obstacles) == 2 and obstacles.scan is None
+    whole, unchanged = obstacles.obstacles
+    assert whole.pixel_count == near.pixel_count + far.pixel_count
+    assert unchanged == replace(other, id=2)
+    # the near piece's 4 patches are under a tenth of the union's 104: the 10th percentile of the
+    # patch depths lies in the far piece, as it would for one group of those pixels
+    assert whole.distance_m == pytest.approx(4.4)
+    assert whole == measure_obstacles(joined, disparity, RIG, None, with_scan=False).obstacles[0]
+
+
+def test_a_joined_obstacle_is_never_nearer_than_its_nearest_piece():
+    # a box seen from above: its top face recedes from 4 m (row 95) to 7 m (row 0), its front face
+    # stands at 4 m below it; the plane of the top face, read at the front face's lowest patches,
+    # lies in front of both
+    groups = np.zeros((140, 200), np.int32)
+    disparity = np.full((140, 200), np.nan, np.float32)
+    rows = np.arange(96)[:, None]
+    groups[:96, 40:120], disparity[:96, 40:120] = 1, (6.0 + 4.5 * rows / 95).astype(np.float32)
+    groups[96:128, 40:120], disparity[96:128, 40:120] = 2, 10.5
+    params = ObstacleParameters(slanted_face=SlantedFaceParameters(min_inlier_fraction=0.75))
+    pieces = measure_obstacles(groups, disparity, RIG, None, params, with_scan=False)
+    assert [o.distance_m for o in pieces.obstacles] == pytest.approx([4.0, 4.0], abs=0.1)
+    joined, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None, params)
+    as_one = measure_obstacles(joined, disparity, RIG, None, params, with_scan=False).obstacles[0]
+    assert as_one.distance_m < 3.7                                   # the plane, extrapolated
+    assert obstacles.obstacles[0].distance_m == pytest.approx(min(o.distance_m for o in pieces.obstacles))
+
+
+def test_a_joined_obstacle_is_never_farther_than_its_largest_piece():
+    # a wall receding from 4 m to 7 m, measured on its plane at its near end, and a piece of it off
+    # that plane: together they no longer lie on one plane, and the 10th percentile of their
+    # patches lies well behind the wall's near end
+    groups = np.zeros((140, 200), np.int32)
+    disparity = np.full((140, 200), np.nan, np.float32)
+    columns = np.arange(40, 200)[None, :]
+    groups[20:100, 40:200], disparity[20:100, 40:200] = 1, (10.5 - 4.5 * (columns - 40) / 159).astype(np.float32)
+    groups[104:136, 40:96], disparity[104:136, 40:96] = 2, 8.0
+    pieces = measure_obstacles(groups, disparity, RIG, None, with_scan=False)
+    wall = max(pieces.obstacles, key=lambda o: o.pixel_count)
+    assert wall.distance_m == pytest.approx(4.0, abs=0.1)
+    joined, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None)
+    as_one = measure_obstacles(joined, disparity, RIG, None, with_scan=False).obstacles[0]
+    assert as_one.distance_m > 4.15
+    assert obstacles.obstacles[0].distance_m == wall.distance_m
+
+
+def test_without_a_calibration_pieces_are_joined_in_pixels():
+    groups, disparity, _ = _pieces()
+    pieces = measure_obstacles(groups, disparity, None, None, with_scan=False)
+    _, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, None, None)
+    assert len(obstacles.obstacles) == 2 and obstacles.obstacles[0].distance_m is None
