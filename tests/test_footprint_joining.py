@@ -97,9 +97,49 @@ def test_footprint_points_are_column_medians_in_metres():
 
 def test_a_footprint_leaves_out_columns_at_or_behind_infinity():
     xs = np.repeat(np.arange(10), 3)
-    d = np.where(xs < 5, 10.0, -1.0)                        # doffs 0: d <= 0 has no depth
+    d = np.where(xs < 5, 10.0, 0.0)                         # doffs 0: d + doffs = 0 has no depth
     assert len(footprint(xs, d, RIG, FootprintJoiningParameters(edge_columns=0))) == 5
     assert len(footprint(xs, d, replace(RIG, doffs_px=2.0), FootprintJoiningParameters(edge_columns=0))) == 10
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_footprint_points_match_a_column_by_column_reference(seed):
+    rng = np.random.default_rng(seed)
+    xs = rng.integers(100, 140, 600)
+    d = rng.uniform(4.0, 30.0, 600)
+    d[rng.random(600) < 0.2] = np.nan
+    params = FootprintJoiningParameters(edge_columns=int(rng.integers(0, 4)), min_column_pixels=int(rng.integers(1, 6)))
+    kept = []
+    for x in np.unique(xs):
+        column = d[(xs == x) & np.isfinite(d)]
+        if len(column) >= params.min_column_pixels:
+            kept.append((x, np.median(column)))
+    columns = np.array([x for x, _ in kept])
+    if len(columns) >= 2 * params.edge_columns + 2:
+        kept = [(x, m) for x, m in kept if columns.min() + params.edge_columns <= x <= columns.max() - params.edge_columns]
+    expected = np.array([((x - RIG.cx_px) * (RIG.focal_baseline_px_m / m) / RIG.focal_px,
+                          RIG.focal_baseline_px_m / m) for x, m in kept])
+    np.testing.assert_allclose(footprint(xs, d, RIG, params), expected, rtol=1e-12)
+
+
+def test_three_points_of_each_footprint_must_touch():
+    # the second obstacle has 2 columns 0.1 m from the first and 3 columns 0.4 m away: only 2 of
+    # its points touch, though all of the first's do (each sees the other's nearest columns)
+    scene = Scene().paint(1, slice(50, 150), slice(100, 120), 4.0).paint(2, slice(50, 90), slice(120, 122), 4.0)
+    scene.paint(2, slice(50, 90), slice(150, 153), 4.0)
+    assert scene.pairs(FootprintJoiningParameters(min_close_fraction=0.0)) == []
+    scene.paint(2, slice(50, 90), slice(122, 123), 4.0)
+    assert scene.pairs(FootprintJoiningParameters(min_close_fraction=0.0)) == [(1, 2)]
+
+
+def test_touching_does_not_depend_on_the_order_of_two_footprints_of_one_length():
+    from stereo_obstacles.footprint_joining import _touch
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        first = np.column_stack([rng.uniform(0, 1.5, 8), rng.uniform(4, 4.6, 8)])
+        second = np.column_stack([rng.uniform(0.5, 2.0, 8), rng.uniform(4, 4.6, 8)])
+        params = FootprintJoiningParameters(min_close_fraction=float(rng.uniform(0.3, 0.9)))
+        assert _touch(first, second, params) == _touch(second, first, params)
 
 
 @pytest.mark.parametrize("field, value", [("max_gap_m", -0.1), ("max_gap_m", float("inf")),

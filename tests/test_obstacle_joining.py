@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.near_face import SlantedFaceParameters
 from stereo_obstacles.obstacle_joining import join_obstacles, measure_joined
 from stereo_obstacles.obstacles import ObstacleParameters, measure_obstacles
@@ -88,3 +89,35 @@ def test_without_a_calibration_pieces_are_joined_in_pixels():
     pieces = measure_obstacles(groups, disparity, None, None, with_scan=False)
     _, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, None, None)
     assert len(obstacles.obstacles) == 2 and obstacles.obstacles[0].distance_m is None
+
+
+def test_a_joined_group_the_union_puts_beyond_the_distance_limit_stays_an_obstacle():
+    # two faces receding to 7 m, each measured on its plane at its near end (3.69 and 3.95 m);
+    # together they are no plane, and the union's 10th percentile (4.04 m) lies beyond the limit
+    groups = np.zeros((140, 200), np.int32)
+    disparity = np.full((140, 200), np.nan, np.float32)
+    columns = np.arange(40, 200)[None, :]
+    for group, rows, near_px in ((1, slice(20, 100), 10.75), (2, slice(104, 136), 11.5)):
+        groups[rows, 40:200] = group
+        disparity[rows, 40:200] = (near_px - (near_px - 6.0) * (columns - 40) / 159).astype(np.float32)
+    params = ObstacleParameters(max_distance_m=3.99)
+    pieces = measure_obstacles(groups, disparity, RIG, None, params, with_scan=False)
+    assert [o.distance_m for o in pieces.obstacles] == pytest.approx([3.691, 3.945], abs=0.002)
+    _, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None, params)
+    assert obstacles.rejected == () and obstacles.obstacles[0].distance_m == pytest.approx(3.945, abs=0.002)
+
+
+def test_the_pieces_rejections_are_kept():
+    groups, disparity, _ = _pieces()
+    groups[115:120, 150:190], disparity[115:120, 150:190] = 4, 42 / 40.0      # 40 m: too far
+    pieces = measure_obstacles(groups, disparity, RIG, None, with_scan=False)
+    assert len(pieces.rejected) == 1
+    _, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None)
+    assert obstacles.rejected == pieces.rejected
+
+
+@pytest.mark.parametrize("pairs", [[(0, 1)], [(1, 9)]])
+def test_pairs_of_ids_that_are_not_obstacles_are_refused(pairs):
+    groups, disparity, pieces = _pieces()
+    with pytest.raises(InvalidInputError, match="not ids of the pieces' obstacles"):
+        measure_joined(groups, pieces, pairs, disparity, RIG, None)

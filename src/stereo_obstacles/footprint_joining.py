@@ -118,19 +118,10 @@ def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParame
     if np.any(low - high > params.max_gap_m):                 # the bounding boxes lie too far apart
         return False
     close = np.hypot(first[:, None, 0] - second[None, :, 0], first[:, None, 1] - second[None, :, 1]) <= params.max_gap_m
-    counts = (int(close.any(axis=1).sum()), int(close.any(axis=0).sum()))
-    smaller = 0 if len(first) <= len(second) else 1
+    counts, lengths = (int(close.any(axis=1).sum()), int(close.any(axis=0).sum())), (len(first), len(second))
+    shorter = [k for k in (0, 1) if lengths[k] == min(lengths)]          # both, when they are as long
     return (min(counts) >= params.min_close_columns
-            and counts[smaller] >= params.min_close_fraction * (len(first), len(second))[smaller])
-
-
-def _apart(first: tuple[float, float] | None, second: tuple[float, float] | None,
-           params: FootprintJoiningParameters) -> bool:
-    """Whether two obstacles' lateral extents (``(X1, X99)`` metres, ``None``: unknown) lie more
-    than ``max_gap_m`` apart: their footprints, within them, cannot touch (a cheap first test)."""
-    if first is None or second is None:
-        return False
-    return max(first[0], second[0]) - min(first[1], second[1]) > params.max_gap_m
+            and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
 
 
 def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma: np.ndarray,
@@ -168,13 +159,11 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
         return prints[k]
 
     ids = sorted(pixels)
-    extent = {o.id: o.lateral_extent_m for o in obstacles.obstacles}
     touching: dict[int, set[int]] = {k: set() for k in ids}
     for i, a in enumerate(ids):
         for b in ids[i + 1:]:
-            if math.dist(colours[a], colours[b]) > params.max_chroma_distance or _apart(extent[a], extent[b], params):
-                continue
-            if _touch(footprint_of(a), footprint_of(b), params):
+            if math.dist(colours[a], colours[b]) <= params.max_chroma_distance and _touch(
+                    footprint_of(a), footprint_of(b), params):
                 touching[a].add(b)
                 touching[b].add(a)
     size = {o.id: o.pixel_count for o in obstacles.obstacles}

@@ -3,8 +3,8 @@
 The grouping can list one object as several obstacles: the two outlines of a textureless face
 (:mod:`stereo_obstacles.face_joining`), the pieces of an object whose matches have gaps
 (:mod:`stereo_obstacles.footprint_joining`). Once such pairs are known, their groups are joined
-(joins chain: pieces linked through others become one) and every group is measured again, as
-:func:`~stereo_obstacles.obstacles.measure_obstacles` does, but the distance of a group made of
+(joins chain: pieces linked through others become one) and the joined groups are measured again,
+as :func:`~stereo_obstacles.obstacles.measure_obstacles` does, but the distance of a group made of
 pieces is kept between that of its nearest piece and that of its largest one, each as it was
 measured alone. An object is at least as near as each of its parts, and the near face of the
 union can miss that both ways (``docs/pipeline.md``, "The pieces of one object, joined by their
@@ -24,11 +24,13 @@ and the box in front of it, joined to the wall, put the wall at the box's distan
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
 
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup,
                                         list_obstacles, measure_groups)
@@ -68,7 +70,8 @@ def measure_joined(groups: np.ndarray, pieces: ObstacleList, pairs: list[tuple[i
     pieces
         The obstacles measured from ``groups`` on ``disparity`` (without the scan).
     pairs
-        ``(a, b)`` ids of obstacles of ``pieces`` to join.
+        ``(a, b)`` ids of obstacles of ``pieces`` to join; pairs of the two joinings may chain
+        (a footprint star and a face pair sharing a piece are one obstacle).
     disparity, calibration, ground, params
         As :func:`~stereo_obstacles.obstacles.measure_obstacles` takes them.
 
@@ -78,8 +81,18 @@ def measure_joined(groups: np.ndarray, pieces: ObstacleList, pairs: list[tuple[i
         ``int32 (H, W)``: ``groups`` with the groups of each pair under one number.
     obstacles : ObstacleList
         The obstacles of ``joined``, numbered nearest first, without the scan; a joined one
-        between its nearest and its largest piece in distance.
+        between its nearest and its largest piece in distance (a joined group can still come out
+        rejected, as flat for example, with the reason); the pieces' rejections kept.
+
+    Raises
+    ------
+    InvalidInputError
+        A pair names an id that is not one of ``pieces``' obstacles.
     """
+    known = {o.id for o in pieces.obstacles}
+    unknown = sorted({k for pair in pairs for k in pair} - known)
+    if unknown:
+        raise InvalidInputError(f"pairs: {unknown} are not ids of the pieces' obstacles ({sorted(known)})")
     flat_ids, flat_groups = np.asarray(pieces.id_map).ravel(), np.asarray(groups).ravel()
     covered = np.flatnonzero(flat_ids)
     group_of = np.zeros(int(flat_ids.max(initial=0)) + 1, dtype=np.int64)    # by obstacle id
@@ -97,7 +110,10 @@ def measure_joined(groups: np.ndarray, pieces: ObstacleList, pairs: list[tuple[i
     in_joined = covered[np.isin(flat_ids[covered], list(paired))]
     only_joined = np.zeros(np.shape(groups), dtype=np.int32)
     only_joined.ravel()[in_joined] = joined.ravel()[in_joined]
-    for group, outcome in measure_groups(only_joined, disparity, calibration, ground, params).items():
+    # measured without the distance limit: the clamp below keeps a joined group within its largest
+    # piece's distance, which was within the limit (the union alone could read beyond it)
+    unlimited = replace(params, max_distance_m=sys.float_info.max)
+    for group, outcome in measure_groups(only_joined, disparity, calibration, ground, unlimited).items():
         parts = members[group]
         if isinstance(outcome, Obstacle) and outcome.distance_m is not None:
             nearest = min(part.distance_m for part in parts)
