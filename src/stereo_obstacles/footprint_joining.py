@@ -113,10 +113,6 @@ def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParame
     and ``min_close_fraction`` of the shorter one's, lie within ``max_gap_m`` of the other one."""
     if len(first) < params.min_close_columns or len(second) < params.min_close_columns:
         return False
-    low = np.maximum(first.min(axis=0), second.min(axis=0))
-    high = np.minimum(first.max(axis=0), second.max(axis=0))
-    if np.any(low - high > params.max_gap_m):                 # the bounding boxes lie too far apart
-        return False
     close = np.hypot(first[:, None, 0] - second[None, :, 0], first[:, None, 1] - second[None, :, 1]) <= params.max_gap_m
     counts, lengths = (int(close.any(axis=1).sum()), int(close.any(axis=0).sum())), (len(first), len(second))
     shorter = [k for k in (0, 1) if lengths[k] == min(lengths)]          # both, when they are as long
@@ -150,20 +146,29 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
         ys, xs = np.nonzero(id_map[y0:y1, x0:x1] == o.id)
         pixels[o.id] = (ys + y0, xs + x0)
         colours[o.id] = np.median(chroma[ys + y0, xs + x0], axis=0)
-    prints: dict[int, np.ndarray] = {}
+    prints: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}   # points, their low and high corner
 
-    def footprint_of(k: int) -> np.ndarray:
+    def footprint_of(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if k not in prints:
             ys, xs = pixels[k]
-            prints[k] = footprint(xs, disparity[ys, xs], calibration, params)
+            points = footprint(xs, disparity[ys, xs], calibration, params)
+            if len(points):
+                prints[k] = (points, points.min(axis=0), points.max(axis=0))
+            else:
+                prints[k] = (points, np.full(2, np.inf), np.full(2, -np.inf))
         return prints[k]
 
     ids = sorted(pixels)
     touching: dict[int, set[int]] = {k: set() for k in ids}
     for i, a in enumerate(ids):
         for b in ids[i + 1:]:
-            if math.dist(colours[a], colours[b]) <= params.max_chroma_distance and _touch(
-                    footprint_of(a), footprint_of(b), params):
+            if math.dist(colours[a], colours[b]) > params.max_chroma_distance:
+                continue
+            (first, low_a, high_a), (second, low_b, high_b) = footprint_of(a), footprint_of(b)
+            # bounding boxes farther apart than the gap in X or Z: no point can touch (a cheap first test)
+            if np.any(np.maximum(low_a, low_b) - np.minimum(high_a, high_b) > params.max_gap_m):
+                continue
+            if _touch(first, second, params):
                 touching[a].add(b)
                 touching[b].add(a)
     size = {o.id: o.pixel_count for o in obstacles.obstacles}
