@@ -35,8 +35,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.colour_split import ColourSplitParameters
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.obstacles import ObstacleList
+
+TOUCH_BLOCK_POINTS = 1024
+"""Points of the first footprint compared with the other at once (bounds the distance table's
+memory: 1024 x 3000 points is 25 MB)."""
 
 __all__ = ["FootprintJoiningParameters", "footprint", "pieces_of_one_object"]
 
@@ -65,7 +71,7 @@ class FootprintJoiningParameters:
     max_gap_m: float = 0.3
     min_close_columns: int = 3
     min_close_fraction: float = 0.5
-    max_chroma_distance: float = 10.0
+    max_chroma_distance: float = ColourSplitParameters.min_chroma_distance
     edge_columns: int = 4
     min_column_pixels: int = 3
 
@@ -84,8 +90,16 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
     unmatched) their disparities. Each column with ``params.min_column_pixels`` matches whose
     median disparity plus ``doffs`` is positive gives one point, the outermost
     ``params.edge_columns`` columns on either side excepted (module docstring).
+
+    Raises
+    ------
+    InvalidInputError
+        ``xs`` not integer, or the two not 1-D arrays of one length.
     """
     xs, disparities = np.asarray(xs), np.asarray(disparities, dtype=np.float64)
+    if xs.ndim != 1 or disparities.shape != xs.shape or not np.issubdtype(xs.dtype, np.integer):
+        raise InvalidInputError(f"xs (integer columns) and disparities must be 1-D arrays of one length, got "
+                                f"{xs.dtype} {xs.shape} and {disparities.shape}")
     matched = np.isfinite(disparities)
     xs, disparities = xs[matched], disparities[matched]
     if len(xs) == 0:
@@ -113,8 +127,15 @@ def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParame
     and ``min_close_fraction`` of the shorter one's, lie within ``max_gap_m`` of the other one."""
     if len(first) < params.min_close_columns or len(second) < params.min_close_columns:
         return False
-    close = np.hypot(first[:, None, 0] - second[None, :, 0], first[:, None, 1] - second[None, :, 1]) <= params.max_gap_m
-    counts, lengths = (int(close.any(axis=1).sum()), int(close.any(axis=0).sum())), (len(first), len(second))
+    near_first = np.zeros(len(first), dtype=bool)             # points of each within the gap of the other
+    near_second = np.zeros(len(second), dtype=bool)
+    for start in range(0, len(first), TOUCH_BLOCK_POINTS):
+        block = first[start:start + TOUCH_BLOCK_POINTS]
+        gaps = np.hypot(block[:, None, 0] - second[None, :, 0], block[:, None, 1] - second[None, :, 1])
+        close = gaps <= params.max_gap_m
+        near_first[start:start + len(block)] = close.any(axis=1)
+        near_second |= close.any(axis=0)
+    counts, lengths = (int(near_first.sum()), int(near_second.sum())), (len(first), len(second))
     shorter = [k for k in (0, 1) if lengths[k] == min(lengths)]          # both, when they are as long
     return (min(counts) >= params.min_close_columns
             and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
@@ -138,8 +159,20 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
         The rig, for the footprints in metres.
     params
         When to join.
+
+    Raises
+    ------
+    InvalidInputError
+        A disparity or chroma of another height and width than the id map, chroma that is not
+        ``uint8 (H, W, 2)``, or no calibration.
     """
     id_map, disparity, chroma = np.asarray(obstacles.id_map), np.asarray(disparity), np.asarray(chroma)
+    if disparity.shape != id_map.shape or chroma.shape != id_map.shape + (2,) or chroma.dtype != np.uint8:
+        raise InvalidInputError(f"disparity {disparity.shape} and chroma ({chroma.dtype} {chroma.shape}) must be "
+                                f"(H, W) and uint8 (H, W, 2) for the id map's (H, W) = {id_map.shape}")
+    if not isinstance(calibration, StereoCalibration):
+        raise InvalidInputError(f"calibration must be a StereoCalibration (footprints are in metres), got "
+                                f"{type(calibration).__name__}")
     pixels, colours = {}, {}
     for o in obstacles.obstacles:
         x0, y0, x1, y1 = o.box_px

@@ -6,9 +6,8 @@ The grouping can list one object as several obstacles: the two outlines of a tex
 (joins chain: pieces linked through others become one) and the joined groups are measured again,
 as :func:`~stereo_obstacles.obstacles.measure_obstacles` does, but the distance of a group made of
 pieces is kept between that of its nearest piece and that of its largest one, each as it was
-measured alone. An object is at least as near as each of its parts, and the near face of the
-union can miss that both ways (``docs/pipeline.md``, "The pieces of one object, joined by their
-footprints"):
+measured alone. The union's own near face is kept otherwise; it can miss both ways
+(``docs/pipeline.md``, "The pieces of one object, joined by their footprints"):
 
 * nearer than every piece: the slanted-face plane (:mod:`stereo_obstacles.near_face`) of a box's
   top face, read where its front face lies, is in front of both (a box at 1.66 m found as two
@@ -81,8 +80,7 @@ def measure_joined(groups: np.ndarray, pieces: ObstacleList, pairs: list[tuple[i
         ``int32 (H, W)``: ``groups`` with the groups of each pair under one number.
     obstacles : ObstacleList
         The obstacles of ``joined``, numbered nearest first, without the scan; a joined one
-        between its nearest and its largest piece in distance (a joined group can still come out
-        rejected, as flat for example, with the reason); the pieces' rejections kept.
+        between its nearest and its largest piece in distance; the pieces' rejections kept.
 
     Raises
     ------

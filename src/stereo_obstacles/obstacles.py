@@ -107,7 +107,9 @@ class Obstacle:
     ``height_m`` its visible height (1st to 99th percentile of ``Y``); ``height_above_ground_m`` the
     99th percentile of its pixels' heights above the ground plane, its top (``None`` without a
     plane); ``confidence`` in [0, 1] grows with the number of matched pixels and their depth
-    agreement. The fields of ``obstacles.json`` are these: ``docs/pipeline.md``.
+    agreement. The fields of ``obstacles.json`` are these: ``docs/pipeline.md``. An obstacle
+    joined from pieces has its ``distance_m`` kept between its nearest and its largest piece's
+    (:mod:`stereo_obstacles.obstacle_joining`).
     """
 
     id: int

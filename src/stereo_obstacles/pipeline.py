@@ -65,19 +65,19 @@ from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
 from stereo_obstacles.face_joining import FaceJoiningParameters, obstacles_sharing_a_face
-from stereo_obstacles.footprint_joining import FootprintJoiningParameters, pieces_of_one_object
 from stereo_obstacles.field_checks import (check_integers, check_numbers, check_positive, check_types, plain_number,
                                            plain_numbers)
+from stereo_obstacles.footprint_joining import FootprintJoiningParameters, pieces_of_one_object
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
 from stereo_obstacles.matching import MIN_SIZE, check_match_options, disparity_range, warn_if_range_cut_off
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+from stereo_obstacles.obstacle_joining import measure_joined
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
                                         measure_groups, measure_obstacles, obstacle_scan, standing_pixels)
-from stereo_obstacles.obstacle_joining import measure_joined
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size, warn_if_scale_raised
