@@ -9,7 +9,7 @@ import pytest
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.footprint_joining import FootprintJoiningParameters, footprint, pieces_of_one_object
+from stereo_obstacles.footprint_joining import FootprintJoiningParameters, pieces_of_one_object
 from stereo_obstacles.obstacles import measure_obstacles
 
 RIG = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)   # f B = 42 px m
@@ -83,45 +83,6 @@ def test_joins_make_stars_not_chains():
     assert scene.pairs() == [(1, 2)]
 
 
-def test_footprint_points_are_column_medians_in_metres():
-    xs = np.repeat(np.arange(150, 162), 4)                  # 12 columns of 4 pixels at 4.2 m
-    d = np.full(xs.shape, 10.0)
-    d[1] = np.nan                                           # column 150 keeps 3 matches
-    xs, d = np.append(xs, [170, 170]), np.append(d, [10.0, 10.0])     # column 170: 2 matches, left out
-    points = footprint(xs, d, RIG)
-    np.testing.assert_allclose(points[:, 1], 4.2)
-    np.testing.assert_allclose(points[:, 0], (np.arange(154, 158) - 160) * 4.2 / 350)   # 4 edge columns trimmed
-    assert footprint(xs[:20], d[:20], RIG).shape == (5, 2)  # 5 columns, too few to trim
-    assert footprint(xs, np.full(xs.shape, np.nan), RIG).shape == (0, 2)
-
-
-def test_a_footprint_leaves_out_columns_at_or_behind_infinity():
-    xs = np.repeat(np.arange(10), 3)
-    d = np.where(xs < 5, 10.0, 0.0)                         # doffs 0: d + doffs = 0 has no depth
-    assert len(footprint(xs, d, RIG, FootprintJoiningParameters(edge_columns=0))) == 5
-    assert len(footprint(xs, d, replace(RIG, doffs_px=2.0), FootprintJoiningParameters(edge_columns=0))) == 10
-
-
-@pytest.mark.parametrize("seed", range(20))
-def test_footprint_points_match_a_column_by_column_reference(seed):
-    rng = np.random.default_rng(seed)
-    xs = rng.integers(100, 140, 600)
-    d = rng.uniform(4.0, 30.0, 600)
-    d[rng.random(600) < 0.2] = np.nan
-    params = FootprintJoiningParameters(edge_columns=int(rng.integers(0, 4)), min_column_pixels=int(rng.integers(1, 6)))
-    kept = []
-    for x in np.unique(xs):
-        column = d[(xs == x) & np.isfinite(d)]
-        if len(column) >= params.min_column_pixels:
-            kept.append((x, np.median(column)))
-    columns = np.array([x for x, _ in kept])
-    if len(columns) >= 2 * params.edge_columns + 2:
-        kept = [(x, m) for x, m in kept if columns.min() + params.edge_columns <= x <= columns.max() - params.edge_columns]
-    expected = np.array([((x - RIG.cx_px) * (RIG.focal_baseline_px_m / m) / RIG.focal_px,
-                          RIG.focal_baseline_px_m / m) for x, m in kept])
-    np.testing.assert_allclose(footprint(xs, d, RIG, params), expected, rtol=1e-12)
-
-
 def test_three_points_of_each_footprint_must_touch():
     # the second obstacle has 2 columns 0.1 m from the first and 3 columns 0.4 m away: only 2 of
     # its points touch, though all of the first's do (each sees the other's nearest columns)
@@ -161,10 +122,6 @@ def test_the_checks_of_the_inputs():
             pieces_of_one_object(obstacles, disparity, chroma, RIG)
     with pytest.raises(InvalidInputError, match="calibration must be a StereoCalibration"):
         pieces_of_one_object(obstacles, scene.disparity, scene.chroma, None)
-    with pytest.raises(InvalidInputError, match="1-D arrays of one length"):
-        footprint(np.arange(5), np.ones(4), RIG)
-    with pytest.raises(InvalidInputError, match="integer columns"):
-        footprint(np.arange(5.0), np.ones(5), RIG)
 
 
 def test_detect_joins_pieces_of_a_box_and_measures_them_at_its_near_face():

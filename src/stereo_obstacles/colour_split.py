@@ -37,6 +37,14 @@ When a whole group holds no two chroma clusters (too few coloured pixels, centre
 their medians within the gap), phase 1's own verdict is tried as the two clusters instead:
 an object coloured like the ground stands only by its disparity, and is split from a coloured
 object it touches by the same tests (``docs/pipeline.md``, session 25).
+
+With a calibration, a whole group that neither splits is tried once more with two *depth
+clusters* (a 1-D 2-means of its disparities): two objects of one colour (grey on grey) at 7-10 m,
+0.5-1 px apart. Depth clusters also cut one object along its slope or between its faces, and the
+tests above let many such cuts through, so a depth split is kept only when the two parts also
+stand apart on the ground: their footprints (:mod:`stereo_obstacles.footprints`) do not touch,
+fewer than ``depth_touch_points`` points of one lying within ``depth_gap_m`` of the other
+(``docs/pipeline.md``, session 28).
 """
 
 from __future__ import annotations
@@ -48,8 +56,10 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._colour_split_kernel import group_runs_kernel, two_colours_kernel
+from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.footprints import close_points, footprint
 from stereo_obstacles.group_splits import GroupSplits
 from stereo_obstacles.part_boundaries import (FIT_MARGIN_PX, PixelCanvas, boundary, distance_to_other,
                                               on_plane_fraction, planes_away_from_boundary, step_at)
@@ -68,6 +78,9 @@ so that planes crossing anywhere along it (a crease) do not read as a step."""
 CLUSTER_SAMPLE, MAX_CLUSTER_ROUNDS = 2000, 20
 """At most this many pixels (evenly spaced) find the two colour centres, in at most this many
 rounds of 2-means; every pixel then joins the nearer centre."""
+DEPTH_CLUSTER_ROUNDS, DEPTH_CLUSTER_SETTLED_PX = 30, 1e-4
+"""The 1-D 2-means of the depth clusters stops after this many rounds, or when its threshold moves
+by less than this (pixels of disparity)."""
 
 
 @dataclass(frozen=True)
@@ -88,6 +101,10 @@ class ColourSplitParameters:
         Fraction of each part's pixels that must lie on its plane.
     max_levels : int
         Levels of splitting: 1 splits a group in two at most, 2 splits each part once more.
+    depth_gap_m, depth_touch_points : float, int
+        With a calibration, two depth clusters split a group only where their footprints stand
+        apart: fewer than ``depth_touch_points`` points of one of them lie within ``depth_gap_m``
+        metres of the other (module docstring). ``depth_gap_m`` 0 switches the depth clusters off.
     """
 
     blur_px: int = 5
@@ -96,11 +113,14 @@ class ColourSplitParameters:
     min_gap_rel: float = 0.03
     min_plane_fraction: float = 0.7
     max_levels: int = 2
+    depth_gap_m: float = 0.3
+    depth_touch_points: int = 2
 
     def __post_init__(self) -> None:
-        check_integers(self, (("blur_px", 1, 99), ("max_levels", 1, 8)))
+        check_integers(self, (("blur_px", 1, 99), ("max_levels", 1, 8), ("depth_touch_points", 1, 10 ** 6)))
         check_numbers(self, (("min_chroma_distance", 0.0, 400.0), ("min_gap_px", 0.0, math.inf),
-                             ("min_gap_rel", 0.0, 1.0), ("min_plane_fraction", 0.0, 1.0)))
+                             ("min_gap_rel", 0.0, 1.0), ("min_plane_fraction", 0.0, 1.0),
+                             ("depth_gap_m", 0.0, math.inf)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,8 +166,10 @@ def colour_cue(left: np.ndarray, coloured: np.ndarray, params: ColourSplitParame
 
 
 def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: ColourCue, *, min_object_pixels: int,
-                           params: ColourSplitParameters = ColourSplitParameters()) -> np.ndarray:
-    """Split each group that holds two colours at two depths.
+                           params: ColourSplitParameters = ColourSplitParameters(),
+                           calibration: StereoCalibration | None = None) -> np.ndarray:
+    """Split each group that holds two colours at two depths (or, with a calibration, two depths
+    that stand apart on the ground).
 
     Parameters
     ----------
@@ -163,6 +185,8 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
         split off.
     params
         When to split.
+    calibration
+        The rig, for the footprints of depth clusters in metres; ``None``: no depth clusters.
 
     Returns
     -------
@@ -173,8 +197,8 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
     Raises
     ------
     InvalidInputError
-        ``groups``, ``disparity`` and the cue of different heights and widths, or
-        ``min_object_pixels`` below 1.
+        ``groups``, ``disparity`` and the cue of different heights and widths,
+        ``min_object_pixels`` below 1, or a calibration that is not a ``StereoCalibration``.
 
     Examples
     --------
@@ -194,6 +218,8 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
                                 f"{cue.chroma.shape[:2]} must have one 2-D shape")
     if not (isinstance(min_object_pixels, (int, np.integer)) and min_object_pixels >= 1):
         raise InvalidInputError(f"min_object_pixels must be an integer >= 1, got {min_object_pixels!r}")
+    if calibration is not None and not isinstance(calibration, StereoCalibration):
+        raise InvalidInputError(f"calibration must be a StereoCalibration or None, got {type(calibration).__name__}")
     groups = groups.astype(np.int64, copy=False)
     width = groups.shape[1]
     counts, coloured_counts, starts, pixels = group_runs_kernel(
@@ -211,33 +237,35 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
         if not np.isfinite(d).all():
             continue
         parts = _split(canvas, d, cue.chroma.reshape(-1, 2)[decided], cue.coloured.ravel()[decided],
-                       min_object_pixels, params, params.max_levels)[square_of]
+                       min_object_pixels, params, calibration, params.max_levels)[square_of]
         splits.split(group, ys, xs, parts)
     return splits.groups
 
 
 def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.ndarray, min_object_pixels: int,
-           params: ColourSplitParameters, levels: int) -> np.ndarray:
+           params: ColourSplitParameters, calibration: StereoCalibration | None, levels: int) -> np.ndarray:
     """``int64 (n,)`` part of each of the canvas's ``n`` pixels (0 for all: not split), ``levels`` deep."""
     parts = np.zeros(len(d), dtype=np.int64)
     if levels == 0 or canvas.pixels() < 2 * min_object_pixels:
         return parts
+    whole_group = levels == params.max_levels
     cluster = _colour_clusters(canvas, d, chroma, coloured, min_object_pixels, params)
     # phase 1's verdict only on a whole group without two chroma clusters: within a part split off by
     # chroma, the ground-coloured pixels follow their nearest coloured ones (the foot of a pole); and
     # tried also where the chroma clusters fail the depth tests, it split two objects more over scenes
     # 0..419 and mended none (docs/pipeline.md, session 25)
-    if cluster is None and levels == params.max_levels:
+    if cluster is None and whole_group:
         cluster = _phase_one_clusters(canvas, d, coloured, min_object_pixels, params)
-    if cluster is None:
-        return parts
-    cluster = _two_depths(canvas, d, cluster, min_object_pixels, params)
+    if cluster is not None:
+        cluster = _two_depths(canvas, d, cluster, min_object_pixels, params)
+    if cluster is None and whole_group and calibration is not None and params.depth_gap_m > 0:
+        cluster = _depth_split(canvas, d, min_object_pixels, params, calibration)
     if cluster is None:
         return parts
     for k in (0, 1):
         members = np.flatnonzero(cluster == k)
         sub = _split(canvas.subset(members), d[members], chroma[members], coloured[members], min_object_pixels,
-                     params, levels - 1)
+                     params, calibration, levels - 1)
         parts[members] = sub + (parts.max() + 1 if k else 0)
     return parts
 
@@ -277,6 +305,39 @@ def _phase_one_clusters(canvas: PixelCanvas, d: np.ndarray, coloured: np.ndarray
     if apart <= gap:        # the cheap test first (the split tests it again once the pieces have moved)
         return None
     return _without_small_pieces(canvas, (~coloured).astype(np.int64), min_object_pixels)
+
+
+def _depth_split(canvas: PixelCanvas, d: np.ndarray, min_object_pixels: int, params: ColourSplitParameters,
+                 calibration: StereoCalibration) -> np.ndarray | None:
+    """``int64 (n,)`` cluster 0 (nearer) or 1 (farther) of each pixel when the pixels' two depth
+    clusters are two surfaces at two depths (:func:`_two_depths`) that stand apart on the ground,
+    both as the 2-means cuts them and once the pixels near the boundary have moved to the plane
+    they fit (module docstring); else None."""
+    threshold = d.mean()           # not the median: more than half the pixels may share it
+    for _ in range(DEPTH_CLUSTER_ROUNDS):
+        farther = d < threshold
+        if farther.all() or not farther.any():
+            return None
+        moved = 0.5 * (d[farther].mean() + d[~farther].mean())
+        if abs(moved - threshold) < DEPTH_CLUSTER_SETTLED_PX:
+            break
+        threshold = moved
+    cluster = (d < threshold).astype(np.int64)
+    # the footprints first, the cheaper test: most groups are one surface, whose clusters touch
+    if not _stand_apart(canvas, d, cluster, params, calibration):
+        return None
+    cluster = _without_small_pieces(canvas, cluster, min_object_pixels)
+    if cluster is not None:
+        cluster = _two_depths(canvas, d, cluster, min_object_pixels, params)
+    return cluster if cluster is not None and _stand_apart(canvas, d, cluster, params, calibration) else None
+
+
+def _stand_apart(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, params: ColourSplitParameters,
+                 calibration: StereoCalibration) -> bool:
+    """Whether the footprints of clusters 0 and 1 (``int64 (n,)``) do not touch: fewer than
+    ``depth_touch_points`` points of one lie within ``depth_gap_m`` of the other."""
+    prints = [footprint(canvas.xs[cluster == k], d[cluster == k], calibration) for k in (0, 1)]
+    return min(close_points(prints[0], prints[1], params.depth_gap_m)) < params.depth_touch_points
 
 
 def _without_small_pieces(canvas: PixelCanvas, cluster: np.ndarray, min_object_pixels: int) -> np.ndarray | None:

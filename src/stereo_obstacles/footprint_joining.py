@@ -5,18 +5,15 @@ alone: a pole's top above a nearer box and its foot below it, a box's front edge
 face, the bonnet and the windscreen of a car. The list repeats the object, and the piece that
 covers most of it need not be its nearest. Seen from above, the pieces of one object stand on
 one place of the ground, and two objects cannot stand in one place. So each obstacle gets a
-footprint: every image column of it with at least ``min_column_pixels`` matches gives a point
-``(X, Z)`` in metres, its lateral position and its median depth in that column. Two obstacles
-of one colour (median chroma within ``max_chroma_distance`` in ``(a*, b*)``, the colour split's
-distinction of two colours) are pieces of one object when their footprints touch: at least
-``min_close_columns`` points of each lie within ``max_gap_m`` of the other footprint, and so do
-at least ``min_close_fraction`` of the points of the shorter one (a piece stands on, or next
-to, the object it belongs to; an obstacle that mixes a wall with the box in front of it touches
-the wall with only its wall columns).
-
-The outermost ``edge_columns`` columns on either side of an obstacle are left out of its
-footprint: the matching spreads an object's disparity over the background beside it, which puts
-those columns at the object's depth but beside it, where they can touch a neighbour's footprint.
+footprint (:mod:`stereo_obstacles.footprints`): a point ``(X, Z)`` in metres for every image
+column of it with at least ``min_column_pixels`` matches, its outermost ``edge_columns`` columns
+on either side left out (the matching's fattened fringe, which could touch a neighbour). Two
+obstacles of one colour (median chroma within ``max_chroma_distance`` in ``(a*, b*)``, the colour
+split's distinction of two colours) are pieces of one object when their footprints touch: at
+least ``min_close_columns`` points of each lie within ``max_gap_m`` of the other footprint, and
+so do at least ``min_close_fraction`` of the points of the shorter one (a piece stands on, or
+next to, the object it belongs to; an obstacle that mixes a wall with the box in front of it
+touches the wall with only its wall columns).
 
 Joins form stars, not chains: the obstacles are taken largest first (in pixels), and each one not
 yet joined takes every other one not yet joined whose footprint touches its own. A piece that
@@ -38,13 +35,10 @@ from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.colour_split import ColourSplitParameters
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.footprints import EDGE_COLUMNS, MIN_COLUMN_PIXELS, close_points, footprint
 from stereo_obstacles.obstacles import ObstacleList
 
-TOUCH_BLOCK_POINTS = 1024
-"""Points of the first footprint compared with the other at once (bounds the distance table's
-memory: 1024 x 3000 points is 25 MB)."""
-
-__all__ = ["FootprintJoiningParameters", "footprint", "pieces_of_one_object"]
+__all__ = ["FootprintJoiningParameters", "pieces_of_one_object"]
 
 
 @dataclass(frozen=True)
@@ -72,8 +66,8 @@ class FootprintJoiningParameters:
     min_close_columns: int = 3
     min_close_fraction: float = 0.5
     max_chroma_distance: float = ColourSplitParameters.min_chroma_distance
-    edge_columns: int = 4
-    min_column_pixels: int = 3
+    edge_columns: int = EDGE_COLUMNS
+    min_column_pixels: int = MIN_COLUMN_PIXELS
 
     def __post_init__(self) -> None:
         check_numbers(self, (("max_gap_m", 0.0, math.inf), ("min_close_fraction", 0.0, 1.0),
@@ -82,60 +76,12 @@ class FootprintJoiningParameters:
                               ("min_column_pixels", 1, 10 ** 6)))
 
 
-def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibration,
-              params: FootprintJoiningParameters = FootprintJoiningParameters()) -> np.ndarray:
-    """``float64 (n, 2)``: the footprint points ``(X, Z)`` in metres of an obstacle's pixels.
-
-    ``xs`` (int, shape (N,)) are their columns, ``disparities`` (float, shape (N,), pixels, NaN:
-    unmatched) their disparities. Each column with ``params.min_column_pixels`` matches whose
-    median disparity plus ``doffs`` is positive gives one point, the outermost
-    ``params.edge_columns`` columns on either side excepted (module docstring).
-
-    Raises
-    ------
-    InvalidInputError
-        ``xs`` not integer, or the two not 1-D arrays of one length.
-    """
-    xs, disparities = np.asarray(xs), np.asarray(disparities, dtype=np.float64)
-    if xs.ndim != 1 or disparities.shape != xs.shape or not np.issubdtype(xs.dtype, np.integer):
-        raise InvalidInputError(f"xs (integer columns) and disparities must be 1-D arrays of one length, got "
-                                f"{xs.dtype} {xs.shape} and {disparities.shape}")
-    matched = np.isfinite(disparities)
-    xs, disparities = xs[matched], disparities[matched]
-    if len(xs) == 0:
-        return np.empty((0, 2))
-    low, high = disparities.min(), disparities.max()
-    # one sort by column, then disparity: the disparity scaled into [0, 0.5) after the column number
-    # (3x faster than np.lexsort of the two on a 60 000-pixel obstacle)
-    order = np.argsort(xs + 0.5 * (disparities - low) / (high - low) if high > low else xs)
-    xs, disparities = xs[order], disparities[order]
-    columns, starts, counts = np.unique(xs, return_index=True, return_counts=True)
-    medians = 0.5 * (disparities[starts + (counts - 1) // 2] + disparities[starts + counts // 2])
-    shifted = medians + calibration.doffs_px
-    kept = (counts >= params.min_column_pixels) & (shifted > 0)
-    columns, shifted = columns[kept], shifted[kept]
-    if len(columns) >= 2 * params.edge_columns + 2:
-        inner = ((columns >= columns.min() + params.edge_columns)
-                 & (columns <= columns.max() - params.edge_columns))
-        columns, shifted = columns[inner], shifted[inner]
-    z = calibration.focal_baseline_px_m / shifted
-    return np.stack([(columns - calibration.cx_px) * z / calibration.focal_px, z], axis=1)
-
-
 def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters) -> bool:
     """Whether the footprints (``(n, 2)`` metres) touch: ``min_close_columns`` points of each,
     and ``min_close_fraction`` of the shorter one's, lie within ``max_gap_m`` of the other one."""
     if len(first) < params.min_close_columns or len(second) < params.min_close_columns:
         return False
-    near_first = np.zeros(len(first), dtype=bool)             # points of each within the gap of the other
-    near_second = np.zeros(len(second), dtype=bool)
-    for start in range(0, len(first), TOUCH_BLOCK_POINTS):
-        block = first[start:start + TOUCH_BLOCK_POINTS]
-        gaps = np.hypot(block[:, None, 0] - second[None, :, 0], block[:, None, 1] - second[None, :, 1])
-        close = gaps <= params.max_gap_m
-        near_first[start:start + len(block)] = close.any(axis=1)
-        near_second |= close.any(axis=0)
-    counts, lengths = (int(near_first.sum()), int(near_second.sum())), (len(first), len(second))
+    counts, lengths = close_points(first, second, params.max_gap_m), (len(first), len(second))
     shorter = [k for k in (0, 1) if lengths[k] == min(lengths)]          # both, when they are as long
     return (min(counts) >= params.min_close_columns
             and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
@@ -184,7 +130,8 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
     def footprint_of(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if k not in prints:
             ys, xs = pixels[k]
-            points = footprint(xs, disparity[ys, xs], calibration, params)
+            points = footprint(xs, disparity[ys, xs], calibration, edge_columns=params.edge_columns,
+                               min_column_pixels=params.min_column_pixels)
             if len(points):
                 prints[k] = (points, points.min(axis=0), points.max(axis=0))
             else:

@@ -19,7 +19,8 @@ median disparity. A tighter tolerance alone would break weakly matched objects i
 too small to report (measured in ``docs/pipeline.md``).
 
 Objects closer in depth than that, touching in the image, are split where their colours
-differ (:mod:`stereo_obstacles.colour_split`), when a colour cue of the left image is given.
+differ (:mod:`stereo_obstacles.colour_split`), when a colour cue of the left image is given; with
+a calibration too, where two depths of one colour stand apart on the ground.
 
 Last, neighbouring groups that lie on one plane in disparity are joined
 (:mod:`stereo_obstacles.coplanar_merging`): the pieces of a wall whose matches have gaps, or
@@ -36,6 +37,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._obstacle_grouping_kernel import assign_pixels_kernel, cell_medians_kernel
+from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.colour_split import ColourCue, ColourSplitParameters, split_groups_by_colour
 from stereo_obstacles.coplanar_merging import merge_coplanar_groups
 from stereo_obstacles.errors import InvalidInputError
@@ -193,7 +195,8 @@ def _mean_chroma(groups: np.ndarray, chroma: np.ndarray) -> np.ndarray:
 
 def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
                           params: GroupingParameters = GroupingParameters(), *,
-                          colour: ColourCue | None = None) -> np.ndarray:
+                          colour: ColourCue | None = None,
+                          calibration: StereoCalibration | None = None) -> np.ndarray:
     """Label each obstacle pixel with the object it belongs to.
 
     Parameters
@@ -208,6 +211,9 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         The left image's colour cue (:func:`stereo_obstacles.colour_split.colour_cue`) for the
         split along colour (``params.colour_split``) and the joining of groups of one colour a
         few cells apart (``params.coplanar_colour_reach_cells``); ``None``: neither.
+    calibration
+        The rig: with a colour cue, the colour split also splits a group into two depth clusters
+        that stand apart on the ground (:mod:`stereo_obstacles.colour_split`); ``None``: it does not.
 
     Returns
     -------
@@ -228,7 +234,7 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         raw = _split_depth_layers(raw, tight, d, params)
     if colour is not None and params.colour_split is not None and raw.max() >= 0:
         raw = split_groups_by_colour(raw, d, colour, min_object_pixels=params.min_object_pixels,
-                                     params=params.colour_split)
+                                     params=params.colour_split, calibration=calibration)
     if raw is not loose:
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     if params.coplanar_tolerance_px > 0:

@@ -660,7 +660,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
     # beside the grouping of the standing pixels: the depth map and the flat groups (measured
     # whole; the feet of the obstacles are left out of their list once the obstacles are known)
-    calls = [(partial(group_obstacle_pixels, colour=colour), disparity, standing, config.grouping),
+    calls = [(partial(group_obstacle_pixels, colour=colour, calibration=calibration), disparity, standing,
+              config.grouping),
              (_depth, disparity, calibration)]
     if ground is not None:
         calls.append((_flat_groups, disparity, candidates & ~standing, calibration, ground, config))

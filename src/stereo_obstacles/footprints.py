@@ -1,0 +1,85 @@
+"""Where a set of pixels stands on the ground: its footprint on the ground plan.
+
+Seen from above, an object stands on one place of the ground, and two objects cannot stand in
+one place. A set of matched pixels (an obstacle, or a part of one) gets a *footprint*: every image
+column of it with at least ``min_column_pixels`` matches gives a point ``(X, Z)`` in metres, its
+lateral position and its median depth in that column. The outermost ``edge_columns`` columns on
+either side are left out: the matching spreads an object's disparity over the background beside
+it, which puts those columns at the object's depth but beside it.
+
+Two footprints are compared by their *close points*: the points of each that lie within a gap of
+the other footprint. The pieces of one object are joined when they touch that way
+(:mod:`stereo_obstacles.footprint_joining`); two depths of one group are split only when they do
+not (:mod:`stereo_obstacles.colour_split`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
+
+__all__ = ["EDGE_COLUMNS", "MIN_COLUMN_PIXELS", "close_points", "footprint"]
+
+EDGE_COLUMNS = 4
+"""Columns left out on either side of a footprint (kept when it has fewer than ``2 *
+EDGE_COLUMNS + 2``)."""
+MIN_COLUMN_PIXELS = 3
+"""Matched pixels a column needs to give a footprint point."""
+BLOCK_POINTS = 1024
+"""Points of the first footprint compared with the other at once (bounds the distance table's
+memory: 1024 x 3000 points is 25 MB)."""
+
+
+def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibration, *,
+              edge_columns: int = EDGE_COLUMNS, min_column_pixels: int = MIN_COLUMN_PIXELS) -> np.ndarray:
+    """``float64 (n, 2)``: the footprint points ``(X, Z)`` in metres of a set of pixels.
+
+    ``xs`` (int, shape (N,)) are their columns, ``disparities`` (float, shape (N,), pixels, NaN:
+    unmatched) their disparities. Each column with ``min_column_pixels`` matches whose median
+    disparity plus ``doffs`` is positive gives one point, the outermost ``edge_columns`` columns
+    on either side excepted (module docstring).
+
+    Raises
+    ------
+    InvalidInputError
+        ``xs`` not integer, or the two not 1-D arrays of one length.
+    """
+    xs, disparities = np.asarray(xs), np.asarray(disparities, dtype=np.float64)
+    if xs.ndim != 1 or disparities.shape != xs.shape or not np.issubdtype(xs.dtype, np.integer):
+        raise InvalidInputError(f"xs (integer columns) and disparities must be 1-D arrays of one length, got "
+                                f"{xs.dtype} {xs.shape} and {disparities.shape}")
+    matched = np.isfinite(disparities)
+    xs, disparities = xs[matched], disparities[matched]
+    if len(xs) == 0:
+        return np.empty((0, 2))
+    low, high = disparities.min(), disparities.max()
+    # one sort by column, then disparity: the disparity scaled into [0, 0.5) after the column number
+    # (3x faster than np.lexsort of the two on a 60 000-pixel obstacle)
+    order = np.argsort(xs + 0.5 * (disparities - low) / (high - low) if high > low else xs)
+    xs, disparities = xs[order], disparities[order]
+    columns, starts, counts = np.unique(xs, return_index=True, return_counts=True)
+    medians = 0.5 * (disparities[starts + (counts - 1) // 2] + disparities[starts + counts // 2])
+    shifted = medians + calibration.doffs_px
+    kept = (counts >= min_column_pixels) & (shifted > 0)
+    columns, shifted = columns[kept], shifted[kept]
+    if len(columns) >= 2 * edge_columns + 2:
+        inner = (columns >= columns.min() + edge_columns) & (columns <= columns.max() - edge_columns)
+        columns, shifted = columns[inner], shifted[inner]
+    z = calibration.focal_baseline_px_m / shifted
+    return np.stack([(columns - calibration.cx_px) * z / calibration.focal_px, z], axis=1)
+
+
+def close_points(first: np.ndarray, second: np.ndarray, max_gap_m: float) -> tuple[int, int]:
+    """How many points of each footprint (``(n, 2)`` metres) lie within ``max_gap_m`` of the
+    other one."""
+    near_first = np.zeros(len(first), dtype=bool)             # points of each within the gap of the other
+    near_second = np.zeros(len(second), dtype=bool)
+    for start in range(0, len(first), BLOCK_POINTS):
+        block = first[start:start + BLOCK_POINTS]
+        gaps = np.hypot(block[:, None, 0] - second[None, :, 0], block[:, None, 1] - second[None, :, 1])
+        close = gaps <= max_gap_m
+        near_first[start:start + len(block)] = close.any(axis=1)
+        near_second |= close.any(axis=0)
+    return int(near_first.sum()), int(near_second.sum())

@@ -1,0 +1,75 @@
+"""Footprints on the ground plan: one point per image column, and their close points."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from stereo_obstacles.calibration import StereoCalibration
+from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.footprints import BLOCK_POINTS, close_points, footprint
+
+RIG = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)   # f B = 42 px m
+
+
+def test_footprint_points_are_column_medians_in_metres():
+    xs = np.repeat(np.arange(150, 162), 4)                  # 12 columns of 4 pixels at 4.2 m
+    d = np.full(xs.shape, 10.0)
+    d[1] = np.nan                                           # column 150 keeps 3 matches
+    xs, d = np.append(xs, [170, 170]), np.append(d, [10.0, 10.0])     # column 170: 2 matches, left out
+    points = footprint(xs, d, RIG)
+    np.testing.assert_allclose(points[:, 1], 4.2)
+    np.testing.assert_allclose(points[:, 0], (np.arange(154, 158) - 160) * 4.2 / 350)   # 4 edge columns trimmed
+    assert footprint(xs[:20], d[:20], RIG).shape == (5, 2)  # 5 columns, too few to trim
+    assert footprint(xs, np.full(xs.shape, np.nan), RIG).shape == (0, 2)
+
+
+def test_a_footprint_leaves_out_columns_at_or_behind_infinity():
+    xs = np.repeat(np.arange(10), 3)
+    d = np.where(xs < 5, 10.0, 0.0)                         # doffs 0: d + doffs = 0 has no depth
+    assert len(footprint(xs, d, RIG, edge_columns=0)) == 5
+    assert len(footprint(xs, d, replace(RIG, doffs_px=2.0), edge_columns=0)) == 10
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_footprint_points_match_a_column_by_column_reference(seed):
+    rng = np.random.default_rng(seed)
+    xs = rng.integers(100, 140, 600)
+    d = rng.uniform(4.0, 30.0, 600)
+    d[rng.random(600) < 0.2] = np.nan
+    edge_columns, min_column_pixels = int(rng.integers(0, 4)), int(rng.integers(1, 6))
+    kept = []
+    for x in np.unique(xs):
+        column = d[(xs == x) & np.isfinite(d)]
+        if len(column) >= min_column_pixels:
+            kept.append((x, np.median(column)))
+    columns = np.array([x for x, _ in kept])
+    if len(columns) >= 2 * edge_columns + 2:
+        kept = [(x, m) for x, m in kept if columns.min() + edge_columns <= x <= columns.max() - edge_columns]
+    expected = np.array([((x - RIG.cx_px) * (RIG.focal_baseline_px_m / m) / RIG.focal_px,
+                          RIG.focal_baseline_px_m / m) for x, m in kept])
+    np.testing.assert_allclose(footprint(xs, d, RIG, edge_columns=edge_columns, min_column_pixels=min_column_pixels),
+                               expected, rtol=1e-12)
+
+
+def test_a_footprint_refuses_columns_that_are_not_integers_or_arrays_of_two_lengths():
+    with pytest.raises(InvalidInputError, match="1-D arrays of one length"):
+        footprint(np.arange(5), np.ones(4), RIG)
+    with pytest.raises(InvalidInputError, match="integer columns"):
+        footprint(np.arange(5.0), np.ones(5), RIG)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_close_points_agree_with_a_brute_force_count_beyond_one_block(seed):
+    rng = np.random.default_rng(seed)
+    first = rng.uniform(0.0, 3.0, (BLOCK_POINTS + 300, 2))
+    second = rng.uniform(2.0, 5.0, (400, 2))
+    gaps = np.hypot(first[:, None, 0] - second[None, :, 0], first[:, None, 1] - second[None, :, 1])
+    assert close_points(first, second, 0.25) == (int((gaps.min(axis=1) <= 0.25).sum()),
+                                                 int((gaps.min(axis=0) <= 0.25).sum()))
+
+
+def test_no_points_are_close_to_an_empty_footprint():
+    assert close_points(np.empty((0, 2)), np.ones((3, 2)), 1.0) == (0, 0)
