@@ -73,3 +73,13 @@ def test_close_points_agree_with_a_brute_force_count_beyond_one_block(seed):
 
 def test_no_points_are_close_to_an_empty_footprint():
     assert close_points(np.empty((0, 2)), np.ones((3, 2)), 1.0) == (0, 0)
+    assert close_points(np.ones((3, 2)), np.empty((0, 2)), 1.0) == (0, 0)
+
+
+def test_footprints_and_their_parameters_of_other_shapes_are_refused():
+    with pytest.raises(InvalidInputError, match="\\(n, 2\\)"):
+        close_points(np.ones((3, 3)), np.ones((3, 2)), 1.0)
+    with pytest.raises(InvalidInputError, match="edge_columns"):
+        footprint(np.arange(5), np.ones(5), RIG, edge_columns=-1)
+    with pytest.raises(InvalidInputError, match="min_column_pixels"):
+        footprint(np.arange(5), np.ones(5), RIG, min_column_pixels=0)

@@ -149,6 +149,8 @@ def test_small_groups_are_noise():
 def test_bad_arguments():
     with pytest.raises(InvalidInputError, match="same 2-D shape"):
         group_obstacle_pixels(np.zeros((3, 3), np.float32), np.zeros((3, 4), bool))
+    with pytest.raises(InvalidInputError, match="calibration must be a StereoCalibration"):
+        group_obstacle_pixels(np.zeros((3, 3), np.float32), np.zeros((3, 3), bool), calibration={"focal_px": 700})
     with pytest.raises(InvalidInputError, match="cell_px"):
         GroupingParameters(cell_px=1)
     with pytest.raises(InvalidInputError, match="max_distance_m"):

@@ -38,13 +38,16 @@ their medians within the gap), phase 1's own verdict is tried as the two cluster
 an object coloured like the ground stands only by its disparity, and is split from a coloured
 object it touches by the same tests (``docs/pipeline.md``, session 25).
 
-With a calibration, a whole group that neither splits is tried once more with two *depth
-clusters* (a 1-D 2-means of its disparities): two objects of one colour (grey on grey) at 7-10 m,
-0.5-1 px apart. Depth clusters also cut one object along its slope or between its faces, and the
-tests above let many such cuts through, so a depth split is kept only when the two parts also
-stand apart on the ground: their footprints (:mod:`stereo_obstacles.footprints`) do not touch,
-fewer than ``depth_touch_points`` points of one lying within ``depth_gap_m`` of the other
-(``docs/pipeline.md``, session 28).
+With a calibration, a whole group that neither splits (no two clusters, or clusters the tests
+refuse) is tried once more with two *depth clusters* (a 1-D 2-means of its disparities): two
+objects of one colour (grey on grey) at 7-10 m, 0.5-1 px apart, or of colours whose clusters fail
+the tests. Depth clusters also cut one object along its slope or between its faces, and the tests
+above let many such cuts through, so a depth split is kept only when the two parts also stand
+apart on the ground, both as the 2-means cuts them and after the tests: their footprints
+(:mod:`stereo_obstacles.footprints`, from all the group's pixels, also where the tests decide on
+squares) have ``depth_touch_points`` points each or more, and fewer than that many of one lie
+within ``depth_gap_m`` of the other (``docs/pipeline.md``, session 28). Like the colour clusters,
+they are tried only on groups holding an object's pixel count of obstacle-coloured pixels.
 """
 
 from __future__ import annotations
@@ -222,6 +225,7 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
         raise InvalidInputError(f"calibration must be a StereoCalibration or None, got {type(calibration).__name__}")
     groups = groups.astype(np.int64, copy=False)
     width = groups.shape[1]
+    depth_clusters = calibration is not None and params.depth_gap_m > 0
     counts, coloured_counts, starts, pixels = group_runs_kernel(
         groups.ravel(), cue.coloured.ravel(), int(groups.max(initial=-1)) + 1)
     # the first tests of _split on the counts alone (two objects' pixels, one object's coloured by
@@ -236,15 +240,40 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
         d = disparity.ravel()[decided].astype(np.float64)
         if not np.isfinite(d).all():
             continue
+        ground_plan = (_GroundPlan(xs, disparity.ravel()[run], square_of, calibration, params) if depth_clusters
+                       else None)
         parts = _split(canvas, d, cue.chroma.reshape(-1, 2)[decided], cue.coloured.ravel()[decided],
-                       min_object_pixels, params, calibration, params.max_levels)[square_of]
+                       min_object_pixels, params, ground_plan, params.max_levels)[square_of]
         splits.split(group, ys, xs, parts)
     return splits.groups
 
 
+@dataclass(frozen=True, eq=False)
+class _GroundPlan:
+    """A whole group's pixels at full size, to compare the footprints of two parts of it whatever
+    the squares its canvas decides on: ``xs`` (int64, shape (N,)) their columns, ``d`` (shape (N,),
+    pixels) their disparities, ``square_of`` (int64, shape (N,)) the canvas pixel each follows."""
+
+    xs: np.ndarray
+    d: np.ndarray
+    square_of: np.ndarray
+    calibration: StereoCalibration
+    params: ColourSplitParameters
+
+    def stand_apart(self, cluster: np.ndarray) -> bool:
+        """Whether the parts ``cluster`` 0 and 1 (``int64``, one per canvas pixel) stand apart on
+        the ground: each footprint has ``depth_touch_points`` points or more (fewer say nothing),
+        and fewer than that many of one lie within ``depth_gap_m`` of the other."""
+        of_pixel = cluster[self.square_of]
+        prints = [footprint(self.xs[of_pixel == k], self.d[of_pixel == k], self.calibration) for k in (0, 1)]
+        touching = self.params.depth_touch_points
+        return min(map(len, prints)) >= touching and min(close_points(*prints, self.params.depth_gap_m)) < touching
+
+
 def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.ndarray, min_object_pixels: int,
-           params: ColourSplitParameters, calibration: StereoCalibration | None, levels: int) -> np.ndarray:
-    """``int64 (n,)`` part of each of the canvas's ``n`` pixels (0 for all: not split), ``levels`` deep."""
+           params: ColourSplitParameters, ground_plan: _GroundPlan | None, levels: int) -> np.ndarray:
+    """``int64 (n,)`` part of each of the canvas's ``n`` pixels (0 for all: not split), ``levels`` deep;
+    ``ground_plan`` (the whole group's, at the first level only): try depth clusters too."""
     parts = np.zeros(len(d), dtype=np.int64)
     if levels == 0 or canvas.pixels() < 2 * min_object_pixels:
         return parts
@@ -258,14 +287,14 @@ def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.
         cluster = _phase_one_clusters(canvas, d, coloured, min_object_pixels, params)
     if cluster is not None:
         cluster = _two_depths(canvas, d, cluster, min_object_pixels, params)
-    if cluster is None and whole_group and calibration is not None and params.depth_gap_m > 0:
-        cluster = _depth_split(canvas, d, min_object_pixels, params, calibration)
+    if cluster is None and ground_plan is not None:
+        cluster = _depth_split(canvas, d, min_object_pixels, params, ground_plan)
     if cluster is None:
         return parts
     for k in (0, 1):
         members = np.flatnonzero(cluster == k)
         sub = _split(canvas.subset(members), d[members], chroma[members], coloured[members], min_object_pixels,
-                     params, calibration, levels - 1)
+                     params, None, levels - 1)
         parts[members] = sub + (parts.max() + 1 if k else 0)
     return parts
 
@@ -308,7 +337,7 @@ def _phase_one_clusters(canvas: PixelCanvas, d: np.ndarray, coloured: np.ndarray
 
 
 def _depth_split(canvas: PixelCanvas, d: np.ndarray, min_object_pixels: int, params: ColourSplitParameters,
-                 calibration: StereoCalibration) -> np.ndarray | None:
+                 ground_plan: _GroundPlan) -> np.ndarray | None:
     """``int64 (n,)`` cluster 0 (nearer) or 1 (farther) of each pixel when the pixels' two depth
     clusters are two surfaces at two depths (:func:`_two_depths`) that stand apart on the ground,
     both as the 2-means cuts them and once the pixels near the boundary have moved to the plane
@@ -324,20 +353,12 @@ def _depth_split(canvas: PixelCanvas, d: np.ndarray, min_object_pixels: int, par
         threshold = moved
     cluster = (d < threshold).astype(np.int64)
     # the footprints first, the cheaper test: most groups are one surface, whose clusters touch
-    if not _stand_apart(canvas, d, cluster, params, calibration):
+    if not ground_plan.stand_apart(cluster):
         return None
     cluster = _without_small_pieces(canvas, cluster, min_object_pixels)
     if cluster is not None:
         cluster = _two_depths(canvas, d, cluster, min_object_pixels, params)
-    return cluster if cluster is not None and _stand_apart(canvas, d, cluster, params, calibration) else None
-
-
-def _stand_apart(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, params: ColourSplitParameters,
-                 calibration: StereoCalibration) -> bool:
-    """Whether the footprints of clusters 0 and 1 (``int64 (n,)``) do not touch: fewer than
-    ``depth_touch_points`` points of one lie within ``depth_gap_m`` of the other."""
-    prints = [footprint(canvas.xs[cluster == k], d[cluster == k], calibration) for k in (0, 1)]
-    return min(close_points(prints[0], prints[1], params.depth_gap_m)) < params.depth_touch_points
+    return cluster if cluster is not None and ground_plan.stand_apart(cluster) else None
 
 
 def _without_small_pieces(canvas: PixelCanvas, cluster: np.ndarray, min_object_pixels: int) -> np.ndarray | None:

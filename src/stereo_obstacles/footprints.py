@@ -34,22 +34,43 @@ memory: 1024 x 3000 points is 25 MB)."""
 
 def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibration, *,
               edge_columns: int = EDGE_COLUMNS, min_column_pixels: int = MIN_COLUMN_PIXELS) -> np.ndarray:
-    """``float64 (n, 2)``: the footprint points ``(X, Z)`` in metres of a set of pixels.
+    """``float64 (n, 2)``: the footprint points ``(X, Z)`` in metres of a set of pixels, one per
+    column from left to right.
 
-    ``xs`` (int, shape (N,)) are their columns, ``disparities`` (float, shape (N,), pixels, NaN:
-    unmatched) their disparities. Each column with ``min_column_pixels`` matches whose median
-    disparity plus ``doffs`` is positive gives one point, the outermost ``edge_columns`` columns
-    on either side excepted (module docstring).
+    Parameters
+    ----------
+    xs
+        ``int (N,)``: the pixels' columns.
+    disparities
+        ``float (N,)``: their disparities in pixels, NaN where unmatched.
+    calibration
+        The rig: ``Z = f B / (d + doffs)``, ``X = (x - cx) Z / f``.
+    edge_columns
+        Columns left out on either side (none when fewer than ``2 * edge_columns + 2`` remain).
+    min_column_pixels
+        Matches a column needs (at least 1); columns whose median disparity plus ``doffs`` is not
+        positive give no point either.
 
     Raises
     ------
     InvalidInputError
-        ``xs`` not integer, or the two not 1-D arrays of one length.
+        ``xs`` not integer, the two not 1-D arrays of one length, ``edge_columns`` below 0 or
+        ``min_column_pixels`` below 1.
+
+    Examples
+    --------
+    >>> rig = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)
+    >>> footprint(np.repeat([150, 151], 3), np.full(6, 10.0), rig, edge_columns=0)  # 4.2 m away
+    array([[-0.12 ,  4.2  ],
+           [-0.108,  4.2  ]])
     """
     xs, disparities = np.asarray(xs), np.asarray(disparities, dtype=np.float64)
     if xs.ndim != 1 or disparities.shape != xs.shape or not np.issubdtype(xs.dtype, np.integer):
         raise InvalidInputError(f"xs (integer columns) and disparities must be 1-D arrays of one length, got "
                                 f"{xs.dtype} {xs.shape} and {disparities.shape}")
+    if edge_columns < 0 or min_column_pixels < 1:
+        raise InvalidInputError(f"edge_columns must be >= 0 and min_column_pixels >= 1, got {edge_columns} and "
+                                f"{min_column_pixels}")
     matched = np.isfinite(disparities)
     xs, disparities = xs[matched], disparities[matched]
     if len(xs) == 0:
@@ -72,8 +93,18 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
 
 
 def close_points(first: np.ndarray, second: np.ndarray, max_gap_m: float) -> tuple[int, int]:
-    """How many points of each footprint (``(n, 2)`` metres) lie within ``max_gap_m`` of the
-    other one."""
+    """How many points of each footprint (``float (n, 2)`` and ``(m, 2)``, metres, as
+    :func:`footprint` gives them) lie within ``max_gap_m`` metres of the other one; ``(0, 0)``
+    when either is empty.
+
+    Raises
+    ------
+    InvalidInputError
+        A footprint that is not ``(n, 2)``.
+    """
+    first, second = np.asarray(first, dtype=np.float64), np.asarray(second, dtype=np.float64)
+    if first.ndim != 2 or second.ndim != 2 or first.shape[1] != 2 or second.shape[1] != 2:
+        raise InvalidInputError(f"footprints must be (n, 2) arrays of points, got {first.shape} and {second.shape}")
     near_first = np.zeros(len(first), dtype=bool)             # points of each within the gap of the other
     near_second = np.zeros(len(second), dtype=bool)
     for start in range(0, len(first), BLOCK_POINTS):

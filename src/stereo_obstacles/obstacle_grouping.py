@@ -20,7 +20,7 @@ too small to report (measured in ``docs/pipeline.md``).
 
 Objects closer in depth than that, touching in the image, are split where their colours
 differ (:mod:`stereo_obstacles.colour_split`), when a colour cue of the left image is given; with
-a calibration too, where two depths of one colour stand apart on the ground.
+a calibration too, where two depths that the colours do not split stand apart on the ground.
 
 Last, neighbouring groups that lie on one plane in disparity are joined
 (:mod:`stereo_obstacles.coplanar_merging`): the pieces of a wall whose matches have gaps, or
@@ -220,11 +220,19 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
     numpy.ndarray
         ``int32 (H, W)``: 0 for pixels in no object, ``1..N`` for the objects, numbered by
         decreasing size.
+
+    Raises
+    ------
+    InvalidInputError
+        A disparity and a mask of different shapes, or a calibration that is not a
+        ``StereoCalibration``.
     """
     d = np.asarray(disparity, dtype=np.float32)
     m = np.asarray(obstacle_mask, dtype=bool)
     if d.ndim != 2 or d.shape != m.shape:
         raise InvalidInputError(f"disparity {d.shape} and obstacle_mask {m.shape} must be the same 2-D shape")
+    if calibration is not None and not isinstance(calibration, StereoCalibration):
+        raise InvalidInputError(f"calibration must be a StereoCalibration or None, got {type(calibration).__name__}")
     usable = m & np.isfinite(d)
     raw, counts = _raw_groups(d, usable, params)
     loose = raw
