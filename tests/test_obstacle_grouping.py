@@ -182,3 +182,19 @@ def test_pieces_of_one_colour_a_cell_apart_are_one_object_with_a_colour_cue():
     assert group_obstacle_pixels(d, np.isfinite(d), colour=cue).max() == 1
     chroma[:, 92:] = (128, 100)
     assert group_obstacle_pixels(d, np.isfinite(d), colour=ColourCue(chroma, np.isfinite(d))).max() == 2
+
+
+def test_the_grouping_splits_two_depths_of_one_colour_only_with_a_calibration():
+    # a grey box 0.45 px (0.36 m) in front of the grey wall above it: too little for the layers
+    # (split_min_gap_px 0.5) and no second colour, but the two stand apart on the ground
+    from stereo_obstacles.calibration import StereoCalibration
+    from stereo_obstacles.colour_split import ColourCue
+    from stereo_obstacles.obstacle_grouping import group_obstacle_pixels
+
+    rig = StereoCalibration(focal_px=350.0, cx_px=60.0, cy_px=40.0, baseline_m=0.12)
+    d = np.full((80, 120), np.nan, np.float32)
+    d[:40, 20:100], d[40:, 20:100] = 7.0, 7.45
+    cue = ColourCue(np.full((80, 120, 2), 128, np.uint8), np.isfinite(d))
+    assert group_obstacle_pixels(d, np.isfinite(d), colour=cue).max() == 1
+    groups = group_obstacle_pixels(d, np.isfinite(d), colour=cue, calibration=rig)
+    assert groups.max() == 2 and len(np.unique(groups[:40, 20:100])) == len(np.unique(groups[40:, 20:100])) == 1

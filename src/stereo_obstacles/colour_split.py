@@ -46,7 +46,7 @@ above let many such cuts through, so a depth split is kept only when the two par
 apart on the ground, both as the 2-means cuts them and after the tests: their footprints
 (:mod:`stereo_obstacles.footprints`, from all the group's pixels, also where the tests decide on
 squares) have ``depth_touch_points`` points each or more, and fewer than that many of one lie
-within ``depth_gap_m`` of the other (``docs/pipeline.md``, session 28). Like the colour clusters,
+within ``depth_gap_m`` of the other (``docs/pipeline.md``, session 28). Like phase 1's verdict,
 they are tried only on groups holding an object's pixel count of obstacle-coloured pixels.
 """
 
@@ -106,8 +106,9 @@ class ColourSplitParameters:
         Levels of splitting: 1 splits a group in two at most, 2 splits each part once more.
     depth_gap_m, depth_touch_points : float, int
         With a calibration, two depth clusters split a group only where their footprints stand
-        apart: fewer than ``depth_touch_points`` points of one of them lie within ``depth_gap_m``
-        metres of the other (module docstring). ``depth_gap_m`` 0 switches the depth clusters off.
+        apart: each has ``depth_touch_points`` points or more, and fewer than that many of one lie
+        within ``depth_gap_m`` metres of the other (module docstring). ``depth_gap_m`` 0 switches
+        the depth clusters off.
     """
 
     blur_px: int = 5
