@@ -18,6 +18,8 @@ from stereo_obstacles.footprints import close_points, footprint
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.part_boundaries import MAX_DECISION_PIXELS
 
+from _evaluation_scenes import comparison, evaluation_pair, true_obstacle
+
 BROWN, BLUE, GREEN, GREY = (150, 150), (128, 100), (100, 150), (128, 128)
 """Chroma ``(a* + 128, b* + 128)``."""
 MIN_OBJECT_PIXELS = 120
@@ -543,24 +545,15 @@ def test_detect_splits_a_cylinder_from_the_pole_in_front_of_it_by_their_footprin
     # obstacle with the pole, at the pole's distance (-17.7 % for the cylinder, which it covers
     # most); the colour clusters fail the split's tests, and the depth clusters stand apart on the
     # ground
-    from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE, compare_with_truth
-    from stereo_obstacles.pipeline import DetectionConfig, detect
-    from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
+    from stereo_obstacles.pipeline import DetectionConfig
 
-    pair = render_pair(random_scene(328), RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
-    cylinder = next(t for t in pair.obstacles if t.kind == "cylinder" and abs(t.nearest_depth_m - 6.15) < 0.01)
-
-    def error(config):
-        result = detect(pair.left, pair.right, pair.calibration, config=config)
-        comparisons, _ = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles,
-                                            seen_by_both=pair.nonocc)
-        return next(c.relative_error for c in comparisons if c.truth_id == cylinder.obstacle_id)
-
+    pair = evaluation_pair(328)
+    cylinder = true_obstacle(pair, "cylinder", 6.15)
     config = DetectionConfig()
     whole = replace(config, grouping=replace(config.grouping,
                                              colour_split=replace(config.grouping.colour_split, depth_gap_m=0.0)))
-    assert error(whole) < -0.15
-    assert abs(error(config)) < 0.02
+    assert comparison(pair, cylinder, whole)[0].relative_error < -0.15
+    assert abs(comparison(pair, cylinder, config)[0].relative_error) < 0.02
 
 
 @pytest.mark.parametrize("seed, noise_sigma, distance_m", [(492, 0.0, 3.75), (494, 0.0, 8.41), (2, 2.0, 8.24)])
@@ -570,13 +563,5 @@ def test_detect_keeps_a_wall_whole_that_the_depth_clusters_cut_across(seed, nois
     # +15.1 %, +6.4 % and +10.6 % in the variants of docs/pipeline.md, session 28): 494's parts
     # stand apart before the colour split's tests and seed 2's after them, and the other comparison
     # keeps each whole; 492's touch in both
-    from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE, compare_with_truth
-    from stereo_obstacles.pipeline import detect
-    from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
-
-    pair = render_pair(random_scene(seed), RenderOptions(supersample=EVALUATION_SUPERSAMPLE, noise_sigma=noise_sigma))
-    wall = next(t for t in pair.obstacles if t.kind == "wall" and abs(t.nearest_depth_m - distance_m) < 0.01)
-    result = detect(pair.left, pair.right, pair.calibration)
-    comparisons, _ = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles,
-                                        seen_by_both=pair.nonocc)
-    assert abs(next(c.relative_error for c in comparisons if c.truth_id == wall.obstacle_id)) < 0.05
+    pair = evaluation_pair(seed, noise_sigma)
+    assert abs(comparison(pair, true_obstacle(pair, "wall", distance_m))[0].relative_error) < 0.05

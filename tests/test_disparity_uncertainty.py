@@ -113,7 +113,7 @@ def test_noisy_far_ground_is_not_raised_into_obstacles():
                         config=DetectionConfig(standing_significance=significance))
         comparisons, alarms = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles)
         outcomes[significance] = (comparisons, alarms, result.obstacles.rejected)
-    assert len(outcomes[None][1]) >= 5  # the test does something on this scene
+    assert len(outcomes[None][1]) >= 4  # the test does something on this scene (5 before far groups were kept)
     comparisons, alarms, rejected = outcomes[3.0]
     assert alarms == []
     # what the test keeps down is reported, not dropped silently

@@ -10,6 +10,8 @@ import pytest
 
 from stereo_obstacles._obstacle_grouping_kernel import cell_medians_kernel
 
+from _evaluation_scenes import comparison, evaluation_pair, true_obstacle
+
 
 def _numpy_cells(padded, cell, min_pixels, abs_tol, rel_tol, min_pure):
     gh, gw = padded.shape[0] // cell, padded.shape[1] // cell
@@ -135,6 +137,59 @@ def test_a_piece_too_small_to_report_is_dropped_not_joined():
     assert groups.max() == 1 and np.all(groups[40:52, 80:88] == 0) and np.all(groups[16:80, 16:80] == 1)
 
 
+def _patch(rows: slice, columns: slice, disparity: float) -> np.ndarray:
+    """Disparity ``(96, 160)`` holding one constant patch, NaN elsewhere."""
+    d = np.full((96, 160), np.nan, np.float32)
+    d[rows, columns] = disparity
+    return d
+
+
+@pytest.mark.parametrize("disparity, kept", [(6.0, True), (10.2, True), (10.4, False), (14.0, False)])
+def test_a_far_object_needs_fewer_pixels_by_the_square_of_its_disparity(disparity, kept):
+    """88 pixels (8 rows, 11 columns), fewer than an object's 120: enough below 12 px of disparity
+    for ``120 * (d / 12) ** 2`` of them, that is up to 10.28 px."""
+    from stereo_obstacles.obstacle_grouping import group_obstacle_pixels
+
+    d = _patch(slice(16, 24), slice(16, 27), disparity)
+    groups = group_obstacle_pixels(d, np.isfinite(d))
+    assert groups.max() == (1 if kept else 0)
+    if kept:
+        assert np.count_nonzero(groups == 1) == 88
+
+
+def test_a_far_group_needs_the_least_pixels_and_columns_and_the_rule_can_be_switched_off():
+    from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
+
+    far = _patch(slice(16, 24), slice(16, 27), 6.0)          # 88 pixels, 11 columns: an object this far
+    assert group_obstacle_pixels(far, np.isfinite(far)).max() == 1
+    assert group_obstacle_pixels(far, np.isfinite(far), GroupingParameters(far_min_fraction=1.0)).max() == 0
+    assert group_obstacle_pixels(far, np.isfinite(far), GroupingParameters(far_min_fraction=0.75)).max() == 0
+    assert group_obstacle_pixels(far, np.isfinite(far), GroupingParameters(far_min_fraction=0.73)).max() == 1
+    small = GroupingParameters(min_object_pixels=100, far_min_fraction=0.8)       # 80 of 100: the floor follows
+    assert group_obstacle_pixels(far, np.isfinite(far), small).max() == 1
+    assert group_obstacle_pixels(far, np.isfinite(far), GroupingParameters(far_min_width_px=12)).max() == 0
+    assert group_obstacle_pixels(far, np.isfinite(far), GroupingParameters(far_min_width_px=11)).max() == 1
+    strip = _patch(slice(16, 38), slice(16, 20), 6.0)         # 88 pixels in 4 columns: a fringe
+    assert group_obstacle_pixels(strip, np.isfinite(strip)).max() == 0
+    assert group_obstacle_pixels(strip, np.isfinite(strip), GroupingParameters(far_min_width_px=4)).max() == 1
+    near = _patch(slice(16, 26), slice(16, 28), 20.0)        # 120 pixels are enough at any distance
+    assert np.count_nonzero(group_obstacle_pixels(near, np.isfinite(near)) == 1) == 120
+
+
+def test_far_groups_count_for_the_joining_and_stay_apart_from_near_ones():
+    """A far object of 88 pixels beside a near one of 200 and one of 80 (too small at 20 px): the
+    far one is reported, numbered after the larger near one, and the small near one is dropped."""
+    from stereo_obstacles.obstacle_grouping import group_obstacle_pixels
+
+    d = _patch(slice(16, 24), slice(16, 27), 6.0)
+    d[40:60, 40:50] = 20.0
+    d[40:48, 80:90] = 20.0
+    groups = group_obstacle_pixels(d, np.isfinite(d))
+    assert groups.max() == 2
+    assert np.all(groups[40:60, 40:50] == 1) and np.all(groups[16:24, 16:27] == 2)
+    assert np.all(groups[40:48, 80:90] == 0)
+
+
 def test_split_parameters_are_checked():
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.obstacle_grouping import GroupingParameters
@@ -156,6 +211,9 @@ def test_split_parameters_are_checked():
     ({"coplanar_colour_reach_cells": 0}, "coplanar_colour_reach_cells"),
     ({"coplanar_max_chroma_distance": -1.0}, "coplanar_max_chroma_distance"),
     ({"colour_split": {"blur_px": 5}}, "colour_split"),
+    ({"far_min_fraction": 0.0}, "far_min_fraction"), ({"far_min_fraction": 1.5}, "far_min_fraction"),
+    ({"far_disparity_px": 0.0}, "far_disparity_px"), ({"far_disparity_px": float("nan")}, "far_disparity_px"),
+    ({"far_min_width_px": 0}, "far_min_width_px"), ({"far_min_width_px": 2.5}, "far_min_width_px"),
 ])
 def test_every_grouping_parameter_is_checked_with_one_clear_line(kwargs, name):
     from stereo_obstacles.errors import InvalidInputError
@@ -198,3 +256,19 @@ def test_the_grouping_splits_two_depths_of_one_colour_only_with_a_calibration():
     assert group_obstacle_pixels(d, np.isfinite(d), colour=cue).max() == 1
     groups = group_obstacle_pixels(d, np.isfinite(d), colour=cue, calibration=rig)
     assert groups.max() == 2 and len(np.unique(groups[:40, 20:100])) == len(np.unique(groups[40:, 20:100])) == 1
+
+
+def test_detect_finds_a_far_box_whose_matches_are_fewer_than_an_object_s():
+    # scene 885: a box 0.43 m high at 9.97 m, 381 pixels visible, matched on 165 of them; its
+    # group holds 114 pixels, fewer than the 120 of an object, and was dropped (missed); far away
+    # it needs 120 * (6.7 / 12) ** 2 = 37, and no fewer than 60
+    from stereo_obstacles.pipeline import DetectionConfig
+
+    pair = evaluation_pair(885)
+    box = true_obstacle(pair, "box", 9.97)
+    config = DetectionConfig()
+    missed, _ = comparison(pair, box, replace(config, grouping=replace(config.grouping, far_min_fraction=1.0)))
+    assert missed.detected_id is None
+    found, alarms = comparison(pair, box, config)
+    assert found.detected_id is not None and abs(found.relative_error) < 0.02
+    assert alarms == []

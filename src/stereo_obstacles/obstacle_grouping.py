@@ -62,7 +62,14 @@ class GroupingParameters:
         A cell links to its neighbours only when at least this fraction of its pixels agree
         with its median disparity.
     min_object_pixels : int
-        Objects with fewer pixels are dropped as noise.
+        Objects with fewer pixels are dropped as noise (but see the far ones below).
+    far_min_fraction, far_disparity_px, far_min_width_px : float, float, int
+        A far object shows fewer pixels: a group whose mean disparity ``d`` lies below
+        ``far_disparity_px`` needs only ``min_object_pixels * (d / far_disparity_px) ** 2`` of
+        them (its image area shrinks with the square of its distance), and no fewer than
+        ``far_min_fraction * min_object_pixels``, when it spans ``far_min_width_px`` columns or
+        more (the fattened fringe beside an object is a few columns wide). ``far_min_fraction``
+        1 switches this off.
     split_tolerance_px : float
         The tighter ``abs_tolerance_px`` of the second grouping that may split a group (see the
         module docstring); 0, or not below ``abs_tolerance_px``, switches the split off.
@@ -89,6 +96,9 @@ class GroupingParameters:
     rel_tolerance: float = 0.05
     min_pure_fraction: float = 0.7
     min_object_pixels: int = 120
+    far_min_fraction: float = 0.5
+    far_disparity_px: float = 12.0
+    far_min_width_px: int = 8
     split_tolerance_px: float = 0.75
     split_min_gap_px: float = 0.5
     coplanar_tolerance_px: float = 0.15
@@ -100,12 +110,12 @@ class GroupingParameters:
     def __post_init__(self) -> None:
         check_integers(self, (("cell_px", 2, math.inf), ("min_object_pixels", 1, math.inf),
                               ("coplanar_colour_reach_cells", 1, 16)))
-        check_integers(self, (("min_cell_pixels", 1, self.cell_px ** 2),))
-        check_positive(self, ("abs_tolerance_px",))
+        check_integers(self, (("min_cell_pixels", 1, self.cell_px ** 2), ("far_min_width_px", 1, math.inf)))
+        check_positive(self, ("abs_tolerance_px", "far_min_fraction", "far_disparity_px"))
         check_numbers(self, (("rel_tolerance", 0.0, math.inf), ("min_pure_fraction", 0.0, 1.0),
                              ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf),
                              ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf),
-                             ("coplanar_max_chroma_distance", 0.0, 400.0)))
+                             ("coplanar_max_chroma_distance", 0.0, 400.0), ("far_min_fraction", 0.0, 1.0)))
         check_types(self, (("colour_split", ColourSplitParameters),), allow_none=True)
 
 
@@ -182,6 +192,29 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
     return splits.groups
 
 
+def _object_sized(groups: np.ndarray, d: np.ndarray, counts: np.ndarray, params: GroupingParameters) -> np.ndarray:
+    """``bool (n,)``: which groups hold an object's pixel count, ``min_object_pixels`` or, far
+    away, fewer (:class:`GroupingParameters`). ``groups`` int64 ``(H, W)``, ``0..n-1``, -1 for
+    none; ``d`` the disparity (pixels), finite at every grouped pixel; ``counts`` ``(n,)`` the
+    groups' pixel counts."""
+    sized = counts >= params.min_object_pixels
+    far = ~sized & (counts >= params.far_min_fraction * params.min_object_pixels)
+    if not far.any():
+        return sized
+    grouped = groups >= 0
+    labels = groups[grouped]
+    mean_d = np.bincount(labels, weights=d[grouped], minlength=len(counts)) / np.maximum(counts, 1)
+    far &= counts >= params.min_object_pixels * (mean_d / params.far_disparity_px) ** 2
+    if not far.any():
+        return sized
+    ys, xs = np.nonzero(grouped & far[np.maximum(groups, 0)])
+    of = groups[ys, xs]
+    first, last = np.full(len(counts), groups.shape[1]), np.full(len(counts), -1)
+    np.minimum.at(first, of, xs)
+    np.maximum.at(last, of, xs)
+    return sized | (far & (last - first + 1 >= params.far_min_width_px))
+
+
 def _mean_chroma(groups: np.ndarray, chroma: np.ndarray) -> np.ndarray:
     """``float64 (n, 2)``: the mean of ``chroma`` (``(H, W, 2)``) over each group's pixels
     (``groups`` int64 ``(H, W)``, ``0..n-1``, -1 for none)."""
@@ -246,8 +279,9 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
     if raw is not loose:
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     if params.coplanar_tolerance_px > 0:
-        large = np.concatenate([[-1], np.cumsum(counts >= params.min_object_pixels) - 1])
-        large[1:][counts < params.min_object_pixels] = -1
+        sized = _object_sized(raw, d, counts, params)
+        large = np.concatenate([[-1], np.cumsum(sized) - 1])
+        large[1:][~sized] = -1
         raw = large[raw + 1]
         split_from = np.zeros(int(raw.max()) + 1, dtype=np.int64)
         split_from[raw[raw >= 0]] = loose[raw >= 0]            # a layer lies within one loose group
@@ -257,7 +291,7 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
                                     colour_reach_cells=params.coplanar_colour_reach_cells,
                                     max_chroma_distance=params.coplanar_max_chroma_distance)
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
-    keep = np.flatnonzero(counts >= params.min_object_pixels)
+    keep = np.flatnonzero(_object_sized(raw, d, counts, params))
     order = keep[np.argsort(-counts[keep], kind="stable")]
     relabel = np.zeros(len(counts) + 1, dtype=np.int32)
     relabel[order + 1] = np.arange(1, len(order) + 1, dtype=np.int32)
