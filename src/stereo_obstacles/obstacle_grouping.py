@@ -26,6 +26,10 @@ Last, neighbouring groups that lie on one plane in disparity are joined
 (:mod:`stereo_obstacles.coplanar_merging`): the pieces of a wall whose matches have gaps, or
 whose disparity changes faster than the link tolerance from cell to cell; with a colour cue,
 groups of one colour up to ``coplanar_colour_reach_cells`` cells apart too.
+
+Groups with fewer pixels than an object's (``min_object_pixels``) take no part in the joining
+and are dropped as noise; a far group needs fewer, as its image area shrinks with the square of
+its distance (:class:`GroupingParameters`).
 """
 
 from __future__ import annotations
@@ -65,11 +69,14 @@ class GroupingParameters:
         Objects with fewer pixels are dropped as noise (but see the far ones below).
     far_min_fraction, far_disparity_px, far_min_width_px : float, float, int
         A far object shows fewer pixels: a group whose mean disparity ``d`` lies below
-        ``far_disparity_px`` needs only ``min_object_pixels * (d / far_disparity_px) ** 2`` of
-        them (its image area shrinks with the square of its distance), and no fewer than
-        ``far_min_fraction * min_object_pixels``, when it spans ``far_min_width_px`` columns or
-        more (the fattened fringe beside an object is a few columns wide). ``far_min_fraction``
-        1 switches this off.
+        ``far_disparity_px`` (pixels, > 0) needs only ``min_object_pixels * (d /
+        far_disparity_px) ** 2`` of them (its image area shrinks with the square of its
+        distance; ``d`` below 0 counts as 0), and no fewer than ``far_min_fraction *
+        min_object_pixels`` (``far_min_fraction`` in [0, 1]), when it spans ``far_min_width_px``
+        columns or more (at least 1; the fattened fringe beside an object is a few columns wide).
+        This decides which groups are reported and joined; the depth-layer split and the colour
+        split still split off only parts of ``min_object_pixels`` (docs/pipeline.md, session 29).
+        ``far_min_fraction`` 1 switches it off.
     split_tolerance_px : float
         The tighter ``abs_tolerance_px`` of the second grouping that may split a group (see the
         module docstring); 0, or not below ``abs_tolerance_px``, switches the split off.
@@ -111,7 +118,7 @@ class GroupingParameters:
         check_integers(self, (("cell_px", 2, math.inf), ("min_object_pixels", 1, math.inf),
                               ("coplanar_colour_reach_cells", 1, 16)))
         check_integers(self, (("min_cell_pixels", 1, self.cell_px ** 2), ("far_min_width_px", 1, math.inf)))
-        check_positive(self, ("abs_tolerance_px", "far_min_fraction", "far_disparity_px"))
+        check_positive(self, ("abs_tolerance_px", "far_disparity_px"))
         check_numbers(self, (("rel_tolerance", 0.0, math.inf), ("min_pure_fraction", 0.0, 1.0),
                              ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf),
                              ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf),
@@ -194,9 +201,9 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
 
 def _object_sized(groups: np.ndarray, d: np.ndarray, counts: np.ndarray, params: GroupingParameters) -> np.ndarray:
     """``bool (n,)``: which groups hold an object's pixel count, ``min_object_pixels`` or, far
-    away, fewer (:class:`GroupingParameters`). ``groups`` int64 ``(H, W)``, ``0..n-1``, -1 for
-    none; ``d`` the disparity (pixels), finite at every grouped pixel; ``counts`` ``(n,)`` the
-    groups' pixel counts."""
+    away by their mean disparity, fewer (:class:`GroupingParameters`). ``groups`` int64 ``(H, W)``,
+    ``0..n-1``, -1 for none; ``d`` the disparity (pixels), finite at every grouped pixel;
+    ``counts`` ``(n,)`` the groups' pixel counts."""
     sized = counts >= params.min_object_pixels
     far = ~sized & (counts >= params.far_min_fraction * params.min_object_pixels)
     if not far.any():
@@ -204,14 +211,15 @@ def _object_sized(groups: np.ndarray, d: np.ndarray, counts: np.ndarray, params:
     grouped = groups >= 0
     labels = groups[grouped]
     mean_d = np.bincount(labels, weights=d[grouped], minlength=len(counts)) / np.maximum(counts, 1)
-    far &= counts >= params.min_object_pixels * (mean_d / params.far_disparity_px) ** 2
+    # counts >= min_object_pixels * (d / far_disparity_px) ** 2, without dividing by a tiny parameter
+    far &= counts * params.far_disparity_px ** 2 >= params.min_object_pixels * np.maximum(mean_d, 0.0) ** 2
     if not far.any():
         return sized
     ys, xs = np.nonzero(grouped & far[np.maximum(groups, 0)])
-    of = groups[ys, xs]
+    group_of = groups[ys, xs]
     first, last = np.full(len(counts), groups.shape[1]), np.full(len(counts), -1)
-    np.minimum.at(first, of, xs)
-    np.maximum.at(last, of, xs)
+    np.minimum.at(first, group_of, xs)
+    np.maximum.at(last, group_of, xs)
     return sized | (far & (last - first + 1 >= params.far_min_width_px))
 
 
@@ -280,9 +288,9 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     if params.coplanar_tolerance_px > 0:
         sized = _object_sized(raw, d, counts, params)
-        large = np.concatenate([[-1], np.cumsum(sized) - 1])
-        large[1:][~sized] = -1
-        raw = large[raw + 1]
+        sized_label = np.concatenate([[-1], np.cumsum(sized) - 1])
+        sized_label[1:][~sized] = -1
+        raw = sized_label[raw + 1]
         split_from = np.zeros(int(raw.max()) + 1, dtype=np.int64)
         split_from[raw[raw >= 0]] = loose[raw >= 0]            # a layer lies within one loose group
         raw = merge_coplanar_groups(raw, d, cell_px=params.cell_px, tolerance_px=params.coplanar_tolerance_px,
