@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from _evaluation_scenes import comparison, evaluation_pair, true_obstacle
 from stereo_obstacles._colour_split_kernel import group_runs_kernel, one_per_block_kernel, two_colours_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.colour_split import ColourCue, ColourSplitParameters, colour_cue, split_groups_by_colour
@@ -18,7 +19,6 @@ from stereo_obstacles.footprints import close_points, footprint
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.part_boundaries import MAX_DECISION_PIXELS
 
-from _evaluation_scenes import comparison, evaluation_pair, true_obstacle
 
 BROWN, BLUE, GREEN, GREY = (150, 150), (128, 100), (100, 150), (128, 128)
 """Chroma ``(a* + 128, b* + 128)``."""

@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from _evaluation_scenes import evaluation_pair, true_obstacle
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.footprint_joining import FootprintJoiningParameters, pieces_of_one_object
@@ -127,12 +128,10 @@ def test_the_checks_of_the_inputs():
 def test_detect_joins_pieces_of_a_box_and_measures_them_at_its_near_face():
     # scene 179's dark box at 2.56 m comes out in four pieces; its top face (805 pixels, the piece
     # covering most of it) read +8.3 %; joined to the piece beside it, the two read +0.4 %
-    from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE
     from stereo_obstacles.pipeline import DetectionConfig, detect
-    from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
 
-    pair = render_pair(random_scene(179), RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
-    box = next(t for t in pair.obstacles if t.kind == "box" and abs(t.nearest_depth_m - 2.56) < 0.01)
+    pair = evaluation_pair(179)
+    box = true_obstacle(pair, "box", 2.56)
 
     def on_the_box(config):
         """(pixels on the box, distance) of each obstacle lying mostly on it, largest first."""

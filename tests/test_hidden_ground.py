@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from _evaluation_scenes import evaluation_pair
 from _right_image_cover import matches_of_row, random_disparity_rows, reference_cover
 
 from stereo_obstacles.errors import InvalidInputError
@@ -176,11 +177,10 @@ def test_groups_mostly_of_ground_coloured_hidden_ground_are_rejected_with_their_
 def test_the_shadow_beside_a_near_box_is_no_longer_an_obstacle(monkeypatch):
     # seed 244: ground and shadow left of a box 1.54 m away, matched at 34.6 px between the ground's
     # 26.7 and the box's 43 (its first columns unmatched), was reported as an obstacle at 1.89 m
-    from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE, compare_with_truth
+    from stereo_obstacles.detection_evaluation import compare_with_truth
     from stereo_obstacles.pipeline import DetectionConfig, detect
-    from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
 
-    pair = render_pair(random_scene(244), RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
+    pair = evaluation_pair(244)
 
     def run(config: DetectionConfig):
         result = detect(pair.left, pair.right, pair.calibration, config=config)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from _evaluation_scenes import evaluation_pair
 from stereo_obstacles._obstacles_kernel import patch_medians_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.near_face import DISTANCE_PATCH_PX, SlantedFaceParameters, near_face_depth, slanted_face_disparity
@@ -167,11 +168,9 @@ def test_slanted_faces_of_the_synthetic_scenes_are_measured_at_their_nearest_par
     # The detection covering most of the object is measured (the evaluation's score may come from a
     # smaller, nearer piece: detection_evaluation.compare_with_truth), with the pieces left apart:
     # joined to seed 117's nearer piece (footprint_joining), it is no longer the face alone
-    from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE
     from stereo_obstacles.pipeline import DetectionConfig, detect
-    from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
 
-    pair = render_pair(random_scene(seed), RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
+    pair = evaluation_pair(seed)
     true_distance_m = next(t.nearest_depth_m for t in pair.obstacles if t.obstacle_id == truth_id)
 
     def error_pct(obstacles: ObstacleParameters) -> float:

@@ -8,9 +8,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from _evaluation_scenes import comparison, evaluation_pair, true_obstacle
 from stereo_obstacles._obstacle_grouping_kernel import cell_medians_kernel
 
-from _evaluation_scenes import comparison, evaluation_pair, true_obstacle
 
 
 def _numpy_cells(padded, cell, min_pixels, abs_tol, rel_tol, min_pure):

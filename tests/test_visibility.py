@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from _evaluation_scenes import evaluation_pair
 from _right_image_cover import matches_of_row, random_disparity_rows, reference_cover
 
 from stereo_obstacles.errors import InvalidInputError
@@ -83,12 +84,9 @@ def test_a_map_that_is_not_2d_is_refused():
 def test_the_pipeline_no_longer_reports_a_phantom_between_a_pole_and_the_cylinder_it_hides():
     """Scene 42: a cylinder 8.3 m away shows a strip of 7 columns beside a pole 2.7 m away that
     the right camera does not see; matched to the pole's texture, it was an obstacle at 4.1 m."""
-    from stereo_obstacles.detection_evaluation import EVALUATION_SUPERSAMPLE
     from stereo_obstacles.pipeline import DetectionConfig, detect
-    from stereo_obstacles.synthetic import RenderOptions, random_scene, render_pair
 
-    pair = render_pair(random_scene(42, width_px=640, height_px=480),
-                       RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
+    pair = evaluation_pair(42)
     cylinder = [t for t in pair.obstacles if t.kind == "cylinder" and 8 < (t.nearest_depth_m or 0) < 8.5][0]
 
     def phantoms(config):
