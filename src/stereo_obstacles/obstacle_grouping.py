@@ -208,14 +208,12 @@ def _object_sized(groups: np.ndarray, d: np.ndarray, counts: np.ndarray, params:
     far = ~sized & (counts >= params.far_min_fraction * params.min_object_pixels)
     if not far.any():
         return sized
-    grouped = groups >= 0
-    labels = groups[grouped]
-    mean_d = np.bincount(labels, weights=d[grouped], minlength=len(counts)) / np.maximum(counts, 1)
+    mean_d = _group_means(groups, d, len(counts))
     # counts >= min_object_pixels * (d / far_disparity_px) ** 2, without dividing by a tiny parameter
     far &= counts * params.far_disparity_px ** 2 >= params.min_object_pixels * np.maximum(mean_d, 0.0) ** 2
     if not far.any():
         return sized
-    ys, xs = np.nonzero(grouped & far[np.maximum(groups, 0)])
+    ys, xs = np.nonzero((groups >= 0) & far[np.maximum(groups, 0)])
     group_of = groups[ys, xs]
     first, last = np.full(len(counts), groups.shape[1]), np.full(len(counts), -1)
     np.minimum.at(first, group_of, xs)
@@ -223,15 +221,17 @@ def _object_sized(groups: np.ndarray, d: np.ndarray, counts: np.ndarray, params:
     return sized | (far & (last - first + 1 >= params.far_min_width_px))
 
 
-def _mean_chroma(groups: np.ndarray, chroma: np.ndarray) -> np.ndarray:
-    """``float64 (n, 2)``: the mean of ``chroma`` (``(H, W, 2)``) over each group's pixels
-    (``groups`` int64 ``(H, W)``, ``0..n-1``, -1 for none)."""
-    n = int(groups.max()) + 1
+def _group_means(groups: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    """``float64 (n,)`` (or ``(n, C)``): the mean of ``values`` (``(H, W)``, or ``(H, W, C)``) over
+    each group's pixels (``groups`` int64 ``(H, W)``, ``0..n-1``, -1 for none); 0 for a group
+    without pixels."""
     grouped = groups >= 0
     labels = groups[grouped]
     counts = np.maximum(np.bincount(labels, minlength=n), 1)
-    return np.stack([np.bincount(labels, weights=chroma[..., k][grouped], minlength=n) / counts for k in (0, 1)],
-                    axis=1)
+    picked = values[grouped].reshape(len(labels), -1)
+    means = np.stack([np.bincount(labels, weights=picked[:, k], minlength=n) / counts
+                      for k in range(picked.shape[1])], axis=1)
+    return means[:, 0] if values.ndim == 2 else means
 
 
 def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
@@ -293,9 +293,10 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
         raw = sized_label[raw + 1]
         split_from = np.zeros(int(raw.max()) + 1, dtype=np.int64)
         split_from[raw[raw >= 0]] = loose[raw >= 0]            # a layer lies within one loose group
+        colours = None if colour is None else _group_means(raw, colour.chroma, len(split_from))
         raw = merge_coplanar_groups(raw, d, cell_px=params.cell_px, tolerance_px=params.coplanar_tolerance_px,
                                     rel_tolerance=params.coplanar_rel_tolerance, split_from=split_from,
-                                    colours=None if colour is None else _mean_chroma(raw, colour.chroma),
+                                    colours=colours,
                                     colour_reach_cells=params.coplanar_colour_reach_cells,
                                     max_chroma_distance=params.coplanar_max_chroma_distance)
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
