@@ -208,6 +208,16 @@ def test_far_pieces_too_small_for_an_object_near_by_are_joined_on_their_plane():
     assert apart.max() == 2 and np.all(apart[16:24, 16:24] == 1) and np.all(apart[16:24, 24:32] == 2)
 
 
+def test_only_groups_too_small_for_an_object_give_none_with_a_colour_cue():
+    """Nothing left for the joining: its groups' mean colours are taken over no group at all."""
+    from stereo_obstacles.colour_split import ColourCue
+    from stereo_obstacles.obstacle_grouping import group_obstacle_pixels
+
+    d = _patch(slice(16, 19), slice(16, 19), 20.0)              # 9 pixels
+    cue = ColourCue(np.full((96, 160, 2), 128, np.uint8), np.isfinite(d))
+    assert group_obstacle_pixels(d, np.isfinite(d), colour=cue).max() == 0
+
+
 def test_split_parameters_are_checked():
     from stereo_obstacles.errors import InvalidInputError
     from stereo_obstacles.obstacle_grouping import GroupingParameters

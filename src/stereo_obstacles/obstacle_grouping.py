@@ -228,7 +228,7 @@ def _group_means(groups: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
     grouped = groups >= 0
     labels = groups[grouped]
     counts = np.maximum(np.bincount(labels, minlength=n), 1)
-    picked = values[grouped].reshape(len(labels), -1)
+    picked = values[grouped] if values.ndim == 3 else values[grouped][:, None]     # (N, C)
     means = np.stack([np.bincount(labels, weights=picked[:, k], minlength=n) / counts
                       for k in range(picked.shape[1])], axis=1)
     return means[:, 0] if values.ndim == 2 else means
