@@ -15,13 +15,14 @@ import argparse
 import contextlib
 import json
 import logging
+import os
 import statistics
 import sys
 import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve()
-SHARED_DATA = HERE.parents[1].parent / "shared" / "data"
+SHARED_DATA = Path(os.environ.get("STEREO_OBSTACLES_SHARED_DATA", HERE.parents[1].parent / "shared" / "data"))
 
 
 @contextlib.contextmanager
