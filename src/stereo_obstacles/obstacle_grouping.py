@@ -16,7 +16,9 @@ is done twice, the second time with the tighter ``split_tolerance_px``: a group 
 or more tight groups of an object's size whose median disparities are more than
 ``split_min_gap_px`` apart is split into them, its other pixels joining the one of nearest
 median disparity. A tighter tolerance alone would break weakly matched objects into pieces
-too small to report (measured in ``docs/pipeline.md``).
+too small to report (measured in ``docs/pipeline.md``). A slanted surface comes out of the tight
+grouping in bands too; tight groups that meet without a step in disparity stay together
+(:mod:`stereo_obstacles.layer_steps`).
 
 Objects closer in depth than that, touching in the image, are split where their colours
 differ (:mod:`stereo_obstacles.colour_split`), when a colour cue of the left image is given; with
@@ -47,6 +49,7 @@ from stereo_obstacles.coplanar_merging import merge_coplanar_groups
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 from stereo_obstacles.group_splits import GroupSplits
+from stereo_obstacles.layer_steps import layer_surfaces
 
 
 @dataclass(frozen=True)
@@ -82,6 +85,10 @@ class GroupingParameters:
         module docstring); 0, or not below ``abs_tolerance_px``, switches the split off.
     split_min_gap_px : float
         The tight groups' median disparities must span more than this to split a group.
+    split_min_step_px : float
+        Tight groups that touch with a median disparity difference of at most this many pixels
+        between neighbouring pixels stay together, as the bands of one slanted surface
+        (:mod:`stereo_obstacles.layer_steps`); 0 splits every tight group off.
     coplanar_tolerance_px, coplanar_rel_tolerance : float
         Neighbouring groups of an object's size are joined when, over each one's pixels, the
         plane of both differs from its own plane by at most ``coplanar_tolerance_px +
@@ -106,8 +113,9 @@ class GroupingParameters:
     far_min_fraction: float = 0.5
     far_disparity_px: float = 12.0
     far_min_width_px: int = 8
-    split_tolerance_px: float = 0.75
+    split_tolerance_px: float = 0.5
     split_min_gap_px: float = 0.5
+    split_min_step_px: float = 0.3
     coplanar_tolerance_px: float = 0.15
     coplanar_rel_tolerance: float = 0.01
     colour_split: ColourSplitParameters | None = field(default_factory=ColourSplitParameters)
@@ -121,6 +129,7 @@ class GroupingParameters:
         check_positive(self, ("abs_tolerance_px", "far_disparity_px"))
         check_numbers(self, (("rel_tolerance", 0.0, math.inf), ("min_pure_fraction", 0.0, 1.0),
                              ("split_tolerance_px", 0.0, math.inf), ("split_min_gap_px", 0.0, math.inf),
+                             ("split_min_step_px", 0.0, math.inf),
                              ("coplanar_tolerance_px", 0.0, math.inf), ("coplanar_rel_tolerance", 0.0, math.inf),
                              ("coplanar_max_chroma_distance", 0.0, 400.0), ("far_min_fraction", 0.0, 1.0)))
         check_types(self, (("colour_split", ColourSplitParameters),), allow_none=True)
@@ -178,7 +187,8 @@ def _raw_groups(d: np.ndarray, usable: np.ndarray, params: GroupingParameters) -
 def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
                         params: GroupingParameters) -> np.ndarray:
     """``groups`` (int64, -1: none) with each group split into the tight groups of an object's size
-    it holds, when their median disparities span more than ``split_min_gap_px``."""
+    it holds, when their median disparities span more than ``split_min_gap_px``; tight groups that
+    meet without a step of more than ``split_min_step_px`` stay together (one slanted surface)."""
     n_groups, n_tight = int(groups.max()) + 1, int(tight.max()) + 1
     both = (groups >= 0) & (tight >= 0)
     # pixels of each (group, tight group) pair: most frames have no group with two layers
@@ -195,7 +205,11 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
         layer_of = np.searchsorted(layers, inner)  # exact for pixels in one of the layers
         in_layer = (inner >= 0) & (layers[np.minimum(layer_of, len(layers) - 1)] == inner)
         nearest = np.argmin(np.abs(values[:, None] - medians[None, :]), axis=1)
-        splits.split(group, ys, xs, np.where(in_layer, layer_of, nearest))
+        parts = np.where(in_layer, layer_of, nearest)
+        if params.split_min_step_px > 0:
+            parts = layer_surfaces(ys, xs, values, np.where(in_layer, layer_of, -1), len(layers),
+                                   params.split_min_step_px)[parts]
+        splits.split(group, ys, xs, parts)
     return splits.groups
 
 
