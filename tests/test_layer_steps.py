@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.layer_steps import layer_surfaces
 
 
@@ -88,3 +90,25 @@ def test_layers_joined_through_others_are_one_surface_whatever_their_numbers():
     layer = np.array([0, 3, 2, 1])[layer]
     ys, xs, values, layer_of = _pixels(d, layer)
     assert layer_surfaces(ys, xs, values, layer_of, 4, 0.3).tolist() == [0, 1, 0, 0]
+
+
+def test_a_surface_joined_twice_carries_all_its_layers():
+    d = np.full((20, 80), 7.0)                             # no step anywhere
+    layer = np.array([1, 3, 2, 0])[_bands(d, [0, 20, 40, 60])]
+    ys, xs, values, layer_of = _pixels(d, layer)
+    surface = layer_surfaces(ys, xs, values, layer_of, 4, 0.3)
+    assert surface.tolist() == [0, 0, 0, 0] and surface.dtype == np.int64
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda a: {**a, "layer": np.array([0, 2])}, "layers must lie in -1..1"),
+    (lambda a: {**a, "layer": np.array([-2, 0])}, "layers must lie in"),
+    (lambda a: {**a, "n_layers": 0}, "layers must lie in"),
+    (lambda a: {**a, "xs": np.array([0])}, "as many columns"),
+    (lambda a: {k: v[:0] if isinstance(v, np.ndarray) else v for k, v in a.items()}, "one or more pixels"),
+])
+def test_bad_input_is_one_clear_error(change, message):
+    given = {"ys": np.zeros(2, int), "xs": np.arange(2), "d": np.array([7.0, 7.1]), "layer": np.array([0, 1]),
+             "n_layers": 2, "min_step_px": 0.3}
+    with pytest.raises(InvalidInputError, match=message):
+        layer_surfaces(**change(given))

@@ -234,22 +234,24 @@ def test_a_box_just_in_front_of_a_wall_of_another_colour_is_its_own_obstacle():
     """At 320 x 240 the default scene's box (6.46 m) stands just in front of the brick wall
     (9.22 m: 1.5 px of disparity at this size, blurred into one group by the matching); the
     split along colour separates them (``colour_split``), and each is reported at its distance.
-    (Since session 30 the depth-layer split separates them first; here it is as it was before.)"""
+    Since session 30 the depth-layer split separates them first, without the colour split too."""
     from dataclasses import replace
 
     from stereo_obstacles.obstacle_grouping import GroupingParameters
 
     pair = render_pair(default_scene(320, 240))
     layers_before = GroupingParameters(split_tolerance_px=0.75, split_min_step_px=0.0)
+    groupings = {"colour": layers_before, "neither": replace(layers_before, colour_split=None),
+                 "layers": replace(GroupingParameters(), colour_split=None)}
     errors = {}
-    for split in (True, False):
-        config = DetectionConfig(grouping=layers_before if split else replace(layers_before, colour_split=None))
-        result = detect(pair.left, pair.right, pair.calibration, config=config)
+    for name, grouping in groupings.items():
+        result = detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(grouping=grouping))
         comparisons, _ = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles)
-        errors[split] = {c.kind: c.relative_error for c in comparisons if c.kind in ("wall", "box")
-                         and c.true_distance_m > 6}
-    assert abs(errors[True]["wall"]) < 0.1 and abs(errors[True]["box"]) < 0.03
-    assert errors[False]["wall"] < -0.2                         # reported at the box's distance
+        errors[name] = {c.kind: c.relative_error for c in comparisons if c.kind in ("wall", "box")
+                        and c.true_distance_m > 6}
+    for name in ("colour", "layers"):
+        assert abs(errors[name]["wall"]) < 0.1 and abs(errors[name]["box"]) < 0.03
+    assert errors["neither"]["wall"] < -0.2                     # reported at the box's distance
 
 
 def test_a_disparity_range_too_short_for_the_scene_is_warned_about_in_metres(default_pair, caplog):

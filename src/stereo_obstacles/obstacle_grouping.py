@@ -86,9 +86,10 @@ class GroupingParameters:
     split_min_gap_px : float
         The tight groups' median disparities must span more than this to split a group.
     split_min_step_px : float
-        Tight groups that touch with a median disparity difference of at most this many pixels
-        between neighbouring pixels stay together, as the bands of one slanted surface
-        (:mod:`stereo_obstacles.layer_steps`); 0 splits every tight group off.
+        When the split runs: tight groups that touch with a median disparity difference of at
+        most this many pixels between neighbouring pixels stay together, as the bands of one
+        slanted surface (:mod:`stereo_obstacles.layer_steps`); 0 switches this off (each tight
+        group a part).
     coplanar_tolerance_px, coplanar_rel_tolerance : float
         Neighbouring groups of an object's size are joined when, over each one's pixels, the
         plane of both differs from its own plane by at most ``coplanar_tolerance_px +
@@ -188,7 +189,9 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
                         params: GroupingParameters) -> np.ndarray:
     """``groups`` (int64, -1: none) with each group split into the tight groups of an object's size
     it holds, when their median disparities span more than ``split_min_gap_px``; tight groups that
-    meet without a step of more than ``split_min_step_px`` stay together (one slanted surface)."""
+    meet without a step of more than ``split_min_step_px`` stay together (one slanted surface). The
+    gap is tested on the tight groups' medians only, not again on the parts they form: a slanted
+    surface's median says little about where it meets another (docs/pipeline.md, session 30)."""
     n_groups, n_tight = int(groups.max()) + 1, int(tight.max()) + 1
     both = (groups >= 0) & (tight >= 0)
     # pixels of each (group, tight group) pair: most frames have no group with two layers
