@@ -172,13 +172,14 @@ def test_pieces_apart_in_the_image_need_no_step_where_they_touch():
 
 
 def test_a_part_that_is_not_one_surface_is_not_split_off():
-    """A third of the blue part's pixels lie 1.5 px behind the rest (a colour boundary that runs
-    across another surface): 65 % of the part lies on one plane, less than ``min_plane_fraction``."""
+    """Three eighths of the blue part's pixels lie 1.5 px behind the rest (a colour boundary that
+    runs across another surface): 62 % of the part lies on one plane, less than
+    ``min_plane_fraction``."""
     scene = _pole_before_box()
-    behind = (scene.objects == 1) & (np.add.outer(np.arange(80), np.arange(120)) % 3 == 0)
+    behind = (scene.objects == 1) & (np.add.outer(np.arange(80), np.arange(120)) % 8 < 3)
     scene.d[behind] = 9.1
     assert scene.split().max() == 0
-    assert scene.split(replace(ColourSplitParameters(), min_plane_fraction=0.6)).max() == 1
+    assert scene.split(replace(ColourSplitParameters(), min_plane_fraction=0.55)).max() == 1
 
 
 def test_pixels_near_the_boundary_go_to_the_part_whose_plane_they_fit():
@@ -544,13 +545,16 @@ def test_detect_splits_a_cylinder_from_the_pole_in_front_of_it_by_their_footprin
     # scene 328: a cylinder at 6.15 m behind a pole at 5.02 m came out of the grouping as one
     # obstacle with the pole, at the pole's distance (-17.7 % for the cylinder, which it covers
     # most); the colour clusters fail the split's tests, and the depth clusters stand apart on the
-    # ground. (The depth-layer split of session 30 splits them first; here it is as it was before.)
+    # ground. (Since session 30 the depth-layer split splits them first, and so do the colour
+    # clusters at a plane share of 0.65; here both are as they were before.)
     from stereo_obstacles.pipeline import DetectionConfig
 
     pair = evaluation_pair(328)
     cylinder = true_obstacle(pair, "cylinder", 6.15)
     default = DetectionConfig()
-    config = replace(default, grouping=replace(default.grouping, split_tolerance_px=0.75, split_min_step_px=0.0))
+    config = replace(default, grouping=replace(
+        default.grouping, split_tolerance_px=0.75, split_min_step_px=0.0,
+        colour_split=replace(default.grouping.colour_split, min_plane_fraction=0.7)))
     whole = replace(config, grouping=replace(config.grouping,
                                              colour_split=replace(config.grouping.colour_split, depth_gap_m=0.0)))
     assert comparison(pair, cylinder, whole)[0].relative_error < -0.15
