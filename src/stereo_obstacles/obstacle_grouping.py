@@ -198,8 +198,14 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
     pair_counts = np.bincount(groups[both] * n_tight + tight[both], minlength=n_groups * n_tight)
     layered = (pair_counts.reshape(n_groups, n_tight) >= params.min_object_pixels).sum(axis=1) >= 2
     splits = GroupSplits(groups, n_groups)
-    for group in np.flatnonzero(layered):
-        ys, xs = np.nonzero(groups == group)
+    # the pixels of the layered groups, sorted by group once (row-major within each, as np.nonzero)
+    labels = groups.ravel()
+    members = np.flatnonzero(layered[np.maximum(labels, 0)] & (labels >= 0))
+    members = members[np.argsort(labels[members], kind="stable")]
+    candidates = np.flatnonzero(layered)
+    bounds = np.searchsorted(labels[members], np.append(candidates, n_groups))
+    for group, start, stop in zip(candidates, bounds[:-1], bounds[1:]):
+        ys, xs = np.divmod(members[start:stop], groups.shape[1])
         inner, values = tight[ys, xs], d[ys, xs]
         layers = np.flatnonzero(pair_counts[group * n_tight:(group + 1) * n_tight] >= params.min_object_pixels)
         medians = np.array([np.median(values[inner == layer]) for layer in layers])
