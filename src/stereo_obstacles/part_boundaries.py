@@ -36,6 +36,9 @@ touch."""
 PLANE_TOLERANCE_PX, PLANE_TOLERANCE_REL = 0.5, 0.02
 """A pixel lies on a plane when its disparity is within ``PLANE_TOLERANCE_PX + PLANE_TOLERANCE_REL
 * d`` pixels of it."""
+HOLE_BRIDGE_PX = 3.0
+"""Pieces of one part whose pixels lie up to about twice this apart (full-size pixels) across holes,
+pixels of neither part (unmatched), are one piece (:meth:`PixelCanvas.small_pieces`)."""
 MAX_DECISION_PIXELS = 8000
 """A larger set of ``n`` pixels is handled on one pixel of each ``s`` x ``s`` square, ``s =
 ceil(sqrt(n / MAX_DECISION_PIXELS))``."""
@@ -86,12 +89,21 @@ class PixelCanvas:
         return cv2.distanceTransform(free, cv2.DIST_L2, 3)[rows, columns] * self.block
 
     def small_pieces(self, where: np.ndarray, min_pixels: int) -> np.ndarray:
-        """``bool (n,)``: pixels where ``where`` holds in 8-connected pieces standing for fewer
-        than ``min_pixels`` full-size pixels."""
+        """``bool (n,)``: pixels where ``where`` holds in pieces standing for fewer than
+        ``min_pixels`` full-size pixels.
+
+        Pieces are 8-connected, also across holes (squares of the bounding box that hold none of
+        these pixels: unmatched, or not in the group) up to ``HOLE_BRIDGE_PX`` from a pixel where
+        ``where`` holds: the blobs of a sparsely matched face form one piece."""
         rows, columns, shape = self._grid
         image = np.zeros(shape, dtype=np.uint8)
         image[rows[where], columns[where]] = 1
-        n_pieces, pieces, _, _ = cv2.connectedComponentsWithStats(image, connectivity=8)
+        radius = math.ceil(HOLE_BRIDGE_PX / self.block)
+        hole = np.ones(shape, dtype=bool)
+        hole[rows, columns] = False
+        reach = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
+        bridged = np.where(hole & (cv2.dilate(image, reach) > 0), np.uint8(1), image)
+        n_pieces, pieces = cv2.connectedComponents(bridged, connectivity=8)
         piece_of = pieces[rows, columns]
         small = np.bincount(piece_of[where], weights=self.weights[where], minlength=n_pieces) < min_pixels
         small[0] = False
