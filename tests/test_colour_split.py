@@ -228,6 +228,31 @@ def test_blobs_a_few_unmatched_pixels_apart_are_one_piece(hole_px, each_small):
     assert np.array_equal(small, np.full(len(ys), each_small))
 
 
+@pytest.mark.parametrize("hole_px, each_small", [(8, False), (10, True)])
+def test_a_large_canvas_bridges_holes_in_whole_squares(hole_px, each_small):
+    """On a canvas of 2 x 2 squares (more than ``MAX_DECISION_PIXELS`` pixels) the reach of 3 px is
+    2 squares: sixteen 8 x 8 blobs (64 pixels each) 8 px apart are one piece, 10 px apart sixteen."""
+    shape = (200, 200)
+    blobs = _blobs(shape, slice(0, 4 * (8 + hole_px)), slice(0, 4 * (8 + hole_px)), 8, hole_px)
+    other = np.zeros(shape, bool)
+    other[120:, :] = True                                     # a solid other part, for the pixel count
+    ys, xs = np.nonzero(blobs | other)
+    canvas, _, _ = PixelCanvas.of_pixels(ys, xs)
+    assert canvas.block == 2
+    where = blobs[canvas.ys, canvas.xs]
+    assert np.array_equal(canvas.small_pieces(where, MIN_OBJECT_PIXELS), where & each_small)
+
+
+def test_bridged_holes_add_no_pixels_to_a_piece():
+    """Two 4 x 4 blobs 2 px apart are one piece of 32 pixels, the 8 pixels of the hole between them
+    not counted: smaller than 40."""
+    blobs = _blobs((4, 10), slice(0, 4), slice(0, 10), 4, 2)
+    ys, xs = np.nonzero(blobs)
+    canvas, _, _ = PixelCanvas.of_pixels(ys, xs)
+    assert canvas.small_pieces(np.ones(len(ys), bool), 40).all()
+    assert not canvas.small_pieces(np.ones(len(ys), bool), 32).any()
+
+
 def test_pixels_of_the_other_part_are_not_holes():
     """Blobs 2 pixels apart across pixels of the other part are not bridged: each is a small piece
     (texture within the other colour, a brick wall's mortar)."""

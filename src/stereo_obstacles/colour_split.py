@@ -27,8 +27,8 @@ clusters are two surfaces at two depths:
 Only the pixels that phase 1 calls obstacle by their colour are clustered; the others (ground
 coloured, raised by their disparity: the halo at an object's foot) join the part of the nearest
 clustered pixel. Connected pieces of a cluster smaller than an object join the other cluster
-(texture: a brick wall's mortar); a piece is connected across unmatched holes of a few pixels too,
-so the blobs of a sparsely matched face are one piece
+(texture: a brick wall's mortar); a piece is connected across a few pixels where the group has
+none (unmatched, or outside it) too, so the blobs of a sparsely matched face are one piece
 (:meth:`~stereo_obstacles.part_boundaries.PixelCanvas.small_pieces`). Once a split is kept, the
 pixels near the boundary go to the part whose plane they fit better, and each part is tried
 again, ``max_levels`` levels deep (a cylinder between two walls). A group of more than 8000

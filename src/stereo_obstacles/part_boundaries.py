@@ -37,8 +37,8 @@ PLANE_TOLERANCE_PX, PLANE_TOLERANCE_REL = 0.5, 0.02
 """A pixel lies on a plane when its disparity is within ``PLANE_TOLERANCE_PX + PLANE_TOLERANCE_REL
 * d`` pixels of it."""
 HOLE_BRIDGE_PX = 3.0
-"""Pieces of one part whose pixels lie up to about twice this apart (full-size pixels) across holes,
-pixels of neither part (unmatched), are one piece (:meth:`PixelCanvas.small_pieces`)."""
+"""Pieces whose pixels lie up to twice this apart (full-size pixels; on a large group's squares,
+rounded up to whole squares) across holes are one piece (:meth:`PixelCanvas.small_pieces`)."""
 MAX_DECISION_PIXELS = 8000
 """A larger set of ``n`` pixels is handled on one pixel of each ``s`` x ``s`` square, ``s =
 ceil(sqrt(n / MAX_DECISION_PIXELS))``."""
@@ -92,9 +92,13 @@ class PixelCanvas:
         """``bool (n,)``: pixels where ``where`` holds in pieces standing for fewer than
         ``min_pixels`` full-size pixels.
 
-        Pieces are 8-connected, also across holes (squares of the bounding box that hold none of
-        these pixels: unmatched, or not in the group) up to ``HOLE_BRIDGE_PX`` from a pixel where
-        ``where`` holds: the blobs of a sparsely matched face form one piece."""
+        Pieces are 8-connected, also across holes up to ``HOLE_BRIDGE_PX`` (full-size pixels,
+        rounded up to whole squares) from a pixel where ``where`` holds: the blobs of a sparsely
+        matched face form one piece. A hole is a square of the canvas's bounding box that holds
+        none of its pixels: an unmatched pixel or one outside the group (also beyond its outline,
+        so that pieces along the outline may join around it) and, on the canvas of one part
+        (:meth:`subset`), a pixel of the other part. The canvas's pixels where ``where`` does not
+        hold are never crossed. Only the pixels where ``where`` holds count towards a piece's size."""
         rows, columns, shape = self._grid
         image = np.zeros(shape, dtype=np.uint8)
         image[rows[where], columns[where]] = 1
