@@ -12,7 +12,6 @@ from _evaluation_scenes import comparison, evaluation_pair, true_obstacle
 from stereo_obstacles._obstacle_grouping_kernel import cell_medians_kernel
 
 
-
 def _numpy_cells(padded, cell, min_pixels, abs_tol, rel_tol, min_pure):
     gh, gw = padded.shape[0] // cell, padded.shape[1] // cell
     blocks = padded.reshape(gh, cell, gw, cell).transpose(0, 2, 1, 3).reshape(gh, gw, cell * cell)

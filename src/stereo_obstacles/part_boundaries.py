@@ -72,6 +72,14 @@ class PixelCanvas:
         rows, columns = rows - rows.min(), columns - columns.min()
         return rows, columns, (int(rows.max()) + 1, int(columns.max()) + 1)
 
+    @functools.cached_property
+    def _holes(self) -> np.ndarray:
+        """``bool`` image of the box in squares: the squares that hold none of these pixels."""
+        rows, columns, shape = self._grid
+        holes = np.ones(shape, dtype=bool)
+        holes[rows, columns] = False
+        return holes
+
     def subset(self, index: np.ndarray) -> PixelCanvas:
         """The canvas of the pixels ``index`` (an index array into these)."""
         return PixelCanvas(self.ys[index], self.xs[index], self.block, self.weights[index])
@@ -103,10 +111,8 @@ class PixelCanvas:
         image = np.zeros(shape, dtype=np.uint8)
         image[rows[where], columns[where]] = 1
         radius = math.ceil(HOLE_BRIDGE_PX / self.block)
-        hole = np.ones(shape, dtype=bool)
-        hole[rows, columns] = False
         reach = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1, 2 * radius + 1))
-        bridged = np.where(hole & (cv2.dilate(image, reach) > 0), np.uint8(1), image)
+        bridged = np.where(self._holes & (cv2.dilate(image, reach) > 0), np.uint8(1), image)
         n_pieces, pieces = cv2.connectedComponents(bridged, connectivity=8)
         piece_of = pieces[rows, columns]
         small = np.bincount(piece_of[where], weights=self.weights[where], minlength=n_pieces) < min_pixels
