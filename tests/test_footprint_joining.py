@@ -39,10 +39,10 @@ class Scene:
                 pieces_of_one_object(obstacles, self.disparity, self.chroma, RIG, params)]
 
 
-def _pole(top_z_m=4.0, bottom_z_m=4.0, bottom_chroma=GREY):
+def _pole(top_z_m=4.0, bottom_z_m=4.0, bottom_chroma=GREY, bottom_columns=slice(100, 120)):
     """A pole 20 columns wide seen in two pieces, above and below a gap (a nearer box)."""
     return (Scene().paint(1, slice(10, 60), slice(100, 120), top_z_m)
-            .paint(2, slice(100, 200), slice(100, 120), bottom_z_m, bottom_chroma))
+            .paint(2, slice(100, 200), bottom_columns, bottom_z_m, bottom_chroma))
 
 
 def test_the_pieces_of_a_pole_above_and_below_a_gap_are_joined():
@@ -50,10 +50,23 @@ def test_the_pieces_of_a_pole_above_and_below_a_gap_are_joined():
     assert _pole(bottom_z_m=4.25).pairs() == [(2, 1)]     # 0.25 m apart: within the gap
 
 
-def test_pieces_of_two_colours_or_two_depths_are_not():
-    assert _pole(bottom_chroma=(128, 140)).pairs() == []               # 12 apart in (a*, b*)
-    assert _pole(bottom_chroma=(128, 137)).pairs() == [(2, 1)]         # 9 apart: one colour
+def test_pieces_of_two_colours_join_only_where_they_stand_in_one_place():
+    # the lower piece 64 columns wide, 44 beyond the upper one's right edge: 38 of its 56 footprint
+    # points (0.68) lie within 0.3 m of the upper one's 12, enough for one colour, not for two
+    wider = slice(100, 164)
+    assert _pole(bottom_columns=wider).pairs() == [(2, 1)]
+    assert _pole(bottom_chroma=(128, 140), bottom_columns=wider).pairs() == []        # 12 apart in (a*, b*)
+    assert _pole(bottom_chroma=(128, 137), bottom_columns=wider).pairs() == [(2, 1)]  # 9 apart: one colour
+    assert _pole(bottom_chroma=(128, 140), bottom_columns=wider).pairs(
+        FootprintJoiningParameters(min_coincident_fraction=0.65)) == [(2, 1)]
+    # the same columns: the two footprints coincide, and the colours are not compared
+    assert _pole(bottom_chroma=(128, 140)).pairs() == [(2, 1)]
+    assert _pole(bottom_chroma=(180, 60)).pairs() == [(2, 1)]
+
+
+def test_pieces_at_two_depths_are_not_joined():
     assert _pole(bottom_z_m=4.4).pairs() == []                         # 0.4 m behind
+    assert _pole(bottom_z_m=4.4, bottom_chroma=(128, 140)).pairs() == []
 
 
 def test_an_objects_fattened_edge_does_not_touch_its_neighbour():
@@ -100,13 +113,16 @@ def test_touching_does_not_depend_on_the_order_of_two_footprints_of_one_length()
     for _ in range(200):
         first = np.column_stack([rng.uniform(0, 1.5, 8), rng.uniform(4, 4.6, 8)])
         second = np.column_stack([rng.uniform(0.5, 2.0, 8), rng.uniform(4, 4.6, 8)])
-        params = FootprintJoiningParameters(min_close_fraction=float(rng.uniform(0.3, 0.9)))
-        assert _touch(first, second, params) == _touch(second, first, params)
+        params = FootprintJoiningParameters(min_close_fraction=float(rng.uniform(0.3, 0.9)),
+                                            min_coincident_fraction=float(rng.uniform(0.3, 0.9)))
+        for one_colour in (True, False):
+            assert _touch(first, second, params, one_colour) == _touch(second, first, params, one_colour)
 
 
 @pytest.mark.parametrize("field, value", [("max_gap_m", -0.1), ("max_gap_m", float("inf")),
                                           ("min_close_columns", 0), ("min_close_columns", 2.5),
                                           ("min_close_fraction", 1.5), ("max_chroma_distance", float("nan")),
+                                          ("min_coincident_fraction", -0.1), ("min_coincident_fraction", 1.2),
                                           ("edge_columns", -1), ("min_column_pixels", 0)])
 def test_bad_parameters_are_refused(field, value):
     with pytest.raises(InvalidInputError, match=field):

@@ -13,7 +13,11 @@ split's distinction of two colours) are pieces of one object when their footprin
 least ``min_close_columns`` points of each lie within ``max_gap_m`` of the other footprint, and
 so do at least ``min_close_fraction`` of the points of the shorter one (a piece stands on, or
 next to, the object it belongs to; an obstacle that mixes a wall with the box in front of it
-touches the wall with only its wall columns).
+touches the wall with only its wall columns). Two obstacles whose footprints coincide (at least
+``min_coincident_fraction`` of the points of each touch the other) stand in one place and are
+joined whatever their colours: a thin piece's median chroma is pulled by the sky or ground that
+its fattened fringe covers (two pieces of a thin pole, 13 and 8 columns wide: 21 apart in
+``(a*, b*)``).
 
 Joins form stars, not chains: the obstacles are taken largest first (in pixels), and each one not
 yet joined takes every other one not yet joined whose footprint touches its own. A piece that
@@ -54,7 +58,11 @@ class FootprintJoiningParameters:
     min_close_fraction : float
         Fraction of the points of the footprint with fewer that must touch the other.
     max_chroma_distance : float
-        The obstacles' median chroma must lie this close in ``(a*, b*)`` (CIE L*a*b* units).
+        The obstacles' median chroma must lie this close in ``(a*, b*)`` (CIE L*a*b* units), unless
+        their footprints coincide.
+    min_coincident_fraction : float
+        Fraction of the points of each footprint that must touch the other for the two to
+        coincide.
     edge_columns : int
         Columns left out on either side of a footprint (kept when it has fewer than
         ``2 * edge_columns + 2``).
@@ -66,25 +74,32 @@ class FootprintJoiningParameters:
     min_close_columns: int = 3
     min_close_fraction: float = 0.5
     max_chroma_distance: float = ColourSplitParameters.min_chroma_distance
+    min_coincident_fraction: float = 0.75
     edge_columns: int = EDGE_COLUMNS
     min_column_pixels: int = MIN_COLUMN_PIXELS
 
     def __post_init__(self) -> None:
         check_numbers(self, (("max_gap_m", 0.0, math.inf), ("min_close_fraction", 0.0, 1.0),
-                             ("max_chroma_distance", 0.0, 400.0)))
+                             ("max_chroma_distance", 0.0, 400.0), ("min_coincident_fraction", 0.0, 1.0)))
         check_integers(self, (("min_close_columns", 1, 10 ** 6), ("edge_columns", 0, 10 ** 6),
                               ("min_column_pixels", 1, 10 ** 6)))
 
 
-def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters) -> bool:
-    """Whether the footprints (``(n, 2)`` metres) touch: ``min_close_columns`` points of each,
-    and ``min_close_fraction`` of the shorter one's, lie within ``max_gap_m`` of the other one."""
+def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters, one_colour: bool) -> bool:
+    """Whether the footprints (``(n, 2)`` metres) of two obstacles, of one colour or not, make them
+    pieces of one object: ``min_close_columns`` points of each lie within ``max_gap_m`` of the
+    other one, and so do ``min_close_fraction`` of the shorter one's points (of one colour) or
+    ``min_coincident_fraction`` of each one's (of two colours)."""
     if len(first) < params.min_close_columns or len(second) < params.min_close_columns:
         return False
     counts, lengths = close_points(first, second, params.max_gap_m), (len(first), len(second))
-    shorter = [k for k in (0, 1) if lengths[k] == min(lengths)]          # both, when they are as long
+    if one_colour:
+        # the shorter one's; both, when they are as long
+        fraction, held_to = params.min_close_fraction, [k for k in (0, 1) if lengths[k] == min(lengths)]
+    else:
+        fraction, held_to = params.min_coincident_fraction, [0, 1]
     return (min(counts) >= params.min_close_columns
-            and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
+            and all(counts[k] >= fraction * lengths[k] for k in held_to))
 
 
 def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma: np.ndarray,
@@ -142,13 +157,11 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
     touching: dict[int, set[int]] = {k: set() for k in ids}
     for i, a in enumerate(ids):
         for b in ids[i + 1:]:
-            if math.dist(colours[a], colours[b]) > params.max_chroma_distance:
-                continue
             (first, low_a, high_a), (second, low_b, high_b) = footprint_of(a), footprint_of(b)
             # bounding boxes farther apart than the gap in X or Z: no point can touch (a cheap first test)
             if np.any(np.maximum(low_a, low_b) - np.minimum(high_a, high_b) > params.max_gap_m):
                 continue
-            if _touch(first, second, params):
+            if _touch(first, second, params, math.dist(colours[a], colours[b]) <= params.max_chroma_distance):
                 touching[a].add(b)
                 touching[b].add(a)
     size = {o.id: o.pixel_count for o in obstacles.obstacles}
