@@ -9,7 +9,6 @@ import pytest
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.near_face import SlantedFaceParameters
 from stereo_obstacles.obstacle_joining import join_obstacles, measure_joined
 from stereo_obstacles.obstacles import ObstacleParameters, measure_obstacles
 
@@ -48,22 +47,22 @@ def test_joined_pieces_are_one_obstacle_measured_as_one():
     assert whole == measure_obstacles(joined, disparity, RIG, None, with_scan=False).obstacles[0]
 
 
-def test_a_joined_obstacle_is_never_nearer_than_its_nearest_piece():
-    # a box seen from above: its top face recedes from 4 m (row 95) to 7 m (row 0), its front face
-    # stands at 4 m below it; the plane of the top face, read at the front face's lowest patches,
-    # lies in front of both
+def test_a_slanted_face_in_two_pieces_is_read_on_the_plane_of_both():
+    # a wall receding from 4 m (10.5 px, column 40) to 7 m (6 px, column 199), found as two pieces
+    # each too little slanted (21 % and 27 % of their nearest disparity) to be read on its plane;
+    # joined, the face spans 43 % and is read on its plane at its nearest patch (column 43.5)
     groups = np.zeros((140, 200), np.int32)
     disparity = np.full((140, 200), np.nan, np.float32)
-    rows = np.arange(96)[:, None]
-    groups[:96, 40:120], disparity[:96, 40:120] = 1, (6.0 + 4.5 * rows / 95).astype(np.float32)
-    groups[96:128, 40:120], disparity[96:128, 40:120] = 2, 10.5
-    params = ObstacleParameters(slanted_face=SlantedFaceParameters(min_inlier_fraction=0.75))
-    pieces = measure_obstacles(groups, disparity, RIG, None, params, with_scan=False)
-    assert [o.distance_m for o in pieces.obstacles] == pytest.approx([4.0, 4.0], abs=0.1)
-    joined, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None, params)
-    as_one = measure_obstacles(joined, disparity, RIG, None, params, with_scan=False).obstacles[0]
-    assert as_one.distance_m < 3.7                                   # the plane, extrapolated
-    assert obstacles.obstacles[0].distance_m == pytest.approx(min(o.distance_m for o in pieces.obstacles))
+    columns = np.arange(40, 200)[None, :]
+    groups[20:100, 40:120], groups[20:100, 120:200] = 1, 2
+    disparity[20:100, 40:200] = (10.5 - 4.5 * (columns - 40) / 159).astype(np.float32)
+    pieces = measure_obstacles(groups, disparity, RIG, None, with_scan=False)
+    near_piece = min(o.distance_m for o in pieces.obstacles)
+    assert near_piece > 1.02 * RIG.focal_baseline_px_m / 10.5            # its 10th percentile, behind
+    _, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None)
+    assert obstacles.obstacles[0].distance_m == pytest.approx(
+        RIG.focal_baseline_px_m / (10.5 - 4.5 * 3.5 / 159), rel=0.002)
+    assert obstacles.obstacles[0].distance_m < near_piece
 
 
 def test_a_joined_obstacle_is_never_farther_than_its_largest_piece():

@@ -23,8 +23,8 @@ Joins form stars, not chains: the obstacles are taken largest first (in pixels),
 yet joined takes every other one not yet joined whose footprint touches its own. A piece that
 touches only another piece stays apart: an obstacle holding two objects the grouping could not
 tell apart touches both, and would chain them to its other neighbours. The joined obstacles are
-measured as one by :func:`stereo_obstacles.obstacle_joining.measure_joined`, between their
-nearest and their largest piece in distance. Measured in ``docs/pipeline.md`` ("The pieces of
+measured as one by :func:`stereo_obstacles.obstacle_joining.measure_joined`, no farther than
+their largest piece. Measured in ``docs/pipeline.md`` ("The pieces of
 one object, joined by their footprints").
 """
 

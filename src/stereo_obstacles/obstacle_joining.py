@@ -5,20 +5,19 @@ The grouping can list one object as several obstacles: the two outlines of a tex
 (:mod:`stereo_obstacles.footprint_joining`). Once such pairs are known, their groups are joined
 (joins chain: pieces linked through others become one) and the joined groups are measured again,
 as :func:`~stereo_obstacles.obstacles.measure_obstacles` does, but the distance of a group made of
-pieces is kept between that of its nearest piece and that of its largest one, each as it was
-measured alone. The union's own near face is kept otherwise; it can miss both ways
-(``docs/pipeline.md``, "The pieces of one object, joined by their footprints"):
+pieces is never farther than that of its largest piece, as it was measured alone. A receding wall
+measured on its plane at its near end, joined with a piece that is off that plane, is no longer
+one plane, and the 10th percentile of the patches lies behind the near end (a wall in a noisy
+scene read +0.8 % alone, +10.8 % with a piece; ``docs/pipeline.md``, "The pieces of one object,
+joined by their footprints").
 
-* nearer than every piece: the slanted-face plane (:mod:`stereo_obstacles.near_face`) of a box's
-  top face, read where its front face lies, is in front of both (a box at 1.66 m found as two
-  pieces at 1.63 and 1.66 m read 1.37 m as one);
-* farther than the largest piece: a receding wall measured on its plane at its near end, joined
-  with a piece that is off that plane, is no longer one plane, and the 10th percentile of the
-  patches lies behind the near end (a wall in a noisy scene read +0.8 % alone, +10.8 % with a
-  piece).
-
-The nearest piece alone is not taken: a stray piece would decide (a 182-pixel mixture of a wall
-and the box in front of it, joined to the wall, put the wall at the box's distance).
+The union may read nearer than every piece: a face slanted in depth, found as two pieces each too
+little slanted to be read on its plane (:mod:`stereo_obstacles.near_face`), is read on the plane
+of both at its near end. Until session 32 it was kept no nearer than its nearest piece, against
+a slanted-face plane then read where no patch of the face lay (a box's top face read at its
+front face); the plane is now read only on its own patches. The nearest piece alone is not
+taken: a stray piece would decide (a 182-pixel mixture of a wall and the box in front of it,
+joined to the wall, put the wall at the box's distance).
 """
 
 from __future__ import annotations
@@ -79,8 +78,8 @@ def measure_joined(groups: np.ndarray, pieces: ObstacleList, pairs: list[tuple[i
     joined : numpy.ndarray
         ``int32 (H, W)``: ``groups`` with the groups of each pair under one number.
     obstacles : ObstacleList
-        The obstacles of ``joined``, numbered nearest first, without the scan; a joined one
-        between its nearest and its largest piece in distance; the pieces' rejections kept.
+        The obstacles of ``joined``, numbered nearest first, without the scan; a joined one no
+        farther than its largest piece; the pieces' rejections kept.
 
     Raises
     ------
@@ -114,9 +113,8 @@ def measure_joined(groups: np.ndarray, pieces: ObstacleList, pairs: list[tuple[i
     for group, outcome in measure_groups(only_joined, disparity, calibration, ground, unlimited).items():
         parts = members[group]
         if isinstance(outcome, Obstacle) and outcome.distance_m is not None:
-            nearest = min(part.distance_m for part in parts)
             largest = max(parts, key=lambda part: part.pixel_count).distance_m
-            outcome = replace(outcome, distance_m=min(max(outcome.distance_m, nearest), largest))
+            outcome = replace(outcome, distance_m=min(outcome.distance_m, largest))
         measured[group] = outcome
     listed = list_obstacles(measured, joined, disparity, calibration, params, with_scan=False)
     return joined, replace(listed, rejected=pieces.rejected + listed.rejected)

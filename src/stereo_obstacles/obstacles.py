@@ -108,7 +108,7 @@ class Obstacle:
     99th percentile of its pixels' heights above the ground plane, its top (``None`` without a
     plane); ``confidence`` in [0, 1] grows with the number of matched pixels and their depth
     agreement. The fields of ``obstacles.json`` are these: ``docs/pipeline.md``. An obstacle
-    joined from pieces has its ``distance_m`` kept between its nearest and its largest piece's
+    joined from pieces has its ``distance_m`` kept no farther than its largest piece's
     (:mod:`stereo_obstacles.obstacle_joining`).
     """
 

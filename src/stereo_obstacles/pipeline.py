@@ -183,8 +183,8 @@ class DetectionConfig:
     ``footprint_joining``: with a calibration and the colour split's colour cue, obstacles of one
     colour whose footprints on the ground plan touch are pieces of one object and are joined
     into one (:mod:`stereo_obstacles.footprint_joining`); ``None`` keeps them apart. An
-    obstacle joined from pieces, by either joining, is measured as one, its distance kept
-    between its nearest and its largest piece's (:mod:`stereo_obstacles.obstacle_joining`).
+    obstacle joined from pieces, by either joining, is measured as one, its distance kept no
+    farther than its largest piece's (:mod:`stereo_obstacles.obstacle_joining`).
     ``hidden_ground``: with a calibration, a ground plane and trusted colour labels, a group of
     obstacle pixels made mostly of ground-coloured matches that, were they ground, the right
     camera could not see behind a nearer object's left edge is rejected, with its reason
