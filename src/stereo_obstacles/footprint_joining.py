@@ -24,8 +24,8 @@ yet joined takes every other one not yet joined whose footprint touches its own.
 touches only another piece stays apart: an obstacle holding two objects the grouping could not
 tell apart touches both, and would chain them to its other neighbours. The joined obstacles are
 measured as one by :func:`stereo_obstacles.obstacle_joining.measure_joined`, no farther than
-their largest piece. Measured in ``docs/pipeline.md`` ("The pieces of
-one object, joined by their footprints").
+their largest piece. Measured in ``docs/pipeline.md`` ("The pieces of one object, joined by
+their footprints", and session 32 for coinciding footprints).
 """
 
 from __future__ import annotations

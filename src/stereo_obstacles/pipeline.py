@@ -181,8 +181,9 @@ class DetectionConfig:
     (:mod:`stereo_obstacles.face_joining`); ``None`` keeps them apart, and so does
     ``textureless_fill=None``, whose rows it reads.
     ``footprint_joining``: with a calibration and the colour split's colour cue, obstacles of one
-    colour whose footprints on the ground plan touch are pieces of one object and are joined
-    into one (:mod:`stereo_obstacles.footprint_joining`); ``None`` keeps them apart. An
+    colour whose footprints on the ground plan touch, and obstacles of any colours whose
+    footprints coincide, are pieces of one object and are joined into one
+    (:mod:`stereo_obstacles.footprint_joining`); ``None`` keeps them apart. An
     obstacle joined from pieces, by either joining, is measured as one, its distance kept no
     farther than its largest piece's (:mod:`stereo_obstacles.obstacle_joining`).
     ``hidden_ground``: with a calibration, a ground plane and trusted colour labels, a group of
