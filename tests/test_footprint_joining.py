@@ -40,7 +40,8 @@ class Scene:
 
 
 def _pole(top_z_m=4.0, bottom_z_m=4.0, bottom_chroma=GREY, bottom_columns=slice(100, 120)):
-    """A pole 20 columns wide seen in two pieces, above and below a gap (a nearer box)."""
+    """A pole 20 columns wide seen in two pieces, above and below a gap (a nearer box); the lower
+    piece over ``bottom_columns``."""
     return (Scene().paint(1, slice(10, 60), slice(100, 120), top_z_m)
             .paint(2, slice(100, 200), bottom_columns, bottom_z_m, bottom_chroma))
 
@@ -116,7 +117,8 @@ def test_touching_does_not_depend_on_the_order_of_two_footprints_of_one_length()
         params = FootprintJoiningParameters(min_close_fraction=float(rng.uniform(0.3, 0.9)),
                                             min_coincident_fraction=float(rng.uniform(0.3, 0.9)))
         for one_colour in (True, False):
-            assert _touch(first, second, params, one_colour) == _touch(second, first, params, one_colour)
+            assert (_touch(first, second, params, one_colour=one_colour)
+                    == _touch(second, first, params, one_colour=one_colour))
 
 
 @pytest.mark.parametrize("field, value", [("max_gap_m", -0.1), ("max_gap_m", float("inf")),

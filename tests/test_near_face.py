@@ -135,6 +135,16 @@ def test_the_plane_is_read_where_the_face_lies_not_at_patches_off_it():
     assert _distance(xs, ys, z) == pytest.approx(FOCAL_BASELINE / 30.65, rel=0.003)
 
 
+def test_the_span_is_measured_over_the_patches_on_the_plane():
+    # 24 patches of a face receding 0.04 px a column (24.5 % of its 30 px over them) and 2 patches of
+    # something at 15 px beyond its far end, where the plane extended would span 37 %: not slanted
+    xs = np.concatenate([np.arange(24) * 8.0, [240.0, 280.0]])
+    ds = np.concatenate([30.0 - 0.04 * xs[:24], [15.0, 15.0]])
+    ys = np.zeros_like(xs)
+    assert slanted_face_disparity(xs, ys, ds, SlantedFaceParameters()) is None
+    assert slanted_face_disparity(xs, ys, ds, SlantedFaceParameters(min_span_fraction=0.2)) == pytest.approx(30.0)
+
+
 def test_the_plane_never_moves_the_distance_farther():
     # a receding wall with one patch 3 px nearer than the plane at its near end; the nearest
     # patch (percentile 0) is that one, and it stays the distance

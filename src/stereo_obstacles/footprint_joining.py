@@ -85,21 +85,19 @@ class FootprintJoiningParameters:
                               ("min_column_pixels", 1, 10 ** 6)))
 
 
-def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters, one_colour: bool) -> bool:
+def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters, *, one_colour: bool) -> bool:
     """Whether the footprints (``(n, 2)`` metres) of two obstacles, of one colour or not, make them
     pieces of one object: ``min_close_columns`` points of each lie within ``max_gap_m`` of the
-    other one, and so do ``min_close_fraction`` of the shorter one's points (of one colour) or
-    ``min_coincident_fraction`` of each one's (of two colours)."""
+    other one, and so do ``min_coincident_fraction`` of each one's points (they coincide), or, of
+    one colour, ``min_close_fraction`` of the shorter one's."""
     if len(first) < params.min_close_columns or len(second) < params.min_close_columns:
         return False
     counts, lengths = close_points(first, second, params.max_gap_m), (len(first), len(second))
-    if one_colour:
-        # the shorter one's; both, when they are as long
-        fraction, held_to = params.min_close_fraction, [k for k in (0, 1) if lengths[k] == min(lengths)]
-    else:
-        fraction, held_to = params.min_coincident_fraction, [0, 1]
-    return (min(counts) >= params.min_close_columns
-            and all(counts[k] >= fraction * lengths[k] for k in held_to))
+    if min(counts) < params.min_close_columns:
+        return False
+    coincide = all(counts[k] >= params.min_coincident_fraction * lengths[k] for k in (0, 1))
+    shorter = [k for k in (0, 1) if lengths[k] == min(lengths)]          # both, when they are as long
+    return coincide or (one_colour and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
 
 
 def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma: np.ndarray,
@@ -161,7 +159,8 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
             # bounding boxes farther apart than the gap in X or Z: no point can touch (a cheap first test)
             if np.any(np.maximum(low_a, low_b) - np.minimum(high_a, high_b) > params.max_gap_m):
                 continue
-            if _touch(first, second, params, math.dist(colours[a], colours[b]) <= params.max_chroma_distance):
+            one_colour = math.dist(colours[a], colours[b]) <= params.max_chroma_distance
+            if _touch(first, second, params, one_colour=one_colour):
                 touching[a].add(b)
                 touching[b].add(a)
     size = {o.id: o.pixel_count for o in obstacles.obstacles}

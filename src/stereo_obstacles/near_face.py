@@ -48,14 +48,15 @@ class SlantedFaceParameters:
     The plane is used when, over the patches that count for the distance: at least
     ``min_patches`` of them are there; after refitting, at least ``min_inlier_fraction`` of them
     lie within ``max(tolerance_px, tolerance_fraction * d)`` of the plane (``d``: the patch's
-    disparity plus the calibration's ``doffs``, pixels); and the plane's values at the patch
-    centres span at least ``min_span_fraction`` of the largest one. A span of 30 % is where the
+    disparity plus the calibration's ``doffs``, pixels); and the plane's values at the centres
+    of the patches on it span at least ``min_span_fraction`` of the largest one. A span of 30 % is where the
     10th percentile's lag, a tenth of the span, reaches 3 % of the distance.
 
     Attributes
     ----------
     min_span_fraction : float
-        Span of the plane's disparities over the face, as a fraction of its nearest one.
+        Span of the plane's disparities over its patches on the plane, as a fraction of its
+        nearest one.
     tolerance_px, tolerance_fraction : float
         A patch lies on the plane within the larger of these (pixels; fraction of its disparity).
     min_inlier_fraction : float
@@ -168,10 +169,10 @@ def _checked(xs, ys, z, percentile, min_patch_pixels, focal_baseline_px_m, slant
 
 def slanted_face_disparity(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray,
                            params: SlantedFaceParameters) -> float | None:
-    """The largest value of the plane through the disparities ``ds`` (pixels, plus ``doffs``; 1-D,
-    of the length of the points ``(xs, ys)``) at those of the points that lie on it, or None when
-    the points are not a slanted face by ``params``: too few, off one plane, or spanning too
-    little disparity on it."""
+    """The largest value (pixels) of the plane through the disparities ``ds`` (``float (N,)``,
+    pixels, plus ``doffs``) at the patch centres ``xs, ys`` (``float (N,)``, pixels) that lie on
+    it, or None when the patches are not a slanted face by ``params``: too few, off one plane,
+    or spanning too little disparity on it."""
     on_plane = np.ones(len(ds), dtype=bool)
     tolerance = np.maximum(params.tolerance_px, params.tolerance_fraction * ds)
     for _ in range(PLANE_FIT_ROUNDS):

@@ -35,8 +35,9 @@ Beyond the paper:
   their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
   the obstacles' boxes, lateral extents and widths; two obstacles that are the outlines of one
   such face are joined into one (:mod:`stereo_obstacles.face_joining`);
-* obstacles of one colour whose footprints on the ground touch are pieces of one object (a
-  pole's top above a nearer box and its foot below it) and are joined into one
+* obstacles of one colour whose footprints on the ground touch, or of any colours whose
+  footprints coincide, are pieces of one object (a pole's top above a nearer box and its foot
+  below it) and are joined into one
   (:mod:`stereo_obstacles.footprint_joining`);
 * when the pixels that look like the reference area do not lie on a plane that can be the
   ground (the reference area is covered by a wall or a large object), the ground plane is
@@ -486,9 +487,9 @@ def _pieces_of_one_object(obstacles: ObstacleList, runs: BracketedRuns | None, m
                           disparity: np.ndarray, colour: ColourCue | None, calibration: StereoCalibration,
                           config: DetectionConfig) -> list[tuple[int, int]]:
     """The pairs of obstacle ids that are pieces of one object: the two outlines of a textureless
-    face (from the fill's ``runs``, :mod:`stereo_obstacles.face_joining`) and pieces of one
-    colour standing on one place of the ground (:mod:`stereo_obstacles.footprint_joining`, on
-    the ``measured`` disparity the obstacles were measured on)."""
+    face (from the fill's ``runs``, :mod:`stereo_obstacles.face_joining`) and pieces standing on
+    one place of the ground (:mod:`stereo_obstacles.footprint_joining`, on the ``measured``
+    disparity the obstacles were measured on)."""
     pairs = []
     if runs is not None and config.face_joining is not None:
         pairs += obstacles_sharing_a_face(runs, obstacles.id_map, disparity, calibration, config.face_joining)
