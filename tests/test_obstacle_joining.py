@@ -26,7 +26,7 @@ def _pieces():
     and another object (group 3, 6.0 m), measured without a ground plane."""
     groups = np.zeros((120, 200), np.int32)
     disparity = np.full((120, 200), np.nan, np.float32)
-    groups[10:26, 40:56], disparity[10:26, 40:56] = 1, 42 / 4.0
+    groups[0:16, 40:56], disparity[0:16, 40:56] = 1, 42 / 4.0
     groups[30:110, 40:120], disparity[30:110, 40:120] = 2, 42 / 4.4
     groups[30:60, 150:190], disparity[30:60, 150:190] = 3, 42 / 6.0
     return groups, disparity, measure_obstacles(groups, disparity, RIG, None, with_scan=False)
@@ -36,13 +36,14 @@ def test_joined_pieces_are_one_obstacle_measured_as_one():
     groups, disparity, pieces = _pieces()
     near, far, other = pieces.obstacles
     joined, obstacles = measure_joined(groups, pieces, [(far.id, near.id)], disparity, RIG, None)
-    assert joined.dtype == np.int32 and joined[15, 45] == joined[50, 50] == 1 and joined[40, 160] == 3
+    assert joined.dtype == np.int32 and joined[5, 45] == joined[50, 50] == 1 and joined[40, 160] == 3
     assert len(obstacles.obstacles) == 2 and obstacles.scan is None
     whole, unchanged = obstacles.obstacles
     assert whole.pixel_count == near.pixel_count + far.pixel_count
     assert unchanged == replace(other, id=2)
-    # the near piece's 4 patches are under a tenth of the union's 104: the 10th percentile of the
-    # patch depths lies in the far piece, as it would for one group of those pixels
+    # the near piece's 4 patches, none beside the far piece's, are under a twentieth of the union's
+    # 114: the 5th percentile of the patch depths lies in the far piece, as it would for one group
+    # of those pixels
     assert whole.distance_m == pytest.approx(4.4)
     assert whole == measure_obstacles(joined, disparity, RIG, None, with_scan=False).obstacles[0]
 
@@ -58,7 +59,7 @@ def test_a_slanted_face_in_two_pieces_is_read_on_the_plane_of_both():
     disparity[20:100, 40:200] = (10.5 - 4.5 * (columns - 40) / 159).astype(np.float32)
     pieces = measure_obstacles(groups, disparity, RIG, None, with_scan=False)
     near_piece = min(o.distance_m for o in pieces.obstacles)
-    assert near_piece > 1.02 * RIG.focal_baseline_px_m / 10.5            # its 10th percentile, behind
+    assert near_piece > 1.02 * RIG.focal_baseline_px_m / 10.5            # its percentile, behind
     _, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None)
     assert obstacles.obstacles[0].distance_m == pytest.approx(
         RIG.focal_baseline_px_m / (10.5 - 4.5 * 3.5 / 159), rel=0.002)
@@ -67,7 +68,7 @@ def test_a_slanted_face_in_two_pieces_is_read_on_the_plane_of_both():
 
 def test_a_joined_obstacle_is_never_farther_than_its_largest_piece():
     # a wall receding from 4 m to 7 m, measured on its plane at its near end, and a piece of it off
-    # that plane: together they no longer lie on one plane, and the 10th percentile of their
+    # that plane: together they no longer lie on one plane, and the 5th percentile of their
     # patches lies well behind the wall's near end
     groups = np.zeros((140, 200), np.int32)
     disparity = np.full((140, 200), np.nan, np.float32)
@@ -79,7 +80,7 @@ def test_a_joined_obstacle_is_never_farther_than_its_largest_piece():
     assert wall.distance_m == pytest.approx(4.0, abs=0.1)
     joined, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None)
     as_one = measure_obstacles(joined, disparity, RIG, None, with_scan=False).obstacles[0]
-    assert as_one.distance_m > 4.15
+    assert as_one.distance_m > 1.02 * wall.distance_m
     assert obstacles.obstacles[0].distance_m == wall.distance_m
 
 
@@ -92,14 +93,14 @@ def test_without_a_calibration_pieces_are_joined_in_pixels():
 
 def test_a_joined_group_the_union_puts_beyond_the_distance_limit_stays_an_obstacle():
     # two faces receding to 7 m, each measured on its plane at its near end (3.69 and 3.95 m);
-    # together they are no plane, and the union's 10th percentile (4.04 m) lies beyond the limit
+    # together they are no plane, and the union's 5th percentile (3.98 m) lies beyond the limit
     groups = np.zeros((140, 200), np.int32)
     disparity = np.full((140, 200), np.nan, np.float32)
     columns = np.arange(40, 200)[None, :]
     for group, rows, near_px in ((1, slice(20, 100), 10.75), (2, slice(104, 136), 11.5)):
         groups[rows, 40:200] = group
         disparity[rows, 40:200] = (near_px - (near_px - 6.0) * (columns - 40) / 159).astype(np.float32)
-    params = ObstacleParameters(max_distance_m=3.99)
+    params = ObstacleParameters(max_distance_m=3.97)
     pieces = measure_obstacles(groups, disparity, RIG, None, params, with_scan=False)
     assert [o.distance_m for o in pieces.obstacles] == pytest.approx([3.691, 3.945], abs=0.002)
     _, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None, params)

@@ -156,7 +156,9 @@ def test_bad_arguments():
     with pytest.raises(InvalidInputError, match="max_distance_m"):
         ObstacleParameters(max_distance_m=float("nan"))
     for field, bad in (("corridor_width_m", "1"), ("flat_tolerance_m", 0.0), ("distance_percentile", None),
-                       ("min_standing_fraction", -0.1), ("distance_min_patch_pixels", np.int64(0))):
+                       ("min_standing_fraction", -0.1), ("distance_min_patch_pixels", np.int64(0)),
+                       ("distance_neighbourhood_patches", -1), ("distance_neighbourhood_patches", 101),
+                       ("distance_neighbourhood_patches", 1.0), ("scan_percentile", 100.5)):
         with pytest.raises(InvalidInputError, match=field):
             ObstacleParameters(**{field: bad})
     assert ObstacleParameters(max_distance_m=np.float32(12.5), corridor_width_m=2).max_distance_m == 12.5

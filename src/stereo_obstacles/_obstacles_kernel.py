@@ -1,4 +1,4 @@
-"""Compiled patch medians of an obstacle's depths (private).
+"""Compiled patch medians of an obstacle's depths, and their neighbourhood medians (private).
 
 The public wrapper is :func:`stereo_obstacles.near_face.near_face_depth`.
 """
@@ -55,3 +55,34 @@ def patch_medians_kernel(xs, ys, z, patch_px):
         counts[m] = count
         m += 1
     return medians[:m], centre_x[:m], centre_y[:m], counts[:m]
+
+
+@njit(cache=CACHE, nogil=True)
+def neighbourhood_medians_kernel(values, columns, rows, radius):
+    """Median of ``values`` over each patch's neighbourhood: the patches of the list within
+    ``radius`` patches of it in column and in row, itself included.
+
+    ``values`` float64 ``(n,)``; ``columns, rows`` int64 ``(n,)``: the patches' places on the
+    patch grid (non-negative, no place twice); ``radius`` int >= 0. Returns float64 ``(n,)``,
+    medians as :func:`patch_medians_kernel` takes them (``0.5 * (lower + upper middle)``).
+    """
+    n = values.shape[0]
+    if n == 0:
+        return values.copy()
+    index = np.full((rows.max() + 1 + 2 * radius, columns.max() + 1 + 2 * radius), -1, np.int64)
+    for i in range(n):
+        index[rows[i] + radius, columns[i] + radius] = i
+    side = 2 * radius + 1
+    window = np.empty(side * side, np.float64)
+    medians = np.empty(n, np.float64)
+    for i in range(n):
+        count = 0
+        for dy in range(side):
+            for dx in range(side):
+                j = index[rows[i] + dy, columns[i] + dx]
+                if j >= 0:
+                    window[count] = values[j]
+                    count += 1
+        block = np.sort(window[:count])
+        medians[i] = 0.5 * (block[(count - 1) // 2] + block[count // 2])
+    return medians

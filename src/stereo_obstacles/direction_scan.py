@@ -10,7 +10,7 @@ bearing depends only on its column, ``atan2(u - cx, f)``.
 
 In each sector, each reported obstacle with at least ``min_pixels`` pixels of known depth there
 gets a range: a low ``percentile`` of its pixels' horizontal ranges ``sqrt(x^2 + z^2)`` (the
-same percentile as the obstacle's own distance, which keeps one noisy match from setting it).
+10th in the pipeline, which keeps one noisy match from setting it).
 The sector's range is the smallest of these, with the obstacle it belongs to; a sector without
 such an obstacle has none (free at least up to the largest distance obstacles are reported to,
 or not seen: the scan cannot tell these apart).

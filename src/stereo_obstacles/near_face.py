@@ -1,21 +1,29 @@
 """The near face of an obstacle: how far away the part of it met first is.
 
-An obstacle's distance is a low percentile (``percentile``, the 10th by default) of the median
-depths of its 8x8-pixel patches. Taking patch medians first keeps the percentile from following
-the noise of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near).
-Patches holding fewer than ``min_patch_pixels`` of the obstacle's pixels are left out (all are
-used when none holds that many): they are mostly a fringe of a pixel or two along the object's
-outline, matched at a disparity borrowed from the window around them (a one-pixel column of sky
-beside a far pole read 7.5 px, the pole's own matches 6.9 and its truth 6.6).
+An obstacle's distance is a low percentile (``percentile``, the 5th in the pipeline) of the
+median depths of its 8x8-pixel patches, each first replaced by the median of the patch medians
+in its neighbourhood (the obstacle's patches within ``neighbourhood_patches`` patches of it, 1 in
+the pipeline: 3 x 3 patches). Taking patch medians keeps the percentile from following the noise
+of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near); their
+neighbourhood medians keep it from following single patches: a patch of few noisy matches, or
+of a nearer neighbour's pixels spread over the obstacle's outline by the matching (a box at
+8.8 m whose nearest tenth of patches were such pixels read -5.5 %; ``docs/pipeline.md``,
+"Neighbourhood medians of the patches"). Patches holding fewer than ``min_patch_pixels`` of the
+obstacle's pixels are left out (all are used when none holds that many): they are mostly a fringe
+of a pixel or two along the object's outline, matched at a disparity borrowed from the window
+around them (a one-pixel column of sky beside a far pole read 7.5 px, the pole's own matches 6.9
+and its truth 6.6).
 
 A face slanted in depth (a wall seen obliquely, the top of a low box seen from above) spreads
 its patches over a range of disparities, and the percentile lies behind its nearest part by
-about a tenth of that range (1.5 px on a wall receding from 31 to 16 px of disparity, 5 % in
-distance; synthetic scene 114's wall of that kind read +8.8 %). When one plane
+a part of that range (at the 10th percentile of the patch medians a tenth: 1.5 px on a wall
+receding from 31 to 16 px of disparity, 5 % in distance; synthetic scene 114's wall of that kind
+read +8.8 %, and at the pipeline's 5th percentile of neighbourhood medians +6.4 %). When one plane
 ``d = a x + b y + c`` fits the face's patch medians and spans a large part of its disparity
 (:class:`SlantedFaceParameters`), the distance is read from the plane at the face's nearest
 patch instead (if that is nearer): a plane through dozens of patches does not follow the noise
-of one, which the nearest patch alone would (``docs/pipeline.md``, "Slanted faces"). Only the
+of one, which the nearest patch alone would (``docs/pipeline.md``, "Slanted faces"). The plane
+is fitted to the patch medians themselves, not their neighbourhood medians. Only the
 patches on the plane count for where it is read and for its span: extended to patches off it (a
 piece of another face, a fattened edge), the plane reads what lies beyond the face (until
 session 32 a wall 3.44 m away read -6.1 % so).
@@ -28,13 +36,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from stereo_obstacles import quantiles
-from stereo_obstacles._obstacles_kernel import patch_medians_kernel
+from stereo_obstacles._obstacles_kernel import neighbourhood_medians_kernel, patch_medians_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, is_finite_real, is_whole_number
 from stereo_obstacles.plane_fit import least_squares_plane, plane_at
 
 DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
+
+MAX_NEIGHBOURHOOD_PATCHES = 100
+"""Largest ``neighbourhood_patches`` accepted: 100 patches reach 800 pixels, beyond any image's
+objects (the kernel's grid grows with it)."""
 
 PLANE_FIT_ROUNDS = 3
 """The plane is fitted this many times in all: first to every patch, then to the patches within
@@ -49,8 +61,9 @@ class SlantedFaceParameters:
     ``min_patches`` of them are there; after refitting, at least ``min_inlier_fraction`` of them
     lie within ``max(tolerance_px, tolerance_fraction * d)`` of the plane (``d``: the patch's
     disparity plus the calibration's ``doffs``, pixels); and the plane's values at the centres
-    of the patches on it span at least ``min_span_fraction`` of the largest one. A span of 30 % is where the
-    10th percentile's lag, a tenth of the span, reaches 3 % of the distance.
+    of the patches on it span at least ``min_span_fraction`` of the largest one. A span of 30 % is
+    where the lag of the 10th percentile of the patch medians (with which the gate was chosen), a
+    tenth of the span, reaches 3 % of the distance.
 
     Attributes
     ----------
@@ -78,7 +91,8 @@ class SlantedFaceParameters:
 
 
 def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile: float,
-                    min_patch_pixels: int = 1, focal_baseline_px_m: float | None = None,
+                    min_patch_pixels: int = 1, neighbourhood_patches: int = 0,
+                    focal_baseline_px_m: float | None = None,
                     slanted_face: SlantedFaceParameters | None = None) -> float:
     """Distance of an obstacle's near face, metres.
 
@@ -92,6 +106,10 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
         Percentile of the patch-median depths taken, in [0, 100].
     min_patch_pixels : int
         Patches with fewer of the pixels do not count (unless none has that many).
+    neighbourhood_patches : int
+        The percentile is taken over each counting patch's median of the counting patches'
+        medians within this many patches of it in column and in row (itself included); 0 takes
+        the patch medians themselves.
     focal_baseline_px_m : float, optional
         ``f B`` of the calibration (pixels x metres): ``f B / z`` is the disparity plus
         ``doffs``. Needed with ``slanted_face``.
@@ -101,15 +119,16 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     Returns
     -------
     float
-        The ``percentile`` of the patch medians, or the plane's nearer depth at the nearest
-        patch centre on the plane of a slanted face.
+        The ``percentile`` of the patches' (neighbourhood) medians, or the plane's nearer depth
+        at the nearest patch centre on the plane of a slanted face.
 
     Raises
     ------
     InvalidInputError
         Arrays of different lengths or none, negative or non-integer coordinates, depths that
         are not finite and positive, a percentile outside [0, 100], ``min_patch_pixels`` below
-        1, or ``slanted_face`` without a positive ``focal_baseline_px_m``.
+        1, ``neighbourhood_patches`` not an integer in [0, 100], or ``slanted_face`` without a
+        positive ``focal_baseline_px_m``.
 
     Examples
     --------
@@ -123,19 +142,26 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     ...                       slanted_face=SlantedFaceParameters()), 3)
     2.169
     """
-    xs, ys, z = _checked(xs, ys, z, percentile, min_patch_pixels, focal_baseline_px_m, slanted_face)
+    xs, ys, z = _checked(xs, ys, z, percentile, min_patch_pixels, neighbourhood_patches, focal_baseline_px_m,
+                         slanted_face)
     medians, centre_x, centre_y, counts = patch_medians_kernel(xs, ys, z, DISTANCE_PATCH_PX)
     full = counts >= min_patch_pixels
     if full.any():
         medians, centre_x, centre_y = medians[full], centre_x[full], centre_y[full]
-    depth = quantiles.percentile(medians, percentile)
+    measured = medians
+    if neighbourhood_patches > 0:
+        # a patch's centre is the mean of its pixels, which lie within the patch
+        measured = neighbourhood_medians_kernel(medians, (centre_x // DISTANCE_PATCH_PX).astype(np.int64),
+                                                (centre_y // DISTANCE_PATCH_PX).astype(np.int64),
+                                                int(neighbourhood_patches))
+    depth = quantiles.percentile(measured, percentile)
     if slanted_face is None:
         return depth
     nearest_px = slanted_face_disparity(centre_x, centre_y, focal_baseline_px_m / medians, slanted_face)
     return depth if nearest_px is None else min(depth, focal_baseline_px_m / nearest_px)
 
 
-def _checked(xs, ys, z, percentile, min_patch_pixels, focal_baseline_px_m, slanted_face
+def _checked(xs, ys, z, percentile, min_patch_pixels, neighbourhood_patches, focal_baseline_px_m, slanted_face
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The arguments of :func:`near_face_depth` as the kernel takes them (int64, int64, float64
     arrays), or :class:`~stereo_obstacles.errors.InvalidInputError` naming the first wrong one."""
@@ -157,6 +183,9 @@ def _checked(xs, ys, z, percentile, min_patch_pixels, focal_baseline_px_m, slant
         raise InvalidInputError(f"percentile must be in [0, 100], got {percentile!r}")
     if not is_whole_number(min_patch_pixels) or min_patch_pixels < 1:
         raise InvalidInputError(f"min_patch_pixels must be an integer >= 1, got {min_patch_pixels!r}")
+    if not is_whole_number(neighbourhood_patches) or not 0 <= neighbourhood_patches <= MAX_NEIGHBOURHOOD_PATCHES:
+        raise InvalidInputError(f"neighbourhood_patches must be an integer in [0, {MAX_NEIGHBOURHOOD_PATCHES}], got "
+                                f"{neighbourhood_patches!r}")
     if slanted_face is not None:
         if not isinstance(slanted_face, SlantedFaceParameters):
             raise InvalidInputError(f"slanted_face must be SlantedFaceParameters or None, got "
@@ -206,4 +235,5 @@ def _face_plane(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray) -> tuple[float, 
     return None
 
 
-__all__ = ["DISTANCE_PATCH_PX", "SlantedFaceParameters", "near_face_depth", "slanted_face_disparity"]
+__all__ = ["DISTANCE_PATCH_PX", "MAX_NEIGHBOURHOOD_PATCHES", "SlantedFaceParameters", "near_face_depth",
+           "slanted_face_disparity"]

@@ -7,7 +7,7 @@ The grouping can list one object as several obstacles: the two outlines of a tex
 as :func:`~stereo_obstacles.obstacles.measure_obstacles` does, but the distance of a group made of
 pieces is never farther than that of its largest piece, as it was measured alone. A receding wall
 measured on its plane at its near end, joined with a piece that is off that plane, is no longer
-one plane, and the 10th percentile of the patches lies behind the near end (a wall in a noisy
+one plane, and the low percentile of the patches lies behind the near end (a wall in a noisy
 scene read +0.8 % alone, +10.8 % with a piece; ``docs/pipeline.md``, "The pieces of one object,
 joined by their footprints").
 

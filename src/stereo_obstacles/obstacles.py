@@ -6,11 +6,11 @@ measured here. With a calibration every length is in metres in the rectified lef
 frame (x right, y down, z forward); without one, only pixels and disparities are reported.
 
 Distance of an obstacle is that of its near face (:mod:`stereo_obstacles.near_face`): a low
-percentile of its patches' median depths, or a plane through them for a face slanted in depth.
-Height above the ground uses the ground plane fitted in (x, y, disparity) space, converted to a
-3-D plane; objects of which fewer than ``min_standing_fraction`` of the pixels stand more than
-``flat_tolerance_m`` above that plane are rejected as flat (markings, puddles), and the
-rejection is reported with its reason.
+percentile of its patches' median depths (each the median of its neighbourhood's), or a plane
+through them for a face slanted in depth. Height above the ground uses the ground plane fitted
+in (x, y, disparity) space, converted to a 3-D plane; objects of which fewer than
+``min_standing_fraction`` of the pixels stand more than ``flat_tolerance_m`` above that plane
+are rejected as flat (markings, puddles), and the rejection is reported with its reason.
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ from stereo_obstacles.direction_scan import MIN_SECTOR_DEG, DirectionScan, direc
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive, check_types
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, raised_pixels
-from stereo_obstacles.near_face import DISTANCE_PATCH_PX, SlantedFaceParameters, near_face_depth
+from stereo_obstacles.near_face import (DISTANCE_PATCH_PX, MAX_NEIGHBOURHOOD_PATCHES, SlantedFaceParameters,
+                                        near_face_depth)
 
 QUARTILES = (25.0, 50.0, 75.0)
 """Percentiles of a group's disparities: its reported disparity (median) and spread."""
@@ -58,6 +59,10 @@ class ObstacleParameters:
     distance_min_patch_pixels : int
         Patches with fewer of the obstacle's pixels do not count for its distance (unless no
         patch has that many); of the ``DISTANCE_PATCH_PX ** 2`` = 64 pixels of a patch.
+    distance_neighbourhood_patches : int
+        Each counting patch's depth is the median of the counting patches' median depths within
+        this many patches of it in column and in row, itself included (1: 3 x 3 patches; 0: its
+        own median alone; :mod:`stereo_obstacles.near_face`).
     slanted_face : SlantedFaceParameters or None
         When a face slanted in depth is measured by a plane through its patches instead of the
         percentile (:mod:`stereo_obstacles.near_face`); ``None`` always takes the percentile.
@@ -65,8 +70,9 @@ class ObstacleParameters:
         Width in degrees of bearing of the sectors of the free-range scan
         (:mod:`stereo_obstacles.direction_scan`; needs a calibration).
     scan_min_pixels : int
-        Pixels of known depth an obstacle needs in a sector to count in the scan there (its
-        range there is the ``distance_percentile`` of their horizontal ranges).
+        Pixels of known depth an obstacle needs in a sector to count in the scan there.
+    scan_percentile : float
+        An obstacle's range in a sector is this percentile of its pixels' horizontal ranges there.
     min_disparity_px : float
         Without a calibration, groups whose median disparity is below this are at infinity (or
         the two images are the same) and are not reported; with one, ``max_distance_m`` decides.
@@ -77,17 +83,21 @@ class ObstacleParameters:
     min_standing_fraction: float = 0.3
     max_distance_m: float = 30.0
     corridor_width_m: float = 1.0
-    distance_percentile: float = 10.0
+    distance_percentile: float = 5.0
     distance_min_patch_pixels: int = 16
+    distance_neighbourhood_patches: int = 1
     min_disparity_px: float = 0.5
     slanted_face: SlantedFaceParameters | None = field(default_factory=SlantedFaceParameters)
     scan_sector_deg: float = 1.0
     scan_min_pixels: int = 10
+    scan_percentile: float = 10.0
 
     def __post_init__(self) -> None:
-        check_numbers(self, (("distance_percentile", 0.0, 100.0), ("min_standing_fraction", 0.0, 1.0),
+        check_numbers(self, (("distance_percentile", 0.0, 100.0), ("scan_percentile", 0.0, 100.0),
+                             ("min_standing_fraction", 0.0, 1.0),
                              ("min_disparity_px", 0.0, math.inf), ("scan_sector_deg", MIN_SECTOR_DEG, 180.0)))
         check_integers(self, (("distance_min_patch_pixels", 1, DISTANCE_PATCH_PX ** 2),
+                              ("distance_neighbourhood_patches", 0, MAX_NEIGHBOURHOOD_PATCHES),
                               ("scan_min_pixels", 1, 10 ** 9)))
         check_positive(self, ("flat_tolerance_m", "flat_tolerance_px", "max_distance_m", "corridor_width_m"))
         check_types(self, (("slanted_face", SlantedFaceParameters),), allow_none=True)
@@ -291,7 +301,7 @@ def obstacle_scan(id_map: np.ndarray, disparity: np.ndarray, calibration: Stereo
     at the disparities ``disparity`` (``float32 (H, W)`` pixels, NaN: none), with the sectors,
     pixel count and percentile of ``params`` (:mod:`stereo_obstacles.direction_scan`)."""
     return direction_scan(id_map, disparity, calibration, sector_deg=params.scan_sector_deg,
-                          min_pixels=params.scan_min_pixels, percentile=params.distance_percentile)
+                          min_pixels=params.scan_min_pixels, percentile=params.scan_percentile)
 
 
 def _flat(box, count: int, above: float, unit: str, tolerance: float) -> RejectedGroup:
@@ -347,6 +357,7 @@ def _measure_group(xs: np.ndarray, ys: np.ndarray, disparities: np.ndarray,
     distance = near_face_depth(xs[standing] if ground is not None else xs,
                                ys[standing] if ground is not None else ys, points[:, 2],
                                percentile=params.distance_percentile, min_patch_pixels=params.distance_min_patch_pixels,
+                               neighbourhood_patches=params.distance_neighbourhood_patches,
                                focal_baseline_px_m=calibration.focal_baseline_px_m, slanted_face=params.slanted_face)
     if distance > params.max_distance_m:
         return RejectedGroup(box, count, f"farther than {params.max_distance_m:g} m ({distance:.1f} m)")

@@ -628,7 +628,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     >>> pair = render_pair(default_scene(320, 240))
     >>> result = detect(pair.left, pair.right, pair.calibration)
     >>> [round(o.distance_m, 1) for o in result.obstacles.obstacles]
-    [3.1, 3.9, 4.6, 6.4, 6.4, 8.8]
+    [3.1, 4.0, 4.6, 6.5, 6.5, 8.8]
     """
     _check_inputs(left, right, calibration, config)
     _check_hints(seed_points, disparity_estimate, left.shape[:2], config)
