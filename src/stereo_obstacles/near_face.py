@@ -45,8 +45,8 @@ DISTANCE_PATCH_PX = 8
 """Side of the square patches whose median depths the distance is taken over, pixels."""
 
 MAX_NEIGHBOURHOOD_PATCHES = 100
-"""Largest ``neighbourhood_patches`` accepted: 100 patches reach 800 pixels, beyond any image's
-objects (the kernel's grid grows with it)."""
+"""Largest ``neighbourhood_patches`` accepted: 100 patches reach 800 pixels to either side, far
+more than smoothing a near face needs (the kernel's grid grows with it)."""
 
 PLANE_FIT_ROUNDS = 3
 """The plane is fitted this many times in all: first to every patch, then to the patches within
@@ -103,7 +103,8 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     z : ndarray of float, shape (N,)
         Their depths, metres (positive).
     percentile : float
-        Percentile of the patch-median depths taken, in [0, 100].
+        Percentile taken of the patches' median depths (of their neighbourhood medians, with
+        ``neighbourhood_patches``), in [0, 100].
     min_patch_pixels : int
         Patches with fewer of the pixels do not count (unless none has that many).
     neighbourhood_patches : int
@@ -144,17 +145,15 @@ def near_face_depth(xs: np.ndarray, ys: np.ndarray, z: np.ndarray, *, percentile
     """
     xs, ys, z = _checked(xs, ys, z, percentile, min_patch_pixels, neighbourhood_patches, focal_baseline_px_m,
                          slanted_face)
-    medians, centre_x, centre_y, counts = patch_medians_kernel(xs, ys, z, DISTANCE_PATCH_PX)
+    medians, centre_x, centre_y, counts, columns, rows = patch_medians_kernel(xs, ys, z, DISTANCE_PATCH_PX)
     full = counts >= min_patch_pixels
     if full.any():
         medians, centre_x, centre_y = medians[full], centre_x[full], centre_y[full]
-    measured = medians
+        columns, rows = columns[full], rows[full]
+    percentile_depths = medians
     if neighbourhood_patches > 0:
-        # a patch's centre is the mean of its pixels, which lie within the patch
-        measured = neighbourhood_medians_kernel(medians, (centre_x // DISTANCE_PATCH_PX).astype(np.int64),
-                                                (centre_y // DISTANCE_PATCH_PX).astype(np.int64),
-                                                int(neighbourhood_patches))
-    depth = quantiles.percentile(measured, percentile)
+        percentile_depths = neighbourhood_medians_kernel(medians, columns, rows, int(neighbourhood_patches))
+    depth = quantiles.percentile(percentile_depths, percentile)
     if slanted_face is None:
         return depth
     nearest_px = slanted_face_disparity(centre_x, centre_y, focal_baseline_px_m / medians, slanted_face)

@@ -55,7 +55,7 @@ class ObstacleParameters:
     corridor_width_m : float
         Width of the walking corridor straight ahead for :func:`corridor_summary`.
     distance_percentile : float
-        Percentile of the obstacle's patch depths reported as its distance (0 = nearest patch).
+        Percentile of the obstacle's patch depths reported as its distance (0: the nearest).
     distance_min_patch_pixels : int
         Patches with fewer of the obstacle's pixels do not count for its distance (unless no
         patch has that many); of the ``DISTANCE_PATCH_PX ** 2`` = 64 pixels of a patch.
