@@ -7,8 +7,8 @@ the pipeline: 3 x 3 patches). Taking patch medians keeps the percentile from fol
 of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near); their
 neighbourhood medians keep it from following single patches: a patch of few noisy matches, or
 of a nearer neighbour's pixels spread over the obstacle's outline by the matching (a box at
-8.8 m whose nearest tenth of patches were such pixels read -5.5 %; ``docs/pipeline.md``,
-"Neighbourhood medians of the patches"). Patches holding fewer than ``min_patch_pixels`` of the
+8.8 m, a tenth of whose pixels were such, read -5.5 % before, -2.0 % with them;
+``docs/pipeline.md``, "Neighbourhood medians of the patches"). Patches holding fewer than ``min_patch_pixels`` of the
 obstacle's pixels are left out (all are used when none holds that many): they are mostly a fringe
 of a pixel or two along the object's outline, matched at a disparity borrowed from the window
 around them (a one-pixel column of sky beside a far pole read 7.5 px, the pole's own matches 6.9
