@@ -55,7 +55,8 @@ def test_patch_medians_kernel_medians_centres_counts_and_places_on_sparse_pixels
     np.testing.assert_allclose(centre_x, [xs[patch == p].mean() for p in ids])
     np.testing.assert_allclose(centre_y, [ys[patch == p].mean() for p in ids])
     for p, column, row in zip(ids, columns, rows):
-        assert np.all(xs[patch == p] // DISTANCE_PATCH_PX == column) and np.all(ys[patch == p] // DISTANCE_PATCH_PX == row)
+        assert np.all(xs[patch == p] // DISTANCE_PATCH_PX == column)
+        assert np.all(ys[patch == p] // DISTANCE_PATCH_PX == row)
     full = counts >= 4
     assert 0 < full.sum() < full.size
     assert near_face_depth(xs, ys, z, percentile=10.0, min_patch_pixels=4) == pytest.approx(
