@@ -59,6 +59,36 @@ def test_a_footprint_refuses_columns_that_are_not_integers_or_arrays_of_two_leng
         footprint(np.arange(5), np.ones(4), RIG)
     with pytest.raises(InvalidInputError, match="integer columns"):
         footprint(np.arange(5.0), np.ones(5), RIG)
+    with pytest.raises(InvalidInputError, match="xs must span fewer than 1048576 image columns, got 0 to 1048576"):
+        footprint(np.array([0, 1 << 20]), np.ones(2), RIG)
+    # an unmatched pixel far out does not count: only matched pixels need a table of columns
+    assert len(footprint(np.array([0, 0, 0, 1 << 40]), np.array([10.0, 10.0, 10.0, np.nan]), RIG)) == 1
+
+
+def test_bucket_medians_count_and_take_the_median_of_each_bucket():
+    from stereo_obstacles._bucket_medians_kernel import bucket_medians_kernel
+
+    rng = np.random.default_rng(7)
+    keys = rng.integers(0, 9, 200) * 2                      # buckets 0, 2, ..., 16: the odd ones and 18 empty
+    values = rng.uniform(-5.0, 5.0, 200)
+    counts, medians = bucket_medians_kernel(keys, values, 20)
+    np.testing.assert_array_equal(counts, np.bincount(keys, minlength=20))
+    for bucket in range(20):
+        if counts[bucket]:
+            assert medians[bucket] == np.median(values[keys == bucket])
+        else:
+            assert np.isnan(medians[bucket])
+
+
+def test_a_footprint_takes_columns_of_any_integer_type_and_sign():
+    xs = np.repeat(np.arange(4), 3)
+    d = np.arange(12.0) + 5.0
+    expected = footprint(xs, d, RIG, edge_columns=0)
+    for columns in (xs.astype(np.uint8), xs.astype(np.int32)):
+        np.testing.assert_array_equal(footprint(columns, d, RIG, edge_columns=0), expected)
+    shifted = footprint(xs - 300, d, RIG, edge_columns=0)      # negative columns too: the table starts at the first
+    np.testing.assert_allclose(shifted[:, 1], expected[:, 1])
+    np.testing.assert_allclose(shifted[:, 0], expected[:, 0] - 300 * expected[:, 1] / RIG.focal_px)
 
 
 @pytest.mark.parametrize("seed", range(5))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from stereo_obstacles._bucket_medians_kernel import bucket_medians_kernel
 from stereo_obstacles._similarity_kernel import CACHE
 
 
@@ -15,51 +16,26 @@ from stereo_obstacles._similarity_kernel import CACHE
 def patch_medians_kernel(xs, ys, z, patch_px):
     """Median of ``z`` over the pixels ``(xs, ys)`` of each ``patch_px`` square patch holding any.
 
-    ``xs, ys`` int64 ``(N,)`` (non-negative), ``z`` float64 ``(N,)``. Returns, in patch order,
-    float64 ``(number of patches,)`` each: the medians (``0.5 * (lower + upper middle)``), the
-    mean column and the mean row of the pixels each was taken over; and int64
-    ``(number of patches,)`` each: the number of those pixels, and the patch's column and row
-    on the patch grid (``x // patch_px``, ``y // patch_px``).
+    ``xs, ys`` int64 ``(N,)`` (non-negative), ``z`` float64 ``(N,)``, finite. Returns, in patch
+    order, float64 ``(number of patches,)`` each: the medians (``np.median``'s), the mean column
+    and the mean row of the pixels each was taken over; and int64 ``(number of patches,)`` each:
+    the number of those pixels, and the patch's column and row on the patch grid
+    (``x // patch_px``, ``y // patch_px``).
     """
     n = xs.shape[0]
     columns = xs.max() // patch_px + 1
     n_patches = (ys.max() // patch_px + 1) * columns
-    start = np.zeros(n_patches + 1, np.int64)
+    patch = np.empty(n, np.int64)
     sum_x = np.zeros(n_patches, np.float64)
     sum_y = np.zeros(n_patches, np.float64)
-    patch = np.empty(n, np.int64)
     for i in range(n):
         patch[i] = (ys[i] // patch_px) * columns + xs[i] // patch_px
-        start[patch[i] + 1] += 1
         sum_x[patch[i]] += xs[i]
         sum_y[patch[i]] += ys[i]
-    for p in range(n_patches):
-        start[p + 1] += start[p]
-    fill = start[:-1].copy()
-    values = np.empty(n, np.float64)
-    for i in range(n):
-        values[fill[patch[i]]] = z[i]
-        fill[patch[i]] += 1
-    medians = np.empty(n_patches, np.float64)
-    centre_x = np.empty(n_patches, np.float64)
-    centre_y = np.empty(n_patches, np.float64)
-    counts = np.empty(n_patches, np.int64)
-    grid_columns = np.empty(n_patches, np.int64)
-    grid_rows = np.empty(n_patches, np.int64)
-    m = 0
-    for p in range(n_patches):
-        count = start[p + 1] - start[p]
-        if count == 0:
-            continue
-        block = np.sort(values[start[p]:start[p + 1]])
-        medians[m] = 0.5 * (block[(count - 1) // 2] + block[count // 2])
-        centre_x[m] = sum_x[p] / count
-        centre_y[m] = sum_y[p] / count
-        counts[m] = count
-        grid_columns[m] = p % columns
-        grid_rows[m] = p // columns
-        m += 1
-    return medians[:m], centre_x[:m], centre_y[:m], counts[:m], grid_columns[:m], grid_rows[:m]
+    counts, medians = bucket_medians_kernel(patch, z, n_patches)
+    held = np.nonzero(counts)[0]
+    return (medians[held], sum_x[held] / counts[held], sum_y[held] / counts[held], counts[held],
+            held % columns, held // columns)
 
 
 @njit(cache=CACHE, nogil=True)
@@ -69,7 +45,8 @@ def neighbourhood_medians_kernel(values, columns, rows, radius):
 
     ``values`` float64 ``(n,)``, ``n >= 1``; ``columns, rows`` int64 ``(n,)``: the patches'
     places on the patch grid (non-negative, no place twice); ``radius`` int >= 0. Returns float64
-    ``(n,)``, medians as :func:`patch_medians_kernel` takes them (``0.5 * (lower + upper middle)``).
+    ``(n,)``, medians as :func:`patch_medians_kernel` takes them (the mean of the two middle
+    values of an even count).
     """
     n = values.shape[0]
     index = np.full((rows.max() + 1 + 2 * radius, columns.max() + 1 + 2 * radius), -1, np.int64)
@@ -86,6 +63,5 @@ def neighbourhood_medians_kernel(values, columns, rows, radius):
                 if j >= 0:
                     window[count] = values[j]
                     count += 1
-        block = np.sort(window[:count])
-        medians[i] = 0.5 * (block[(count - 1) // 2] + block[count // 2])
+        medians[i] = np.median(window[:count])
     return medians
