@@ -59,14 +59,17 @@ def test_a_footprint_refuses_columns_that_are_not_integers_or_arrays_of_two_leng
         footprint(np.arange(5), np.ones(4), RIG)
     with pytest.raises(InvalidInputError, match="integer columns"):
         footprint(np.arange(5.0), np.ones(5), RIG)
-    with pytest.raises(InvalidInputError, match="xs must span fewer than 1048576 image columns, got 0 to 1048576"):
-        footprint(np.array([0, 1 << 20]), np.ones(2), RIG)
+    with pytest.raises(InvalidInputError, match="xs must be image columns at most 1048576 apart and below 2"):
+        footprint(np.array([0, (1 << 20) + 1]), np.ones(2), RIG)
+    with pytest.raises(InvalidInputError, match="got 9223372036854775808 to 9223372036854775809"):
+        footprint(np.array([1 << 63, (1 << 63) + 1], dtype=np.uint64), np.ones(2), RIG)
+    assert footprint(np.repeat([0, 1 << 20], 3), np.ones(6), RIG).shape == (2, 2)     # the widest span taken
     # an unmatched pixel far out does not count: only matched pixels need a table of columns
     assert len(footprint(np.array([0, 0, 0, 1 << 40]), np.array([10.0, 10.0, 10.0, np.nan]), RIG)) == 1
 
 
 def test_bucket_medians_count_and_take_the_median_of_each_bucket():
-    from stereo_obstacles._bucket_medians_kernel import bucket_medians_kernel
+    from stereo_obstacles._obstacles_kernel import bucket_medians_kernel
 
     rng = np.random.default_rng(7)
     keys = rng.integers(0, 9, 200) * 2                      # buckets 0, 2, ..., 16: the odd ones and 18 empty

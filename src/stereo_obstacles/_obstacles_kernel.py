@@ -1,6 +1,10 @@
-"""Compiled patch medians of an obstacle's depths, and their neighbourhood medians (private).
+"""Compiled medians of an obstacle's pixels: by patch and patch neighbourhood, or by any integer
+key (private).
 
-The public wrapper is :func:`stereo_obstacles.near_face.near_face_depth`.
+The public wrappers are :func:`stereo_obstacles.near_face.near_face_depth` and, for the column
+medians of a footprint, :func:`stereo_obstacles.footprints.footprint`. The three kernels share one
+file so that numba's cache, kept per file, never keeps a caller compiled against an old
+:func:`bucket_medians_kernel`.
 """
 
 from __future__ import annotations
@@ -8,8 +12,35 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from stereo_obstacles._bucket_medians_kernel import bucket_medians_kernel
 from stereo_obstacles._similarity_kernel import CACHE
+
+
+@njit(cache=CACHE, nogil=True)
+def bucket_medians_kernel(keys, values, n_buckets):
+    """How many ``values`` fall in each bucket, and their median.
+
+    ``keys`` int64 ``(N,)`` in ``[0, n_buckets)``: each value's bucket; ``values`` float64
+    ``(N,)``, finite. Returns int64 ``(n_buckets,)`` the counts and float64 ``(n_buckets,)`` the
+    medians (``np.median``'s: the mean of the two middle values of an even count; NaN for an empty
+    bucket). One counting sort by bucket, then a selection within each.
+    """
+    n = keys.shape[0]
+    start = np.zeros(n_buckets + 1, np.int64)
+    for i in range(n):
+        start[keys[i] + 1] += 1
+    for b in range(n_buckets):
+        start[b + 1] += start[b]
+    fill = start[:-1].copy()
+    ordered = np.empty(n, np.float64)
+    for i in range(n):
+        ordered[fill[keys[i]]] = values[i]
+        fill[keys[i]] += 1
+    counts = start[1:] - start[:-1]
+    medians = np.full(n_buckets, np.nan)
+    for b in range(n_buckets):
+        if counts[b] > 0:
+            medians[b] = np.median(ordered[start[b]:start[b + 1]])
+    return counts, medians
 
 
 @njit(cache=CACHE, nogil=True)
@@ -43,7 +74,7 @@ def neighbourhood_medians_kernel(values, columns, rows, radius):
     """Median of ``values`` over each patch's neighbourhood: the patches of the list within
     ``radius`` patches of it in column and in row, itself included.
 
-    ``values`` float64 ``(n,)``, ``n >= 1``; ``columns, rows`` int64 ``(n,)``: the patches'
+    ``values`` float64 ``(n,)``, finite, ``n >= 1``; ``columns, rows`` int64 ``(n,)``: the patches'
     places on the patch grid (non-negative, no place twice); ``radius`` int >= 0. Returns float64
     ``(n,)``, medians as :func:`patch_medians_kernel` takes them (the mean of the two middle
     values of an even count).

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stereo_obstacles._bucket_medians_kernel import bucket_medians_kernel
+from stereo_obstacles._obstacles_kernel import bucket_medians_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 
@@ -29,7 +29,7 @@ EDGE_COLUMNS + 2``)."""
 MIN_COLUMN_PIXELS = 3
 """Matched pixels a column needs to give a footprint point."""
 MAX_COLUMN_SPAN = 1 << 20
-"""Most image columns a footprint's matched pixels may span: far beyond any camera's width (the
+"""Most columns a footprint's matched pixels may lie apart: far beyond any camera's width (the
 column medians take a table of that many columns)."""
 BLOCK_POINTS = 256
 """Points of the first footprint compared with the other at once: bounds the memory of the three
@@ -59,8 +59,8 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
     Raises
     ------
     InvalidInputError
-        ``xs`` not integer, the two not 1-D arrays of one length, matched pixels spanning
-        :data:`MAX_COLUMN_SPAN` columns or more, ``edge_columns`` below 0 or
+        ``xs`` not integer, the two not 1-D arrays of one length, matched pixels more than
+        :data:`MAX_COLUMN_SPAN` columns apart or at 2**63 or beyond, ``edge_columns`` below 0 or
         ``min_column_pixels`` below 1.
 
     Examples
@@ -83,8 +83,9 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
     if len(xs) == 0:
         return np.empty((0, 2))
     first, last = int(xs.min()), int(xs.max())
-    if last - first >= MAX_COLUMN_SPAN:
-        raise InvalidInputError(f"xs must span fewer than {MAX_COLUMN_SPAN} image columns, got {first} to {last}")
+    if last - first > MAX_COLUMN_SPAN or last > np.iinfo(np.int64).max:
+        raise InvalidInputError(f"xs must be image columns at most {MAX_COLUMN_SPAN} apart and below 2**63, got "
+                                f"{first} to {last}")
     counts, medians = bucket_medians_kernel(xs.astype(np.int64) - first, disparities, last - first + 1)
     held = np.flatnonzero(counts)
     columns, counts, medians = held + first, counts[held], medians[held]
