@@ -211,9 +211,10 @@ def slanted_face_disparity(xs: np.ndarray, ys: np.ndarray, ds: np.ndarray,
         on_plane = np.abs(ds - fitted) <= tolerance
         if np.count_nonzero(on_plane) < params.min_patches:
             return None
-    nearest = float(fitted[on_plane].max())
+    on_face = fitted[on_plane]
+    nearest = float(on_face.max())
     if (on_plane.mean() < params.min_inlier_fraction or nearest <= 0
-            or nearest - fitted[on_plane].min() < params.min_span_fraction * nearest):
+            or nearest - on_face.min() < params.min_span_fraction * nearest):
         return None
     return nearest
 
