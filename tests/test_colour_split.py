@@ -155,11 +155,28 @@ def test_a_rim_around_an_object_is_not_split_off():
 
 @pytest.mark.parametrize("pole_d, split", [(7.6, True), (6.4, False)])
 def test_a_thin_part_is_split_off_when_it_is_in_front_not_behind(pole_d, split):
-    """A pole 12 px wide within the rows of a box: 8 of its 12 columns lie within 4 px of the box.
-    In front (session 23: seed 182's pole was kept in a box 0.44 px behind it) it is an object;
+    """A pole 8 px wide within the rows of a box: all its columns lie within 4 px of the box. In
+    front (session 23: seed 182's pole was kept in a box 0.44 px behind it) it is an object;
     behind, it would be the halo of the box."""
     scene = (Scene().paint(slice(30, 80), slice(20, 100), BROWN, 7.0)
-             .paint(slice(30, 80), slice(54, 66), BLUE, pole_d))
+             .paint(slice(30, 80), slice(56, 64), BLUE, pole_d))
+    assert bool(scene.split().max() == 1) == split
+    if split:
+        assert _same_parts(scene.split(), scene.objects)
+
+
+@pytest.mark.parametrize("columns, split", [(slice(54, 66), True), (slice(55, 65), False)])
+def test_a_farther_part_that_holds_an_object_beyond_the_rim_is_split_off(columns, split):
+    """A part behind a box, most of whose pixels lie within 4 px of it: 12 px wide, its 4 middle
+    columns (200 px) lie beyond, an object's pixel count, and it is an object (session 34: a box
+    at 7.2 m, half of it within 4 px of the end of a wall in front, read -24 % merged with the
+    wall); 10 px wide, 100 px lie beyond, too few, and it is a rim."""
+    scene = (Scene().paint(slice(30, 80), slice(20, 100), BROWN, 7.0)
+             .paint(slice(30, 80), columns, BLUE, 6.4))
+    farther = scene.objects == 1
+    beyond = farther & (np.arange(120)[None, :] >= columns.start + 4) & (np.arange(120)[None, :] < columns.stop - 4)
+    assert np.count_nonzero(farther & ~beyond) > 0.5 * np.count_nonzero(farther)      # most of it in the rim
+    assert (np.count_nonzero(beyond) >= MIN_OBJECT_PIXELS) == split
     assert bool(scene.split().max() == 1) == split
     if split:
         assert _same_parts(scene.split(), scene.objects)
