@@ -13,9 +13,10 @@ clusters are two surfaces at two depths:
   CIE L*a*b* (lightness is left out: the lit and the shaded faces of one box differ in it);
 - each part holds an object's pixel count, and the farther one is not a rim around the nearer
   (more than ``MAX_RIM_FRACTION`` of its pixels within ``RIM_PX`` of it, and fewer than an
-  object's pixel count beyond: the halo of sky or ground the matching spreads around an object
-  lies behind it; a thin part in front is an object, a pole before a box, and so is a farther
-  part that holds an object outside the rim, a box beside the end of a wall in front of it);
+  object's pixel count farther than ``OBJECT_BEYOND_RIM_PX``: the halo of sky or ground the
+  matching spreads around an object lies behind it; a thin part in front is an object, a pole
+  before a box, and so is a farther part that holds an object beyond its rim, a box beside the
+  end of a wall in front of it);
 - their median disparities differ by more than the *gap*, ``max(min_gap_px, min_gap_rel * d)``;
 - each part lies on one plane in disparity (``min_plane_fraction`` of its pixels on its robust
   plane: :func:`~stereo_obstacles.part_boundaries.on_plane_fraction`): a colour boundary
@@ -78,8 +79,15 @@ __all__ = ["ColourCue", "ColourSplitParameters", "colour_cue", "split_groups_by_
 RIM_PX = 4.0
 """The farther part is a rim when more than ``MAX_RIM_FRACTION`` of its pixels lie within this
 distance (pixels, at least one square of a large group's) of the nearer part, and fewer than an
-object's pixel count lie beyond it (``docs/pipeline.md``, "Rims that hold an object")."""
+object's pixel count lie farther than ``OBJECT_BEYOND_RIM_PX`` from it."""
 MAX_RIM_FRACTION = 0.5
+OBJECT_BEYOND_RIM_PX = 6.0
+"""Pixels of the farther part farther than this (pixels, at least one and a half squares of a
+large group's) from the nearer part hold an object of its own when they are an object's pixel
+count: a halo up to this wide stays a rim. At 4 px the synthetic sets had 14 more repeated
+detections, several of them pieces 38-50 % on the background around the object
+(``docs/pipeline.md``, "What the matcher's errors cost the obstacles, and rims that hold an
+object")."""
 STEP_PERCENTILE = 10.0
 """Percentile of the planes' difference along the boundary that must exceed the gap: a low one,
 so that planes crossing anywhere along it (a crease) do not read as a step."""
@@ -401,8 +409,9 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, min_obj
     to_other = distance_to_other(canvas, second)
     farther = second if median(d[second]) < median(d[~second]) else ~second
     rim = farther & (to_other <= max(RIM_PX, canvas.block))                         # next square at least
+    beyond = farther & (to_other > max(OBJECT_BEYOND_RIM_PX, 1.5 * canvas.block))
     if (canvas.pixels(rim) > MAX_RIM_FRACTION * canvas.pixels(farther)
-            and canvas.pixels(farther & ~rim) < min_object_pixels):
+            and canvas.pixels(beyond) < min_object_pixels):
         return None
     planes = planes_away_from_boundary(canvas, d, second, to_other)
     if planes is None:
