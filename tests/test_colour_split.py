@@ -155,11 +155,11 @@ def test_a_rim_around_an_object_is_not_split_off():
 
 @pytest.mark.parametrize("pole_d, split", [(7.6, True), (6.4, False)])
 def test_a_thin_part_is_split_off_when_it_is_in_front_not_behind(pole_d, split):
-    """A pole 8 px wide within the rows of a box: all its columns lie within 4 px of the box. In
-    front (session 23: seed 182's pole was kept in a box 0.44 px behind it) it is an object;
-    behind, it would be the halo of the box."""
+    """A pole 12 px wide within the rows of a box: 8 of its 12 columns lie within 4 px of the box,
+    and none more than 6 px away. In front (session 23: seed 182's pole was kept in a box 0.44 px
+    behind it) it is an object; behind, it would be the halo of the box."""
     scene = (Scene().paint(slice(30, 80), slice(20, 100), BROWN, 7.0)
-             .paint(slice(30, 80), slice(56, 64), BLUE, pole_d))
+             .paint(slice(30, 80), slice(54, 66), BLUE, pole_d))
     assert bool(scene.split().max() == 1) == split
     if split:
         assert _same_parts(scene.split(), scene.objects)
@@ -195,6 +195,21 @@ def test_beyond_the_rim_a_large_group_counts_pixels_not_squares(rows, split):
     assert math.ceil(math.sqrt(np.count_nonzero(scene.objects >= 0) / MAX_DECISION_PIXELS)) == 2
     square_rows = (rows.stop - rows.start) // 2
     assert (4 * (square_rows - 3) >= MIN_OBJECT_PIXELS) == split
+    assert bool(scene.split().max() == 1) == split
+
+
+@pytest.mark.parametrize("squares, split", [(4, True), (3, False)])
+def test_beyond_the_rim_of_a_large_group_lies_one_and_a_half_squares_away(squares, split):
+    """Decided on squares of 3 x 3 px: a ring one square wide behind a box, with a tab 5 squares wide
+    reaching ``squares`` squares out of it. Its squares 3 steps of 2.87 px from the box (8.6 px) lie
+    beyond one and a half squares (4.5 px, so 6 px): with 4 squares, 3 rows of 5 squares, 135
+    pixels, an object's count; with 3, 90 pixels, too few. (Beyond 3 squares instead, the 4 squares
+    would give 90 too.)"""
+    scene = (Scene((260, 330)).paint(slice(57 - 3 * squares, 57), slice(150, 165), BLUE, 6.4)
+             .paint(slice(57, 213), slice(42, 288), BLUE, 6.4))
+    scene.objects[scene.objects >= 0], scene.n = 0, 1                       # the tab and the ring: one part
+    scene.paint(slice(60, 210), slice(45, 285), BROWN, 7.0)
+    assert math.ceil(math.sqrt(np.count_nonzero(scene.objects >= 0) / MAX_DECISION_PIXELS)) == 3
     assert bool(scene.split().max() == 1) == split
 
 
