@@ -215,8 +215,9 @@ def test_beyond_the_rim_of_a_large_group_lies_one_and_a_half_squares_away(square
 
 @pytest.mark.parametrize("width, split", [(6, False), (7, True)])
 def test_a_halo_up_to_6_px_wide_is_a_rim(width, split):
-    """A ring ``width`` pixels wide 1 px behind a 40 x 40 box, all its pixels within 6 px of the box
-    at 6 px wide (but for its corners' 64), an outer layer beyond that at 7 px wide."""
+    """A ring ``width`` pixels wide 1 px behind a 40 x 40 box: 6 px wide, all its pixels but 64 in
+    its corners lie within 6 px of the box; 7 px wide, 276 lie beyond (its outer layer and more of
+    its corners), an object's count, while 51 % of it still lies within 4 px."""
     w = width
     scene = (Scene().paint(slice(20 - w, 60 + w), slice(40 - w, 80 + w), BLUE, 8.0)
              .paint(slice(20, 60), slice(40, 80), BROWN, 9.0))
