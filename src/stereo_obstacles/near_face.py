@@ -8,11 +8,11 @@ of single matches (a plain 10th percentile of pixel depths reads 1-2 % too near)
 neighbourhood medians keep it from following single patches: a patch of few noisy matches, or
 of a nearer neighbour's pixels spread over the obstacle's outline by the matching (a box at
 8.8 m, a tenth of whose pixels were such, read -5.5 % before, -2.0 % with them;
-``docs/pipeline.md``, "Neighbourhood medians of the patches"). Patches holding fewer than ``min_patch_pixels`` of the
-obstacle's pixels are left out (all are used when none holds that many): they are mostly a fringe
-of a pixel or two along the object's outline, matched at a disparity borrowed from the window
-around them (a one-pixel column of sky beside a far pole read 7.5 px, the pole's own matches 6.9
-and its truth 6.6).
+``docs/pipeline.md``, "Neighbourhood medians of the patches"). Patches holding fewer than
+``min_patch_pixels`` of the obstacle's pixels are left out (all are used when none holds that
+many): they are mostly a fringe of a pixel or two along the object's outline, matched at a
+disparity borrowed from the window around them (a one-pixel column of sky beside a far pole read
+7.5 px, the pole's own matches 6.9 and its truth 6.6).
 
 A face slanted in depth (a wall seen obliquely, the top of a low box seen from above) spreads
 its patches over a range of disparities, and the percentile lies behind its nearest part by
