@@ -10,7 +10,7 @@ import pytest
 from _evaluation_scenes import evaluation_pair, true_obstacle
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.footprint_joining import FootprintJoiningParameters, pieces_of_one_object
+from stereo_obstacles.footprint_joining import Footprint, FootprintJoiningParameters, pieces_of_one_object
 from stereo_obstacles.obstacles import measure_obstacles
 
 RIG = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)   # f B = 42 px m
@@ -65,6 +65,23 @@ def test_pieces_of_two_colours_join_only_where_they_stand_in_one_place():
     assert _pole(bottom_chroma=(180, 60)).pairs() == [(2, 1)]
 
 
+def _wall_seen_from_above(top_near_z_m):
+    """A wall's front face at 2.05 m, rows 100-199, and its top face above it in another colour,
+    rows 40-99, receding from ``top_near_z_m`` (row 99) to 0.7 m farther (row 40)."""
+    scene = Scene().paint(1, slice(100, 200), slice(100, 140), 2.05)
+    for row, z_m in zip(range(99, 39, -1), np.linspace(top_near_z_m, top_near_z_m + 0.7, 60)):
+        scene.paint(2, slice(row, row + 1), slice(100, 140), float(z_m), chroma=(150, 110))
+    return scene
+
+
+def test_a_top_face_joins_its_front_face_when_its_span_of_depths_reaches_it():
+    # the top face's column medians lie 0.4 m behind the front face, the depths at their upper
+    # quartile of disparity 0.22 m behind: the spans coincide, and the colours are not compared
+    assert _wall_seen_from_above(2.1).pairs() == [(1, 2)]
+    assert _wall_seen_from_above(2.1).pairs(FootprintJoiningParameters(span_quantile=0.5)) == []   # medians only
+    assert _wall_seen_from_above(2.45).pairs() == []        # a face beginning 0.4 m behind: its quartile 0.57 m
+
+
 def test_pieces_at_two_depths_are_not_joined():
     assert _pole(bottom_z_m=4.4).pairs() == []                         # 0.4 m behind
     assert _pole(bottom_z_m=4.4, bottom_chroma=(128, 140)).pairs() == []
@@ -108,12 +125,19 @@ def test_three_points_of_each_footprint_must_touch():
     assert scene.pairs(FootprintJoiningParameters(min_close_fraction=0.0)) == [(1, 2)]
 
 
+def _random_footprint(rng, low_x_m, high_x_m):
+    """A footprint of 8 columns at random places, each span reaching up to 0.2 m behind its point."""
+    points = np.column_stack([rng.uniform(low_x_m, high_x_m, 8), rng.uniform(4, 4.6, 8)])
+    near = points[:, 1] - rng.uniform(0, 0.2, 8)
+    spans = np.column_stack([points[:, 0], near, near + rng.uniform(0, 0.2, 8)])
+    return Footprint(points, spans, np.zeros(2), np.zeros(2))     # the box is not asked here
+
+
 def test_touching_does_not_depend_on_the_order_of_two_footprints_of_one_length():
     from stereo_obstacles.footprint_joining import _touch
     rng = np.random.default_rng(3)
     for _ in range(200):
-        first = np.column_stack([rng.uniform(0, 1.5, 8), rng.uniform(4, 4.6, 8)])
-        second = np.column_stack([rng.uniform(0.5, 2.0, 8), rng.uniform(4, 4.6, 8)])
+        first, second = _random_footprint(rng, 0.0, 1.5), _random_footprint(rng, 0.5, 2.0)
         params = FootprintJoiningParameters(min_close_fraction=float(rng.uniform(0.3, 0.9)),
                                             min_coincident_fraction=float(rng.uniform(0.3, 0.9)))
         for one_colour in (True, False):
@@ -125,7 +149,8 @@ def test_touching_does_not_depend_on_the_order_of_two_footprints_of_one_length()
                                           ("min_close_columns", 0), ("min_close_columns", 2.5),
                                           ("min_close_fraction", 1.5), ("max_chroma_distance", float("nan")),
                                           ("min_coincident_fraction", -0.1), ("min_coincident_fraction", 1.2),
-                                          ("edge_columns", -1), ("min_column_pixels", 0)])
+                                          ("edge_columns", -1), ("min_column_pixels", 0),
+                                          ("span_quantile", -0.1), ("span_quantile", 0.6)])
 def test_bad_parameters_are_refused(field, value):
     with pytest.raises(InvalidInputError, match=field):
         FootprintJoiningParameters(**{field: value})

@@ -1,4 +1,5 @@
-"""Footprints on the ground plan: one point per image column, and their close points."""
+"""Footprints on the ground plan: one point (or span of depths) per image column, and their close
+points (or spans)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import pytest
 
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.footprints import BLOCK_POINTS, close_points, footprint
+from stereo_obstacles.footprints import BLOCK_POINTS, close_points, close_spans, footprint, footprint_spans
 
 RIG = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)   # f B = 42 px m
 
@@ -33,21 +34,33 @@ def test_a_footprint_leaves_out_columns_at_or_behind_infinity():
     assert len(footprint(xs, d, replace(RIG, doffs_px=2.0), edge_columns=0)) == 10
 
 
-@pytest.mark.parametrize("seed", range(20))
-def test_footprint_points_match_a_column_by_column_reference(seed):
+def _random_pixels(seed):
+    """600 pixels in columns 100-139 with random disparities (a fifth unmatched), and random
+    ``edge_columns`` and ``min_column_pixels``."""
     rng = np.random.default_rng(seed)
-    xs = rng.integers(100, 140, 600)
     d = rng.uniform(4.0, 30.0, 600)
     d[rng.random(600) < 0.2] = np.nan
-    edge_columns, min_column_pixels = int(rng.integers(0, 4)), int(rng.integers(1, 6))
+    return rng.integers(100, 140, 600), d, int(rng.integers(0, 4)), int(rng.integers(1, 6)), rng
+
+
+def _column_by_column(xs, d, edge_columns, min_column_pixels, statistics):
+    """``(column, statistic of its matched disparities, ...)`` for each column a footprint keeps,
+    computed one column at a time."""
     kept = []
     for x in np.unique(xs):
         column = d[(xs == x) & np.isfinite(d)]
         if len(column) >= min_column_pixels:
-            kept.append((x, np.median(column)))
-    columns = np.array([x for x, _ in kept])
+            kept.append((x, *(statistic(column) for statistic in statistics)))
+    columns = np.array([k[0] for k in kept])
     if len(columns) >= 2 * edge_columns + 2:
-        kept = [(x, m) for x, m in kept if columns.min() + edge_columns <= x <= columns.max() - edge_columns]
+        kept = [k for k in kept if columns.min() + edge_columns <= k[0] <= columns.max() - edge_columns]
+    return kept
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_footprint_points_match_a_column_by_column_reference(seed):
+    xs, d, edge_columns, min_column_pixels, _ = _random_pixels(seed)
+    kept = _column_by_column(xs, d, edge_columns, min_column_pixels, (np.median,))
     expected = np.array([((x - RIG.cx_px) * (RIG.focal_baseline_px_m / m) / RIG.focal_px,
                           RIG.focal_baseline_px_m / m) for x, m in kept])
     np.testing.assert_allclose(footprint(xs, d, RIG, edge_columns=edge_columns, min_column_pixels=min_column_pixels),
@@ -116,3 +129,70 @@ def test_footprints_and_their_parameters_of_other_shapes_are_refused():
         footprint(np.arange(5), np.ones(5), RIG, edge_columns=-1)
     with pytest.raises(InvalidInputError, match="min_column_pixels"):
         footprint(np.arange(5), np.ones(5), RIG, min_column_pixels=0)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_footprint_spans_match_a_column_by_column_reference(seed):
+    xs, d, edge_columns, min_column_pixels, rng = _random_pixels(seed)
+    quantile = float(rng.uniform(0.0, 0.5))
+    kept = _column_by_column(xs, d, edge_columns, min_column_pixels, (lambda column: np.quantile(column, 1 - quantile),
+                                                                      lambda column: np.quantile(column, quantile)))
+    fb = RIG.focal_baseline_px_m
+    expected = np.array([((x - RIG.cx_px) * (fb / ((near + far) / 2)) / RIG.focal_px, fb / near, fb / far)
+                         for x, near, far in kept])
+    spans = footprint_spans(xs, d, RIG, quantile=quantile, edge_columns=edge_columns,
+                            min_column_pixels=min_column_pixels)
+    np.testing.assert_allclose(spans, expected, rtol=1e-12)
+    points = footprint(xs, d, RIG, edge_columns=edge_columns, min_column_pixels=min_column_pixels)
+    assert np.all((spans[:, 1] <= points[:, 1]) & (points[:, 1] <= spans[:, 2]))   # each point within its span
+
+
+def test_footprint_spans_at_the_median_are_the_footprint_points():
+    xs = np.repeat(np.arange(150, 162), 5)
+    d = np.random.default_rng(1).uniform(8.0, 12.0, xs.shape)
+    spans = footprint_spans(xs, d, RIG, quantile=0.5)
+    points = footprint(xs, d, RIG)
+    np.testing.assert_allclose(spans[:, [0, 1]], points, rtol=1e-12)
+    np.testing.assert_allclose(spans[:, 2], points[:, 1], rtol=1e-12)
+
+
+def test_footprint_spans_leave_out_columns_whose_far_end_is_at_or_behind_infinity():
+    xs = np.repeat(np.arange(4), 4)
+    d = np.tile([0.0, 10.0, 10.0, 10.0], 4)                 # a quarter of each column at infinity
+    assert len(footprint_spans(xs, d, RIG, quantile=0.1, edge_columns=0)) == 4   # at 3 px (interpolated)
+    assert len(footprint_spans(xs, d, RIG, quantile=0.0, edge_columns=0)) == 0
+    assert len(footprint_spans(xs, d, replace(RIG, doffs_px=1.0), quantile=0.0, edge_columns=0)) == 4
+
+
+def test_close_spans_measure_the_gap_between_depth_ranges():
+    front = np.array([[0.0, 2.0, 2.1]])
+    assert close_spans(front, np.array([[0.0, 2.35, 3.0]]), 0.3) == (1, 1)    # 0.25 m behind
+    assert close_spans(front, np.array([[0.0, 2.45, 3.0]]), 0.3) == (0, 0)    # 0.35 m behind
+    assert close_spans(np.array([[0.0, 2.45, 3.0]]), front, 0.3) == (0, 0)    # either way round
+    assert close_spans(front, np.array([[0.0, 1.0, 2.05]]), 0.0) == (1, 1)    # overlapping: no gap
+    assert close_spans(front, np.array([[0.2, 1.0, 2.05]]), 0.3) == (1, 1)    # 0.2 m aside
+    assert close_spans(front, np.array([[0.2, 2.3, 2.9]]), 0.25) == (0, 0)    # 0.2 aside and 0.2 behind: 0.28
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_close_spans_agree_with_a_brute_force_count_beyond_one_block(seed):
+    rng = np.random.default_rng(seed)
+
+    def spans(n, low, high):
+        near = rng.uniform(low, high, n)
+        return np.column_stack([rng.uniform(low, high, n), near, near + rng.uniform(0.0, 0.5, n)])
+    first, second = spans(BLOCK_POINTS + 300, 0.0, 3.0), spans(400, 2.0, 5.0)
+    gaps = np.array([[np.hypot(a[0] - b[0], max(0.0, b[1] - a[2], a[1] - b[2])) for b in second] for a in first])
+    assert close_spans(first, second, 0.25) == (int((gaps.min(axis=1) <= 0.25).sum()),
+                                                int((gaps.min(axis=0) <= 0.25).sum()))
+    assert close_spans(np.empty((0, 3)), second, 1.0) == (0, 0)
+
+
+def test_spans_of_other_shapes_and_quantiles_out_of_range_are_refused():
+    with pytest.raises(InvalidInputError, match="\\(n, 3\\) arrays of spans"):
+        close_spans(np.ones((3, 2)), np.ones((3, 3)), 1.0)
+    for quantile in (-0.1, 0.6, float("nan"), "0.25"):
+        with pytest.raises(InvalidInputError, match="quantile must be a number in \\[0, 0.5\\]"):
+            footprint_spans(np.arange(5), np.ones(5), RIG, quantile=quantile)
+    with pytest.raises(InvalidInputError, match="1-D arrays of one length"):
+        footprint_spans(np.arange(5), np.ones(4), RIG, quantile=0.25)

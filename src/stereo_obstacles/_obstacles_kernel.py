@@ -1,10 +1,10 @@
-"""Compiled medians of an obstacle's pixels: by patch and patch neighbourhood, or by any integer
-key (private).
+"""Compiled medians and quantiles of an obstacle's pixels: by patch and patch neighbourhood, or by
+any integer key (private).
 
 The public wrappers are :func:`stereo_obstacles.near_face.near_face_depth` and, for the column
-medians of a footprint, :func:`stereo_obstacles.footprints.footprint`. The three kernels share one
+medians and quantiles of a footprint, :mod:`stereo_obstacles.footprints`. The kernels share one
 file so that numba's cache, kept per file, never keeps a caller compiled against an old
-:func:`bucket_medians_kernel`.
+:func:`_by_bucket` or :func:`bucket_medians_kernel`.
 """
 
 from __future__ import annotations
@@ -16,14 +16,9 @@ from stereo_obstacles._similarity_kernel import CACHE
 
 
 @njit(cache=CACHE, nogil=True)
-def bucket_medians_kernel(keys, values, n_buckets):
-    """How many ``values`` fall in each bucket, and their median.
-
-    ``keys`` int64 ``(N,)`` in ``[0, n_buckets)``: each value's bucket; ``values`` float64
-    ``(N,)``, finite. Returns int64 ``(n_buckets,)`` the counts and float64 ``(n_buckets,)`` the
-    medians (``np.median``'s: the mean of the two middle values of an even count; NaN for an empty
-    bucket). One counting sort by bucket, then a selection within each.
-    """
+def _by_bucket(keys, values, n_buckets):
+    """``values`` ordered by bucket (one counting sort), and int64 ``(n_buckets + 1,)`` where each
+    bucket starts in that order (bucket ``b`` holds ``[start[b], start[b + 1])``)."""
     n = keys.shape[0]
     start = np.zeros(n_buckets + 1, np.int64)
     for i in range(n):
@@ -35,12 +30,46 @@ def bucket_medians_kernel(keys, values, n_buckets):
     for i in range(n):
         ordered[fill[keys[i]]] = values[i]
         fill[keys[i]] += 1
+    return ordered, start
+
+
+@njit(cache=CACHE, nogil=True)
+def bucket_medians_kernel(keys, values, n_buckets):
+    """How many ``values`` fall in each bucket, and their median.
+
+    ``keys`` int64 ``(N,)`` in ``[0, n_buckets)``: each value's bucket; ``values`` float64
+    ``(N,)``, finite. Returns int64 ``(n_buckets,)`` the counts and float64 ``(n_buckets,)`` the
+    medians (``np.median``'s: the mean of the two middle values of an even count; NaN for an empty
+    bucket). One counting sort by bucket, then a selection within each.
+    """
+    ordered, start = _by_bucket(keys, values, n_buckets)
     counts = start[1:] - start[:-1]
     medians = np.full(n_buckets, np.nan)
     for b in range(n_buckets):
         if counts[b] > 0:
             medians[b] = np.median(ordered[start[b]:start[b + 1]])
     return counts, medians
+
+
+@njit(cache=CACHE, nogil=True)
+def bucket_quantiles_kernel(keys, values, n_buckets, low, high):
+    """How many ``values`` fall in each bucket, and their ``low`` and ``high`` quantiles.
+
+    ``keys`` and ``values`` as :func:`bucket_medians_kernel` takes them; ``low`` and ``high``
+    floats in ``[0, 1]``. Returns int64 ``(n_buckets,)`` the counts and float64 ``(n_buckets,)``
+    twice: the quantiles (``np.quantile``'s, interpolated linearly between the two values around
+    them; NaN for an empty bucket).
+    """
+    ordered, start = _by_bucket(keys, values, n_buckets)
+    counts = start[1:] - start[:-1]
+    lows = np.full(n_buckets, np.nan)
+    highs = np.full(n_buckets, np.nan)
+    for b in range(n_buckets):
+        if counts[b] > 0:
+            held = ordered[start[b]:start[b + 1]]
+            lows[b] = np.quantile(held, low)
+            highs[b] = np.quantile(held, high)
+    return counts, lows, highs
 
 
 @njit(cache=CACHE, nogil=True)

@@ -13,11 +13,16 @@ split's distinction of two colours) are pieces of one object when their footprin
 least ``min_close_columns`` points of each lie within ``max_gap_m`` of the other footprint, and
 so do at least ``min_close_fraction`` of the points of the shorter one (a piece stands on, or
 next to, the object it belongs to; an obstacle that mixes a wall with the box in front of it
-touches the wall with only its wall columns). Two obstacles whose footprints coincide (at least
-``min_coincident_fraction`` of the points of each touch the other) stand in one place and are
-joined whatever their colours: a thin piece's median chroma is pulled by the sky or ground that
-its fattened fringe covers (two pieces of a thin pole, 13 and 8 columns wide: 21 apart in
-``(a*, b*)``).
+touches the wall with only its wall columns). Two obstacles that coincide stand in one place and
+are joined whatever their colours: a thin piece's median chroma is pulled by the sky or ground
+that its fattened fringe covers (two pieces of a thin pole, 13 and 8 columns wide: 21 apart in
+``(a*, b*)``), and the top face of a wall or a box, lit by the sun, is not the colour of its
+front face. Whether they coincide is asked of their spans (the depths between the
+``span_quantile`` and ``1 - span_quantile`` quantiles of each column's disparities): at least
+``min_close_columns`` and ``min_coincident_fraction`` of the spans of each lie within
+``max_gap_m`` of the other's. A column's median alone puts the top face of a wall 0.6 m behind
+its front face, though the two meet at the wall's edge (``docs/pipeline.md``, "Faces that meet
+at an edge", session 35); for an upright piece the span is short, and close to its point.
 
 Joins form stars, not chains: the obstacles are taken largest first (in pixels), and each one not
 yet joined takes every other one not yet joined whose footprint touches its own. A piece that
@@ -39,7 +44,8 @@ from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.colour_split import ColourSplitParameters
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
-from stereo_obstacles.footprints import EDGE_COLUMNS, MIN_COLUMN_PIXELS, close_points, footprint
+from stereo_obstacles.footprints import (EDGE_COLUMNS, MIN_COLUMN_PIXELS, close_points, close_spans, footprint,
+                                        footprint_spans)
 from stereo_obstacles.obstacles import ObstacleList
 
 __all__ = ["FootprintJoiningParameters", "pieces_of_one_object"]
@@ -59,10 +65,14 @@ class FootprintJoiningParameters:
         Fraction of the points of the footprint with fewer that must touch the other.
     max_chroma_distance : float
         The obstacles' median chroma must lie this close in ``(a*, b*)`` (CIE L*a*b* units), unless
-        their footprints coincide.
+        they coincide.
     min_coincident_fraction : float
-        Fraction of the points of each footprint that must touch the other for the two to
+        Fraction of the spans of each obstacle that must touch the other's for the two to
         coincide.
+    span_quantile : float
+        A column's span reaches from the depth at the ``1 - span_quantile`` quantile of its
+        disparities to the depth at the ``span_quantile`` quantile, in ``[0, 0.5]`` (0.5: its
+        median, the footprint's point).
     edge_columns : int
         Columns left out on either side of a footprint (kept when it has fewer than
         ``2 * edge_columns + 2``).
@@ -75,29 +85,65 @@ class FootprintJoiningParameters:
     min_close_fraction: float = 0.5
     max_chroma_distance: float = ColourSplitParameters.min_chroma_distance
     min_coincident_fraction: float = 0.75
+    span_quantile: float = 0.25
     edge_columns: int = EDGE_COLUMNS
     min_column_pixels: int = MIN_COLUMN_PIXELS
 
     def __post_init__(self) -> None:
         check_numbers(self, (("max_gap_m", 0.0, math.inf), ("min_close_fraction", 0.0, 1.0),
-                             ("max_chroma_distance", 0.0, 400.0), ("min_coincident_fraction", 0.0, 1.0)))
+                             ("max_chroma_distance", 0.0, 400.0), ("min_coincident_fraction", 0.0, 1.0),
+                             ("span_quantile", 0.0, 0.5)))
         check_integers(self, (("min_close_columns", 1, 10 ** 6), ("edge_columns", 0, 10 ** 6),
                               ("min_column_pixels", 1, 10 ** 6)))
 
 
-def _touch(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters, *, one_colour: bool) -> bool:
-    """Whether the footprints (``(n, 2)`` metres) of two obstacles, of one colour or not, make them
-    pieces of one object: ``min_close_columns`` points of each lie within ``max_gap_m`` of the
-    other one, and so do ``min_coincident_fraction`` of each one's points (they coincide), or, of
-    one colour, ``min_close_fraction`` of the shorter one's."""
-    if len(first) < params.min_close_columns or len(second) < params.min_close_columns:
-        return False
+@dataclass(frozen=True)
+class Footprint:
+    """An obstacle's footprint points (``float64 (n, 2)``, ``X, Z``) and spans (``(m, 3)``,
+    ``X, Z near, Z far``), metres, and the corners ``(X, Z)`` of the box holding both
+    (``low`` at ``+inf`` and ``high`` at ``-inf`` when both are empty)."""
+
+    points: np.ndarray
+    spans: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+
+    @classmethod
+    def of(cls, xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibration,
+           params: FootprintJoiningParameters) -> Footprint:
+        """The footprint of the pixels in columns ``xs`` with these ``disparities`` (pixels)."""
+        columns = {"edge_columns": params.edge_columns, "min_column_pixels": params.min_column_pixels}
+        points = footprint(xs, disparities, calibration, **columns)
+        spans = footprint_spans(xs, disparities, calibration, quantile=params.span_quantile, **columns)
+        xz = np.concatenate([points, spans[:, :2], spans[:, [0, 2]]])
+        if len(xz) == 0:
+            return cls(points, spans, np.full(2, np.inf), np.full(2, -np.inf))
+        return cls(points, spans, xz.min(axis=0), xz.max(axis=0))
+
+
+def _touch(first: Footprint, second: Footprint, params: FootprintJoiningParameters, *, one_colour: bool) -> bool:
+    """Whether the footprints of two obstacles, of one colour or not, make them pieces of one
+    object: they coincide (``min_close_columns`` and ``min_coincident_fraction`` of the spans of
+    each lie within ``max_gap_m`` of the other's), or, of one colour, ``min_close_columns`` points
+    of each lie within ``max_gap_m`` of the other footprint and so do ``min_close_fraction`` of the
+    shorter one's."""
+    return _coincide(first.spans, second.spans, params) or (one_colour and _close(first.points, second.points, params))
+
+
+def _coincide(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters) -> bool:
+    """Whether two obstacles' spans (``(n, 3)`` metres) coincide (:func:`_touch`)."""
+    counts, lengths = close_spans(first, second, params.max_gap_m), (len(first), len(second))
+    return (min(counts) >= params.min_close_columns
+            and all(counts[k] >= params.min_coincident_fraction * lengths[k] for k in (0, 1)))
+
+
+def _close(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters) -> bool:
+    """Whether two obstacles' footprint points (``(n, 2)`` metres) touch as one colour's must
+    (:func:`_touch`)."""
     counts, lengths = close_points(first, second, params.max_gap_m), (len(first), len(second))
-    if min(counts) < params.min_close_columns:
-        return False
-    coincide = all(counts[k] >= params.min_coincident_fraction * lengths[k] for k in (0, 1))
     shorter = [k for k in (0, 1) if lengths[k] == min(lengths)]          # both, when they are as long
-    return coincide or (one_colour and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
+    return (min(counts) >= params.min_close_columns
+            and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
 
 
 def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma: np.ndarray,
@@ -138,26 +184,21 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
         ys, xs = np.nonzero(id_map[y0:y1, x0:x1] == o.id)
         pixels[o.id] = (ys + y0, xs + x0)
         colours[o.id] = np.median(chroma[ys + y0, xs + x0], axis=0)
-    prints: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}   # points, their low and high corner
+    prints: dict[int, Footprint] = {}
 
-    def footprint_of(k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def footprint_of(k: int) -> Footprint:
         if k not in prints:
             ys, xs = pixels[k]
-            points = footprint(xs, disparity[ys, xs], calibration, edge_columns=params.edge_columns,
-                               min_column_pixels=params.min_column_pixels)
-            if len(points):
-                prints[k] = (points, points.min(axis=0), points.max(axis=0))
-            else:
-                prints[k] = (points, np.full(2, np.inf), np.full(2, -np.inf))
+            prints[k] = Footprint.of(xs, disparity[ys, xs], calibration, params)
         return prints[k]
 
     ids = sorted(pixels)
     touching: dict[int, set[int]] = {k: set() for k in ids}
     for i, a in enumerate(ids):
         for b in ids[i + 1:]:
-            (first, low_a, high_a), (second, low_b, high_b) = footprint_of(a), footprint_of(b)
-            # bounding boxes farther apart than the gap in X or Z: no point can touch (a cheap first test)
-            if np.any(np.maximum(low_a, low_b) - np.minimum(high_a, high_b) > params.max_gap_m):
+            first, second = footprint_of(a), footprint_of(b)
+            # bounding boxes farther apart than the gap in X or Z: nothing can touch (a cheap first test)
+            if np.any(np.maximum(first.low, second.low) - np.minimum(first.high, second.high) > params.max_gap_m):
                 continue
             one_colour = math.dist(colours[a], colours[b]) <= params.max_chroma_distance
             if _touch(first, second, params, one_colour=one_colour):

@@ -11,17 +11,24 @@ Two footprints are compared by their *close points*: the points of each that lie
 the other footprint. The pieces of one object are joined when they touch that way
 (:mod:`stereo_obstacles.footprint_joining`); two depths of one group are split only when they do
 not (:mod:`stereo_obstacles.colour_split`).
+
+A face that is not upright (the top face of a box or a wall, seen from above) covers a range of
+depths in each column, and its median lies behind the edge where it meets the front face (a
+wall's top face 0.6 m behind its front face, on the ground plan). Its *spans* keep that range: per
+column, the lateral position and the depths at two quantiles of the column's disparities
+(:func:`footprint_spans`); :func:`close_spans` compares them by the gap between the depth ranges.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from stereo_obstacles._obstacles_kernel import bucket_medians_kernel
+from stereo_obstacles._obstacles_kernel import bucket_medians_kernel, bucket_quantiles_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.field_checks import is_finite_real
 
-__all__ = ["EDGE_COLUMNS", "MIN_COLUMN_PIXELS", "close_points", "footprint"]
+__all__ = ["EDGE_COLUMNS", "MIN_COLUMN_PIXELS", "close_points", "close_spans", "footprint", "footprint_spans"]
 
 EDGE_COLUMNS = 4
 """Columns left out on either side of a footprint (kept when it has fewer than ``2 *
@@ -70,6 +77,54 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
     array([[-0.12 ,  4.2  ],
            [-0.108,  4.2  ]])
     """
+    xs, disparities, first = _matched_columns(xs, disparities, edge_columns, min_column_pixels)
+    if len(xs) == 0:
+        return np.empty((0, 2))
+    counts, medians = bucket_medians_kernel(xs - first, disparities, int(xs.max()) - first + 1)
+    columns, (shifted,) = _kept_columns(counts, (medians,), first, calibration, edge_columns, min_column_pixels)
+    z = calibration.focal_baseline_px_m / shifted
+    return np.stack([(columns - calibration.cx_px) * z / calibration.focal_px, z], axis=1)
+
+
+def footprint_spans(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibration, *, quantile: float,
+                    edge_columns: int = EDGE_COLUMNS, min_column_pixels: int = MIN_COLUMN_PIXELS) -> np.ndarray:
+    """``float64 (n, 3)``: the spans ``(X, Z near, Z far)`` in metres of a set of pixels, one per
+    column from left to right: the depths at the ``1 - quantile`` and ``quantile`` quantiles of
+    the column's disparities, and the lateral position at the depth halfway between those two
+    disparities.
+
+    ``xs``, ``disparities``, ``calibration``, ``edge_columns`` and ``min_column_pixels`` are as
+    :func:`footprint` takes them; columns whose ``quantile`` disparity plus ``doffs`` is not
+    positive give no span. ``quantile`` lies in ``[0, 0.5]``.
+
+    Raises
+    ------
+    InvalidInputError
+        As :func:`footprint`, and a ``quantile`` outside ``[0, 0.5]``.
+
+    Examples
+    --------
+    >>> rig = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)
+    >>> top = np.array([8.0, 9.0, 10.0, 11.0, 12.0])   # a face receding from 3.5 m to 5.25 m
+    >>> footprint_spans(np.full(5, 160), top, rig, quantile=0.25, edge_columns=0).round(2)  # at 11 and 9 px
+    array([[0.  , 3.82, 4.67]])
+    """
+    if not (is_finite_real(quantile) and 0.0 <= quantile <= 0.5):
+        raise InvalidInputError(f"quantile must be a number in [0, 0.5], got {quantile!r}")
+    xs, disparities, first = _matched_columns(xs, disparities, edge_columns, min_column_pixels)
+    if len(xs) == 0:
+        return np.empty((0, 3))
+    counts, far, near = bucket_quantiles_kernel(xs - first, disparities, int(xs.max()) - first + 1,
+                                                float(quantile), 1.0 - float(quantile))
+    columns, (far, near) = _kept_columns(counts, (far, near), first, calibration, edge_columns, min_column_pixels)
+    middle = calibration.focal_baseline_px_m / (0.5 * (far + near))
+    return np.stack([(columns - calibration.cx_px) * middle / calibration.focal_px,
+                     calibration.focal_baseline_px_m / near, calibration.focal_baseline_px_m / far], axis=1)
+
+
+def _matched_columns(xs, disparities, edge_columns, min_column_pixels) -> tuple[np.ndarray, np.ndarray, int]:
+    """The matched pixels' columns (``int64``) and disparities (``float64``), checked as
+    :func:`footprint` says, and their first column (0 when there are none)."""
     xs, disparities = np.asarray(xs), np.asarray(disparities, dtype=np.float64)
     if xs.ndim != 1 or disparities.shape != xs.shape or not np.issubdtype(xs.dtype, np.integer):
         raise InvalidInputError(f"xs (integer columns) and disparities must be 1-D arrays of one length, got "
@@ -81,22 +136,28 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
     matched = np.isfinite(disparities)
     xs, disparities = xs[matched], disparities[matched]
     if len(xs) == 0:
-        return np.empty((0, 2))
+        return xs.astype(np.int64), disparities, 0
     first, last = int(xs.min()), int(xs.max())
     if last - first > MAX_COLUMN_SPAN or last > np.iinfo(np.int64).max:
         raise InvalidInputError(f"xs must be image columns at most {MAX_COLUMN_SPAN} apart and below 2**63, got "
                                 f"{first} to {last}")
-    counts, medians = bucket_medians_kernel(xs.astype(np.int64) - first, disparities, last - first + 1)
+    return xs.astype(np.int64), disparities, first
+
+
+def _kept_columns(counts: np.ndarray, disparities: tuple[np.ndarray, ...], first: int, calibration: StereoCalibration,
+                  edge_columns: int, min_column_pixels: int) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+    """The columns that give a point, and their ``disparities`` (one array per statistic, each
+    ``(number of columns,)`` from column ``first`` on) plus ``doffs``: the columns with at least
+    ``min_column_pixels`` matches whose first statistic plus ``doffs`` is positive, the outermost
+    ``edge_columns`` on either side left out when at least ``2 * edge_columns + 2`` remain."""
     held = np.flatnonzero(counts)
-    columns, counts, medians = held + first, counts[held], medians[held]
-    shifted = medians + calibration.doffs_px
-    kept = (counts >= min_column_pixels) & (shifted > 0)
-    columns, shifted = columns[kept], shifted[kept]
+    shifted = tuple(d[held] + calibration.doffs_px for d in disparities)
+    kept = (counts[held] >= min_column_pixels) & (shifted[0] > 0)
+    columns, shifted = held[kept] + first, tuple(d[kept] for d in shifted)
     if len(columns) >= 2 * edge_columns + 2:
         inner = (columns >= columns.min() + edge_columns) & (columns <= columns.max() - edge_columns)
-        columns, shifted = columns[inner], shifted[inner]
-    z = calibration.focal_baseline_px_m / shifted
-    return np.stack([(columns - calibration.cx_px) * z / calibration.focal_px, z], axis=1)
+        columns, shifted = columns[inner], tuple(d[inner] for d in shifted)
+    return columns, shifted
 
 
 def close_points(first: np.ndarray, second: np.ndarray, max_gap_m: float) -> tuple[int, int]:
@@ -115,15 +176,55 @@ def close_points(first: np.ndarray, second: np.ndarray, max_gap_m: float) -> tup
     >>> close_points(wall, np.array([[0.2, 4.8], [1.0, 4.8]]), 0.3)  # the wall, and one point of the other
     (3, 1)
     """
+    first, second = _checked_rows(first, second, 2, "points")
+    return _close_counts(first, second, max_gap_m, lambda block: np.hypot(block[:, None, 0] - second[None, :, 0],
+                                                                        block[:, None, 1] - second[None, :, 1]))
+
+
+def close_spans(first: np.ndarray, second: np.ndarray, max_gap_m: float) -> tuple[int, int]:
+    """How many spans of each (``float (n, 3)`` and ``(m, 3)``, metres, as :func:`footprint_spans`
+    gives them) lie within ``max_gap_m`` metres of a span of the other one: the gap of two spans
+    is ``hypot(dX, dZ)``, ``dZ`` the gap between their depth ranges (0 where they overlap).
+    ``(0, 0)`` when either is empty.
+
+    Raises
+    ------
+    InvalidInputError
+        Spans that are not ``(n, 3)``.
+
+    Examples
+    --------
+    >>> front = np.array([[0.0, 2.05, 2.1], [0.1, 2.05, 2.1]])
+    >>> top = np.array([[0.0, 2.3, 2.8], [0.1, 2.5, 2.8]])    # 0.2 m and 0.4 m behind the front
+    >>> close_spans(front, top, 0.3)
+    (2, 1)
+    """
+    first, second = _checked_rows(first, second, 3, "spans")
+
+    def gaps(block: np.ndarray) -> np.ndarray:
+        depth_gap = np.maximum(0.0, np.maximum(second[None, :, 1] - block[:, None, 2],
+                                               block[:, None, 1] - second[None, :, 2]))
+        return np.hypot(block[:, None, 0] - second[None, :, 0], depth_gap)
+    return _close_counts(first, second, max_gap_m, gaps)
+
+
+def _checked_rows(first, second, width: int, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The two as ``float64`` arrays of ``width`` columns (else an :class:`InvalidInputError`)."""
     first, second = np.asarray(first, dtype=np.float64), np.asarray(second, dtype=np.float64)
-    if first.ndim != 2 or second.ndim != 2 or first.shape[1] != 2 or second.shape[1] != 2:
-        raise InvalidInputError(f"footprints must be (n, 2) arrays of points, got {first.shape} and {second.shape}")
-    near_first = np.zeros(len(first), dtype=bool)             # points of each within the gap of the other
+    if first.ndim != 2 or second.ndim != 2 or first.shape[1] != width or second.shape[1] != width:
+        raise InvalidInputError(f"footprints must be (n, {width}) arrays of {name}, got {first.shape} and "
+                                f"{second.shape}")
+    return first, second
+
+
+def _close_counts(first: np.ndarray, second: np.ndarray, max_gap_m: float, gaps) -> tuple[int, int]:
+    """How many rows of each lie within ``max_gap_m`` of a row of the other, ``gaps(block)`` giving
+    the ``(len(block), len(second))`` gaps of a block of ``first``'s rows to ``second``'s."""
+    near_first = np.zeros(len(first), dtype=bool)             # rows of each within the gap of the other
     near_second = np.zeros(len(second), dtype=bool)
     for start in range(0, len(first), BLOCK_POINTS):
         block = first[start:start + BLOCK_POINTS]
-        gaps = np.hypot(block[:, None, 0] - second[None, :, 0], block[:, None, 1] - second[None, :, 1])
-        close = gaps <= max_gap_m
+        close = gaps(block) <= max_gap_m
         near_first[start:start + len(block)] = close.any(axis=1)
         near_second |= close.any(axis=0)
     return int(near_first.sum()), int(near_second.sum())
