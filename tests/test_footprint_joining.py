@@ -125,12 +125,19 @@ def test_three_points_of_each_footprint_must_touch():
     assert scene.pairs(FootprintJoiningParameters(min_close_fraction=0.0)) == [(1, 2)]
 
 
+def _footprint(points, near_m, far_m):
+    """A footprint of these points, each column's span reaching from ``near_m`` in front of its
+    point to ``far_m`` behind it (upright: lateral positions as the points'); its box is not asked
+    by :func:`_touch`."""
+    spans = np.column_stack([points[:, 0], points[:, 1] - near_m, points[:, 0], points[:, 1] + far_m])
+    return Footprint(points, spans, np.zeros(2), np.zeros(2))
+
+
 def _random_footprint(rng, low_x_m, high_x_m):
-    """A footprint of 8 columns at random places, each span reaching up to 0.2 m behind its point."""
+    """A footprint of 8 columns at random places, each span reaching up to 0.2 m in front of its
+    point and up to 0.2 m behind it."""
     points = np.column_stack([rng.uniform(low_x_m, high_x_m, 8), rng.uniform(4, 4.6, 8)])
-    near = points[:, 1] - rng.uniform(0, 0.2, 8)
-    spans = np.column_stack([points[:, 0], near, near + rng.uniform(0, 0.2, 8)])
-    return Footprint(points, spans, np.zeros(2), np.zeros(2))     # the box is not asked here
+    return _footprint(points, rng.uniform(0, 0.2, 8), rng.uniform(0, 0.2, 8))
 
 
 def test_touching_does_not_depend_on_the_order_of_two_footprints_of_one_length():
@@ -143,6 +150,38 @@ def test_touching_does_not_depend_on_the_order_of_two_footprints_of_one_length()
         for one_colour in (True, False):
             assert (_touch(first, second, params, one_colour=one_colour)
                     == _touch(second, first, params, one_colour=one_colour))
+
+
+def test_one_colour_is_asked_of_the_points_and_not_of_the_spans():
+    # two obstacles of 10 columns, side by side in X, 0.5 m apart in depth; the spans of 6 of each
+    # reach 0.2 m towards the other: the spans touch, too few of them to coincide (75 %), enough to
+    # touch as one colour (half), but the points, 0.5 m apart, do not touch
+    from stereo_obstacles.footprint_joining import _touch
+    front = np.column_stack([np.linspace(0.0, 0.45, 10), np.full(10, 4.0)])
+    back = front + [0.0, 0.5]
+    reaching = np.where(np.arange(10) < 6, 0.2, 0.0)
+    first, second = _footprint(front, 0.0, reaching), _footprint(back, reaching, 0.0)
+    params = FootprintJoiningParameters()
+    assert not _touch(first, second, params, one_colour=True)
+    assert _touch(first, second, replace(params, min_coincident_fraction=0.6), one_colour=False)
+    assert _touch(_footprint(front, 0.0, 0.0), _footprint(front + [0.0, 0.2], 0.0, 0.0), params, one_colour=True)
+
+
+def test_obstacles_of_fewer_spans_than_min_close_columns_do_not_coincide():
+    # two columns of a thin piece in the columns of another, in another colour
+    scene = Scene().paint(1, slice(50, 150), slice(100, 102), 4.0).paint(2, slice(150, 200), slice(100, 102), 4.0,
+                                                                        chroma=(150, 110))
+    assert scene.pairs() == []
+    assert scene.pairs(FootprintJoiningParameters(min_close_columns=2)) == [(1, 2)]
+
+
+def test_a_face_joins_a_farther_piece_its_far_spans_reach():
+    # the top face of _wall_seen_from_above(2.1), without its front face, recedes to 2.8 m; a
+    # piece in its columns at 2.85 m, in a third colour, lies 0.40 m behind the face's medians and
+    # 0.22 m behind its spans' far ends
+    scene = _wall_seen_from_above(2.1).paint(3, slice(10, 40), slice(100, 140), 2.85, chroma=(100, 160))
+    scene.groups[100:200], scene.disparity[100:200] = 0, np.nan
+    assert scene.pairs() == [(2, 3)]
 
 
 @pytest.mark.parametrize("field, value", [("max_gap_m", -0.1), ("max_gap_m", float("inf")),

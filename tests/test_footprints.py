@@ -138,13 +138,13 @@ def test_footprint_spans_match_a_column_by_column_reference(seed):
     kept = _column_by_column(xs, d, edge_columns, min_column_pixels, (lambda column: np.quantile(column, 1 - quantile),
                                                                       lambda column: np.quantile(column, quantile)))
     fb = RIG.focal_baseline_px_m
-    expected = np.array([((x - RIG.cx_px) * (fb / ((near + far) / 2)) / RIG.focal_px, fb / near, fb / far)
-                         for x, near, far in kept])
+    expected = np.array([((x - RIG.cx_px) / RIG.focal_px * fb / near, fb / near,
+                          (x - RIG.cx_px) / RIG.focal_px * fb / far, fb / far) for x, near, far in kept])
     spans = footprint_spans(xs, d, RIG, quantile=quantile, edge_columns=edge_columns,
                             min_column_pixels=min_column_pixels)
     np.testing.assert_allclose(spans, expected, rtol=1e-12)
     points = footprint(xs, d, RIG, edge_columns=edge_columns, min_column_pixels=min_column_pixels)
-    assert np.all((spans[:, 1] <= points[:, 1]) & (points[:, 1] <= spans[:, 2]))   # each point within its span
+    assert np.all((spans[:, 1] <= points[:, 1]) & (points[:, 1] <= spans[:, 3]))   # each point within its span
 
 
 def test_footprint_spans_at_the_median_are_the_footprint_points():
@@ -152,8 +152,8 @@ def test_footprint_spans_at_the_median_are_the_footprint_points():
     d = np.random.default_rng(1).uniform(8.0, 12.0, xs.shape)
     spans = footprint_spans(xs, d, RIG, quantile=0.5)
     points = footprint(xs, d, RIG)
-    np.testing.assert_allclose(spans[:, [0, 1]], points, rtol=1e-12)
-    np.testing.assert_allclose(spans[:, 2], points[:, 1], rtol=1e-12)
+    np.testing.assert_allclose(spans[:, 0:2], points, rtol=1e-12)
+    np.testing.assert_allclose(spans[:, 2:4], points, rtol=1e-12)
 
 
 def test_footprint_spans_leave_out_columns_whose_far_end_is_at_or_behind_infinity():
@@ -164,34 +164,60 @@ def test_footprint_spans_leave_out_columns_whose_far_end_is_at_or_behind_infinit
     assert len(footprint_spans(xs, d, replace(RIG, doffs_px=1.0), quantile=0.0, edge_columns=0)) == 4
 
 
-def test_close_spans_measure_the_gap_between_depth_ranges():
-    front = np.array([[0.0, 2.0, 2.1]])
-    assert close_spans(front, np.array([[0.0, 2.35, 3.0]]), 0.3) == (1, 1)    # 0.25 m behind
-    assert close_spans(front, np.array([[0.0, 2.45, 3.0]]), 0.3) == (0, 0)    # 0.35 m behind
-    assert close_spans(np.array([[0.0, 2.45, 3.0]]), front, 0.3) == (0, 0)    # either way round
-    assert close_spans(front, np.array([[0.0, 1.0, 2.05]]), 0.0) == (1, 1)    # overlapping: no gap
-    assert close_spans(front, np.array([[0.2, 1.0, 2.05]]), 0.3) == (1, 1)    # 0.2 m aside
-    assert close_spans(front, np.array([[0.2, 2.3, 2.9]]), 0.25) == (0, 0)    # 0.2 aside and 0.2 behind: 0.28
+def _on_sight_line(sideways, z_near_m, z_far_m):
+    """A span ``(X near, Z near, X far, Z far)`` on the line of sight ``X = sideways * Z``."""
+    return np.array([[sideways * z_near_m, z_near_m, sideways * z_far_m, z_far_m]])
+
+
+def test_close_spans_measure_the_least_distance_between_two_segments():
+    front = _on_sight_line(0.0, 2.0, 2.1)
+    assert close_spans(front, _on_sight_line(0.0, 2.35, 3.0), 0.3) == (1, 1)    # 0.25 m behind
+    assert close_spans(front, _on_sight_line(0.0, 2.45, 3.0), 0.3) == (0, 0)    # 0.35 m behind
+    assert close_spans(_on_sight_line(0.0, 2.45, 3.0), front, 0.3) == (0, 0)    # either way round
+    assert close_spans(front, _on_sight_line(0.0, 1.0, 2.05), 0.0) == (1, 1)    # overlapping: no gap
+    # off the optical axis the gap lies along the line of sight: 0.2 m of depth is 0.215 m there
+    off_axis = 0.4
+    assert close_spans(_on_sight_line(off_axis, 2.0, 2.1), _on_sight_line(off_axis, 2.3, 3.0), 0.22) == (1, 1)
+    assert close_spans(_on_sight_line(off_axis, 2.0, 2.1), _on_sight_line(off_axis, 2.3, 3.0), 0.21) == (0, 0)
+    # segments side by side: the gap is from the shorter one's ends to the longer one's middle
+    side = np.array([[0.2, 2.4, 0.2, 2.6]])
+    assert close_spans(np.array([[0.0, 2.0, 0.0, 3.0]]), side, 0.21) == (1, 1)
+    assert close_spans(np.array([[0.0, 2.0, 0.0, 3.0]]), side, 0.19) == (0, 0)
+
+
+def _segment_gap(a, b):
+    """The least distance between two segments ``(x0, z0, x1, z1)``, one pair at a time: 0 where
+    they cross, else the least distance from an end of one to the other."""
+    def to_segment(px, pz, x0, z0, x1, z1):
+        dx, dz = x1 - x0, z1 - z0
+        length2 = dx * dx + dz * dz
+        t = 0.0 if length2 == 0 else min(1.0, max(0.0, ((px - x0) * dx + (pz - z0) * dz) / length2))
+        return float(np.hypot(px - (x0 + t * dx), pz - (z0 + t * dz)))
+
+    def side(px, pz, x0, z0, x1, z1):
+        return np.sign((x1 - x0) * (pz - z0) - (z1 - z0) * (px - x0))
+    if (side(*a[:2], *b) * side(*a[2:], *b) < 0) and (side(*b[:2], *a) * side(*b[2:], *a) < 0):
+        return 0.0
+    return min(to_segment(*a[:2], *b), to_segment(*a[2:], *b), to_segment(*b[:2], *a), to_segment(*b[2:], *a))
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_close_spans_agree_with_a_brute_force_count_beyond_one_block(seed):
+def test_close_spans_agree_with_a_pair_by_pair_count(seed):
     rng = np.random.default_rng(seed)
-
-    def spans(n, low, high):
-        near = rng.uniform(low, high, n)
-        return np.column_stack([rng.uniform(low, high, n), near, near + rng.uniform(0.0, 0.5, n)])
-    first, second = spans(BLOCK_POINTS + 300, 0.0, 3.0), spans(400, 2.0, 5.0)
-    gaps = np.array([[np.hypot(a[0] - b[0], max(0.0, b[1] - a[2], a[1] - b[2])) for b in second] for a in first])
-    assert close_spans(first, second, 0.25) == (int((gaps.min(axis=1) <= 0.25).sum()),
-                                                int((gaps.min(axis=0) <= 0.25).sum()))
-    assert close_spans(np.empty((0, 3)), second, 1.0) == (0, 0)
+    first = rng.uniform(0.0, 3.0, (300, 4))
+    second = rng.uniform(1.0, 4.0, (40, 4))
+    second[:3, 2:] = second[:3, :2]                          # three of no length
+    gaps = np.array([[_segment_gap(a, b) for b in second] for a in first])
+    for max_gap_m in (0.05, 0.25):
+        assert close_spans(first, second, max_gap_m) == (int((gaps.min(axis=1) <= max_gap_m).sum()),
+                                                         int((gaps.min(axis=0) <= max_gap_m).sum()))
+    assert close_spans(np.empty((0, 4)), second, 1.0) == (0, 0)
 
 
 def test_spans_of_other_shapes_and_quantiles_out_of_range_are_refused():
-    with pytest.raises(InvalidInputError, match="\\(n, 3\\) arrays of spans"):
-        close_spans(np.ones((3, 2)), np.ones((3, 3)), 1.0)
-    for quantile in (-0.1, 0.6, float("nan"), "0.25"):
+    with pytest.raises(InvalidInputError, match="\\(n, 4\\) arrays of spans"):
+        close_spans(np.ones((3, 3)), np.ones((3, 4)), 1.0)
+    for quantile in (-0.1, 0.6, float("nan"), "0.25", True):
         with pytest.raises(InvalidInputError, match="quantile must be a number in \\[0, 0.5\\]"):
             footprint_spans(np.arange(5), np.ones(5), RIG, quantile=quantile)
     with pytest.raises(InvalidInputError, match="1-D arrays of one length"):

@@ -17,12 +17,14 @@ touches the wall with only its wall columns). Two obstacles that coincide stand 
 are joined whatever their colours: a thin piece's median chroma is pulled by the sky or ground
 that its fattened fringe covers (two pieces of a thin pole, 13 and 8 columns wide: 21 apart in
 ``(a*, b*)``), and the top face of a wall or a box, lit by the sun, is not the colour of its
-front face. Whether they coincide is asked of their spans (the depths between the
-``span_quantile`` and ``1 - span_quantile`` quantiles of each column's disparities): at least
-``min_close_columns`` and ``min_coincident_fraction`` of the spans of each lie within
+front face. Whether they coincide is asked of their spans (each column's line of sight between
+the depths at the ``1 - span_quantile`` and ``span_quantile`` quantiles of its disparities): at
+least ``min_close_columns`` and ``min_coincident_fraction`` of the spans of each lie within
 ``max_gap_m`` of the other's. A column's median alone puts the top face of a wall 0.6 m behind
-its front face, though the two meet at the wall's edge (``docs/pipeline.md``, "Faces that meet
-at an edge", session 35); for an upright piece the span is short, and close to its point.
+its front face, though the two meet at the wall's edge; for an upright piece the span is short,
+and close to its point. The one-colour test keeps the points: the spans of an obstacle that
+mixes a box with the wall behind it reach across the gap between the two, and touch both
+(``docs/pipeline.md``, "Faces that meet at an edge, and two halo filters", session 35).
 
 Joins form stars, not chains: the obstacles are taken largest first (in pixels), and each one not
 yet joined takes every other one not yet joined whose footprint touches its own. A piece that
@@ -58,9 +60,10 @@ class FootprintJoiningParameters:
     Attributes
     ----------
     max_gap_m : float
-        Footprint points this close (metres, on the ground plan ``X``, ``Z``) touch.
+        Footprint points, or spans, this close (metres, on the ground plan ``X``, ``Z``; for spans
+        the least distance between the two segments) touch.
     min_close_columns : int
-        Points of each footprint that must touch the other.
+        Points (for the coincide test, spans) of each footprint that must touch the other's.
     min_close_fraction : float
         Fraction of the points of the footprint with fewer that must touch the other.
     max_chroma_distance : float
@@ -99,8 +102,8 @@ class FootprintJoiningParameters:
 
 @dataclass(frozen=True)
 class Footprint:
-    """An obstacle's footprint points (``float64 (n, 2)``, ``X, Z``) and spans (``(m, 3)``,
-    ``X, Z near, Z far``), metres, and the corners ``(X, Z)`` of the box holding both
+    """An obstacle's footprint points (``float64 (n, 2)``, ``X, Z``) and spans (``(m, 4)``,
+    ``X near, Z near, X far, Z far``), metres, and the corners ``(X, Z)`` of the box holding both
     (``low`` at ``+inf`` and ``high`` at ``-inf`` when both are empty)."""
 
     points: np.ndarray
@@ -115,7 +118,7 @@ class Footprint:
         columns = {"edge_columns": params.edge_columns, "min_column_pixels": params.min_column_pixels}
         points = footprint(xs, disparities, calibration, **columns)
         spans = footprint_spans(xs, disparities, calibration, quantile=params.span_quantile, **columns)
-        xz = np.concatenate([points, spans[:, :2], spans[:, [0, 2]]])
+        xz = np.concatenate([points, spans[:, :2], spans[:, 2:]])
         if len(xz) == 0:
             return cls(points, spans, np.full(2, np.inf), np.full(2, -np.inf))
         return cls(points, spans, xz.min(axis=0), xz.max(axis=0))
@@ -131,7 +134,7 @@ def _touch(first: Footprint, second: Footprint, params: FootprintJoiningParamete
 
 
 def _coincide(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParameters) -> bool:
-    """Whether two obstacles' spans (``(n, 3)`` metres) coincide (:func:`_touch`)."""
+    """Whether two obstacles' spans (``(n, 4)`` metres) coincide (:func:`_touch`)."""
     counts, lengths = close_spans(first, second, params.max_gap_m), (len(first), len(second))
     return (min(counts) >= params.min_close_columns
             and all(counts[k] >= params.min_coincident_fraction * lengths[k] for k in (0, 1)))

@@ -15,14 +15,16 @@ not (:mod:`stereo_obstacles.colour_split`).
 A face that is not upright (the top face of a box or a wall, seen from above) covers a range of
 depths in each column, and its median lies behind the edge where it meets the front face (a
 wall's top face 0.6 m behind its front face, on the ground plan). Its *spans* keep that range: per
-column, the lateral position and the depths at two quantiles of the column's disparities
-(:func:`footprint_spans`); :func:`close_spans` compares them by the gap between the depth ranges.
+column, the segment of the column's line of sight between the depths at two quantiles of its
+disparities (:func:`footprint_spans`); :func:`close_spans` compares them by the least distance
+between two segments.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from stereo_obstacles._footprints_kernel import close_spans_kernel
 from stereo_obstacles._obstacles_kernel import bucket_medians_kernel, bucket_quantiles_kernel
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
@@ -88,10 +90,9 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
 
 def footprint_spans(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibration, *, quantile: float,
                     edge_columns: int = EDGE_COLUMNS, min_column_pixels: int = MIN_COLUMN_PIXELS) -> np.ndarray:
-    """``float64 (n, 3)``: the spans ``(X, Z near, Z far)`` in metres of a set of pixels, one per
-    column from left to right: the depths at the ``1 - quantile`` and ``quantile`` quantiles of
-    the column's disparities, and the lateral position at the depth halfway between those two
-    disparities.
+    """``float64 (n, 4)``: the spans ``(X near, Z near, X far, Z far)`` in metres of a set of
+    pixels, one per column from left to right: the two ends, on the column's line of sight, of
+    the depths at the ``1 - quantile`` and ``quantile`` quantiles of its disparities.
 
     ``xs``, ``disparities``, ``calibration``, ``edge_columns`` and ``min_column_pixels`` are as
     :func:`footprint` takes them; columns whose ``quantile`` disparity plus ``doffs`` is not
@@ -106,25 +107,26 @@ def footprint_spans(xs: np.ndarray, disparities: np.ndarray, calibration: Stereo
     --------
     >>> rig = StereoCalibration(focal_px=350.0, cx_px=160.0, cy_px=120.0, baseline_m=0.12)
     >>> top = np.array([8.0, 9.0, 10.0, 11.0, 12.0])   # a face receding from 3.5 m to 5.25 m
-    >>> footprint_spans(np.full(5, 160), top, rig, quantile=0.25, edge_columns=0).round(2)  # at 11 and 9 px
-    array([[0.  , 3.82, 4.67]])
+    >>> footprint_spans(np.full(5, 195), top, rig, quantile=0.25, edge_columns=0).round(2)  # at 11 and 9 px
+    array([[0.38, 3.82, 0.47, 4.67]])
     """
     if not (is_finite_real(quantile) and 0.0 <= quantile <= 0.5):
         raise InvalidInputError(f"quantile must be a number in [0, 0.5], got {quantile!r}")
     xs, disparities, first = _matched_columns(xs, disparities, edge_columns, min_column_pixels)
     if len(xs) == 0:
-        return np.empty((0, 3))
+        return np.empty((0, 4))
     counts, far, near = bucket_quantiles_kernel(xs - first, disparities, int(xs.max()) - first + 1,
                                                 float(quantile), 1.0 - float(quantile))
     columns, (far, near) = _kept_columns(counts, (far, near), first, calibration, edge_columns, min_column_pixels)
-    middle = calibration.focal_baseline_px_m / (0.5 * (far + near))
-    return np.stack([(columns - calibration.cx_px) * middle / calibration.focal_px,
-                     calibration.focal_baseline_px_m / near, calibration.focal_baseline_px_m / far], axis=1)
+    sideways = (columns - calibration.cx_px) / calibration.focal_px        # X / Z along each line of sight
+    z_near, z_far = calibration.focal_baseline_px_m / near, calibration.focal_baseline_px_m / far
+    return np.stack([sideways * z_near, z_near, sideways * z_far, z_far], axis=1)
 
 
-def _matched_columns(xs, disparities, edge_columns, min_column_pixels) -> tuple[np.ndarray, np.ndarray, int]:
-    """The matched pixels' columns (``int64``) and disparities (``float64``), checked as
-    :func:`footprint` says, and their first column (0 when there are none)."""
+def _matched_columns(xs: np.ndarray, disparities: np.ndarray, edge_columns: int,
+                     min_column_pixels: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The matched pixels' columns (``int64``) and disparities (``float64``), and their first
+    column (0 when there are none); the four arguments checked as :func:`footprint` says."""
     xs, disparities = np.asarray(xs), np.asarray(disparities, dtype=np.float64)
     if xs.ndim != 1 or disparities.shape != xs.shape or not np.issubdtype(xs.dtype, np.integer):
         raise InvalidInputError(f"xs (integer columns) and disparities must be 1-D arrays of one length, got "
@@ -148,8 +150,9 @@ def _kept_columns(counts: np.ndarray, disparities: tuple[np.ndarray, ...], first
                   edge_columns: int, min_column_pixels: int) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
     """The columns that give a point, and their ``disparities`` (one array per statistic, each
     ``(number of columns,)`` from column ``first`` on) plus ``doffs``: the columns with at least
-    ``min_column_pixels`` matches whose first statistic plus ``doffs`` is positive, the outermost
-    ``edge_columns`` on either side left out when at least ``2 * edge_columns + 2`` remain."""
+    ``min_column_pixels`` matches whose first statistic (the smallest disparity: a footprint's
+    farthest depth) plus ``doffs`` is positive, the outermost ``edge_columns`` on either side left
+    out when at least ``2 * edge_columns + 2`` remain."""
     held = np.flatnonzero(counts)
     shifted = tuple(d[held] + calibration.doffs_px for d in disparities)
     kept = (counts[held] >= min_column_pixels) & (shifted[0] > 0)
@@ -177,35 +180,37 @@ def close_points(first: np.ndarray, second: np.ndarray, max_gap_m: float) -> tup
     (3, 1)
     """
     first, second = _checked_rows(first, second, 2, "points")
-    return _close_counts(first, second, max_gap_m, lambda block: np.hypot(block[:, None, 0] - second[None, :, 0],
-                                                                        block[:, None, 1] - second[None, :, 1]))
+    near_first = np.zeros(len(first), dtype=bool)             # points of each within the gap of the other
+    near_second = np.zeros(len(second), dtype=bool)
+    for start in range(0, len(first), BLOCK_POINTS):
+        block = first[start:start + BLOCK_POINTS]
+        gaps = np.hypot(block[:, None, 0] - second[None, :, 0], block[:, None, 1] - second[None, :, 1])
+        close = gaps <= max_gap_m
+        near_first[start:start + len(block)] = close.any(axis=1)
+        near_second |= close.any(axis=0)
+    return int(near_first.sum()), int(near_second.sum())
 
 
 def close_spans(first: np.ndarray, second: np.ndarray, max_gap_m: float) -> tuple[int, int]:
-    """How many spans of each (``float (n, 3)`` and ``(m, 3)``, metres, as :func:`footprint_spans`
-    gives them) lie within ``max_gap_m`` metres of a span of the other one: the gap of two spans
-    is ``hypot(dX, dZ)``, ``dZ`` the gap between their depth ranges (0 where they overlap).
+    """How many spans of each (``float (n, 4)`` and ``(m, 4)``, metres, as :func:`footprint_spans`
+    gives them) lie within ``max_gap_m`` metres of a span of the other one, on the ground plan: the
+    gap of two spans is the least distance between the two segments (0 where they cross).
     ``(0, 0)`` when either is empty.
 
     Raises
     ------
     InvalidInputError
-        Spans that are not ``(n, 3)``.
+        Spans that are not ``(n, 4)``.
 
     Examples
     --------
-    >>> front = np.array([[0.0, 2.05, 2.1], [0.1, 2.05, 2.1]])
-    >>> top = np.array([[0.0, 2.3, 2.8], [0.1, 2.5, 2.8]])    # 0.2 m and 0.4 m behind the front
+    >>> front = np.array([[0.0, 2.05, 0.0, 2.1], [0.1, 2.05, 0.1, 2.1]])
+    >>> top = np.array([[0.0, 2.3, 0.0, 2.8], [0.1, 2.5, 0.1, 2.8]])    # 0.2 m and 0.4 m behind the front
     >>> close_spans(front, top, 0.3)
     (2, 1)
     """
-    first, second = _checked_rows(first, second, 3, "spans")
-
-    def gaps(block: np.ndarray) -> np.ndarray:
-        depth_gap = np.maximum(0.0, np.maximum(second[None, :, 1] - block[:, None, 2],
-                                               block[:, None, 1] - second[None, :, 2]))
-        return np.hypot(block[:, None, 0] - second[None, :, 0], depth_gap)
-    return _close_counts(first, second, max_gap_m, gaps)
+    first, second = _checked_rows(first, second, 4, "spans")
+    return close_spans_kernel(np.ascontiguousarray(first), np.ascontiguousarray(second), float(max_gap_m))
 
 
 def _checked_rows(first, second, width: int, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -216,15 +221,3 @@ def _checked_rows(first, second, width: int, name: str) -> tuple[np.ndarray, np.
                                 f"{second.shape}")
     return first, second
 
-
-def _close_counts(first: np.ndarray, second: np.ndarray, max_gap_m: float, gaps) -> tuple[int, int]:
-    """How many rows of each lie within ``max_gap_m`` of a row of the other, ``gaps(block)`` giving
-    the ``(len(block), len(second))`` gaps of a block of ``first``'s rows to ``second``'s."""
-    near_first = np.zeros(len(first), dtype=bool)             # rows of each within the gap of the other
-    near_second = np.zeros(len(second), dtype=bool)
-    for start in range(0, len(first), BLOCK_POINTS):
-        block = first[start:start + BLOCK_POINTS]
-        close = gaps(block) <= max_gap_m
-        near_first[start:start + len(block)] = close.any(axis=1)
-        near_second |= close.any(axis=0)
-    return int(near_first.sum()), int(near_second.sum())

@@ -36,9 +36,9 @@ Beyond the paper:
   the obstacles' boxes, lateral extents and widths; two obstacles that are the outlines of one
   such face are joined into one (:mod:`stereo_obstacles.face_joining`);
 * obstacles of one colour whose footprints on the ground touch, or of any colours whose
-  footprints coincide, are pieces of one object (a pole's top above a nearer box and its foot
-  below it) and are joined into one
-  (:mod:`stereo_obstacles.footprint_joining`);
+  footprints coincide (compared by each column's span of depths), are pieces of one object (a
+  pole's top above a nearer box and its foot below it, a wall's sunlit top face and its front
+  face) and are joined into one (:mod:`stereo_obstacles.footprint_joining`);
 * when the pixels that look like the reference area do not lie on a plane that can be the
   ground (the reference area is covered by a wall or a large object), the ground plane is
   fitted to the matched pixels of the lower third of the image instead, the colour labels are
