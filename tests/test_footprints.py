@@ -162,6 +162,10 @@ def test_footprint_spans_leave_out_columns_whose_far_end_is_at_or_behind_infinit
     assert len(footprint_spans(xs, d, RIG, quantile=0.1, edge_columns=0)) == 4   # at 3 px (interpolated)
     assert len(footprint_spans(xs, d, RIG, quantile=0.0, edge_columns=0)) == 0
     assert len(footprint_spans(xs, d, replace(RIG, doffs_px=1.0), quantile=0.0, edge_columns=0)) == 4
+    tiny = np.tile([1e-320, 10.0, 10.0, 10.0], 4)           # positive, but its depth overflows
+    assert len(footprint_spans(xs, tiny, RIG, quantile=0.0, edge_columns=0)) == 0
+    assert np.isfinite(footprint_spans(xs, tiny, RIG, quantile=0.1, edge_columns=0)).all()
+    assert len(footprint(xs, np.full(16, 1e-320), RIG, edge_columns=0)) == 0
 
 
 def _on_sight_line(sideways, z_near_m, z_far_m):
@@ -185,33 +189,60 @@ def test_close_spans_measure_the_least_distance_between_two_segments():
     assert close_spans(np.array([[0.0, 2.0, 0.0, 3.0]]), side, 0.19) == (0, 0)
 
 
-def _segment_gap(a, b):
-    """The least distance between two segments ``(x0, z0, x1, z1)``, one pair at a time: 0 where
-    they cross, else the least distance from an end of one to the other."""
-    def to_segment(px, pz, x0, z0, x1, z1):
-        dx, dz = x1 - x0, z1 - z0
-        length2 = dx * dx + dz * dz
-        t = 0.0 if length2 == 0 else min(1.0, max(0.0, ((px - x0) * dx + (pz - z0) * dz) / length2))
-        return float(np.hypot(px - (x0 + t * dx), pz - (z0 + t * dz)))
+def _sampled_gap(a, b, samples=801):
+    """The least distance between two segments ``(x0, z0, x1, z1)`` over ``samples`` evenly spaced
+    points of each (ends included): at most ``(|a| + |b|) / (2 (samples - 1))`` above the true one."""
+    t = np.linspace(0.0, 1.0, samples)[:, None]
+    on_a = a[:2] + t * (a[2:] - a[:2])
+    on_b = b[:2] + t * (b[2:] - b[:2])
+    return float(np.min(np.hypot(on_a[:, None, 0] - on_b[None, :, 0], on_a[:, None, 1] - on_b[None, :, 1])))
 
-    def side(px, pz, x0, z0, x1, z1):
-        return np.sign((x1 - x0) * (pz - z0) - (z1 - z0) * (px - x0))
-    if (side(*a[:2], *b) * side(*a[2:], *b) < 0) and (side(*b[:2], *a) * side(*b[2:], *a) < 0):
-        return 0.0
-    return min(to_segment(*a[:2], *b), to_segment(*a[2:], *b), to_segment(*b[:2], *a), to_segment(*b[2:], *a))
+
+def _awkward_segment_pairs(rng):
+    """Pairs of segments that cross, touch, lie on one line (apart or overlapping), run parallel
+    or have no length, and random ones."""
+    pairs = [([0, 0, 2, 2], [0, 2, 2, 0]), ([0, 0, 2, 0], [1, 0, 1, 1]), ([0, 0, 1, 0], [1, 0, 2, 0]),
+             ([0, 0, 1, 1], [2, 2, 3, 3]), ([0, 0, 2, 2], [1, 1, 3, 3]), ([0, 0, 1, 0], [0, 0.5, 1, 0.5]),
+             ([1, 1, 1, 1], [0, 0, 2, 0]), ([1, 1, 1, 1], [1.5, 1, 1.5, 1]), ([0, 0, 2, 2], [1, 1.0000001, 5, 1]),
+             ([0.3, 1.0, 0.3, 1.1], [0.3, 1.0, 0.3, 1.1])]
+    pairs += [(rng.uniform(-3, 3, 4), rng.uniform(-3, 3, 4)) for _ in range(300)]
+    return [(np.array(a, dtype=np.float64), np.array(b, dtype=np.float64)) for a, b in pairs]
+
+
+def test_segment_gaps_agree_with_dense_sampling():
+    from stereo_obstacles._footprints_kernel import segment_gap
+    for a, b in _awkward_segment_pairs(np.random.default_rng(5)):
+        bound = (np.hypot(*(a[2:] - a[:2])) + np.hypot(*(b[2:] - b[:2]))) / 1600 + 1e-12
+        for first, second in ((a, b), (b, a)):
+            gap = segment_gap(first, second)
+            assert 0.0 <= _sampled_gap(first, second) - gap <= bound, (first, second, gap)
+
+
+def test_two_spans_of_one_column_are_as_far_apart_as_their_depths():
+    # on one line of sight the cross products are rounding noise: it must not make them cross
+    from stereo_obstacles._footprints_kernel import segment_gap
+    rng = np.random.default_rng(11)
+    for _ in range(20000):
+        sideways, z = rng.uniform(-1.0, 1.0), np.sort(rng.uniform(1.0, 60.0, 4))
+        near, far = _on_sight_line(sideways, z[0], z[1])[0], _on_sight_line(sideways, z[2], z[3])[0]
+        np.testing.assert_allclose(segment_gap(near, far), (z[2] - z[1]) * np.hypot(1.0, sideways), rtol=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_close_spans_agree_with_a_pair_by_pair_count(seed):
+def test_close_spans_count_the_spans_within_the_gap_of_any_other(seed):
+    from stereo_obstacles._footprints_kernel import segment_gap
     rng = np.random.default_rng(seed)
     first = rng.uniform(0.0, 3.0, (300, 4))
     second = rng.uniform(1.0, 4.0, (40, 4))
     second[:3, 2:] = second[:3, :2]                          # three of no length
-    gaps = np.array([[_segment_gap(a, b) for b in second] for a in first])
+    gaps = np.array([[segment_gap(a, b) for b in second] for a in first])
     for max_gap_m in (0.05, 0.25):
         assert close_spans(first, second, max_gap_m) == (int((gaps.min(axis=1) <= max_gap_m).sum()),
                                                          int((gaps.min(axis=0) <= max_gap_m).sum()))
     assert close_spans(np.empty((0, 4)), second, 1.0) == (0, 0)
+    # collinear on the 45 degree line, 0.2 m apart in X and in Z: 0.28 m apart
+    assert close_spans(np.array([[1.0, 1.0, 1.1, 1.1]]), np.array([[1.3, 1.3, 2.0, 2.0]]), 0.25) == (0, 0)
+    assert close_spans(np.array([[1.0, 1.0, 1.1, 1.1]]), np.array([[1.3, 1.3, 2.0, 2.0]]), 0.29) == (1, 1)
 
 
 def test_spans_of_other_shapes_and_quantiles_out_of_range_are_refused():

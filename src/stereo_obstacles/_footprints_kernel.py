@@ -29,10 +29,17 @@ def _to_segment(px, pz, x0, z0, x1, z1):
 
 @njit(cache=CACHE, nogil=True)
 def _side(px, pz, x0, z0, x1, z1):
-    """The sign of the cross product saying which side of the line through ``(x0, z0)`` and
-    ``(x1, z1)`` the point ``(px, pz)`` lies on (0 on it)."""
-    cross = (x1 - x0) * (pz - z0) - (z1 - z0) * (px - x0)
-    return (cross > 0.0) - (cross < 0.0)
+    """Which side of the line through ``(x0, z0)`` and ``(x1, z1)`` the point ``(px, pz)`` lies
+    on: 1 or -1 by the sign of the cross product, 0 on the line, or so near it that the sign is
+    rounding (within ``1e-12`` of the two products' size: two spans of one image column lie on one
+    line of sight, where rounding gave apart spans opposite signs and a gap of 0)."""
+    along, across = (x1 - x0) * (pz - z0), (z1 - z0) * (px - x0)
+    slack = 1e-12 * (abs(along) + abs(across))
+    if along - across > slack:
+        return 1
+    if along - across < -slack:
+        return -1
+    return 0
 
 
 @njit(cache=CACHE, nogil=True)

@@ -63,7 +63,7 @@ def footprint(xs: np.ndarray, disparities: np.ndarray, calibration: StereoCalibr
         Columns left out on either side (none when fewer than ``2 * edge_columns + 2`` remain).
     min_column_pixels
         Matches a column needs (at least 1); columns whose median disparity plus ``doffs`` is not
-        positive give no point either.
+        positive, or so small that the depth overflows, give no point either.
 
     Raises
     ------
@@ -96,7 +96,8 @@ def footprint_spans(xs: np.ndarray, disparities: np.ndarray, calibration: Stereo
 
     ``xs``, ``disparities``, ``calibration``, ``edge_columns`` and ``min_column_pixels`` are as
     :func:`footprint` takes them; columns whose ``quantile`` disparity plus ``doffs`` is not
-    positive give no span. ``quantile`` lies in ``[0, 0.5]``.
+    positive, or so small that the depth overflows, give no span. ``quantile`` lies in
+    ``[0, 0.5]``.
 
     Raises
     ------
@@ -151,11 +152,12 @@ def _kept_columns(counts: np.ndarray, disparities: tuple[np.ndarray, ...], first
     """The columns that give a point, and their ``disparities`` (one array per statistic, each
     ``(number of columns,)`` from column ``first`` on) plus ``doffs``: the columns with at least
     ``min_column_pixels`` matches whose first statistic (the smallest disparity: a footprint's
-    farthest depth) plus ``doffs`` is positive, the outermost ``edge_columns`` on either side left
-    out when at least ``2 * edge_columns + 2`` remain."""
+    farthest depth) plus ``doffs`` is positive and gives a finite depth, the outermost
+    ``edge_columns`` on either side left out when at least ``2 * edge_columns + 2`` remain."""
     held = np.flatnonzero(counts)
     shifted = tuple(d[held] + calibration.doffs_px for d in disparities)
-    kept = (counts[held] >= min_column_pixels) & (shifted[0] > 0)
+    finite_depth = shifted[0] > calibration.focal_baseline_px_m / np.finfo(np.float64).max   # positive, Z finite
+    kept = (counts[held] >= min_column_pixels) & finite_depth
     columns, shifted = held[kept] + first, tuple(d[kept] for d in shifted)
     if len(columns) >= 2 * edge_columns + 2:
         inner = (columns >= columns.min() + edge_columns) & (columns <= columns.max() - edge_columns)
