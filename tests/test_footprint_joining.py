@@ -89,8 +89,8 @@ def test_pieces_at_two_depths_are_not_joined():
 
 def test_an_objects_fattened_edge_touches_its_neighbour_in_too_few_columns():
     # a box at 4 m and, beside it, a wall 1 m behind whose 4 columns next to the box carry the box's
-    # disparity, as the matching spreads it over the background: the box's points within 0.3 m of
-    # them are fewer than half its own, unless the fringe columns are left out altogether
+    # disparity, as the matching spreads it over the background: they touch only while those
+    # columns are kept, and then 26 of the box's 60 points, fewer than the half the rule asks
     scene = Scene().paint(1, slice(50, 150), slice(60, 120), 4.0).paint(2, slice(50, 150), slice(120, 200), 5.0)
     scene.disparity[50:150, 120:124] = RIG.focal_baseline_px_m / 4.0
     touching_anywhere = FootprintJoiningParameters(min_close_fraction=0.0)
@@ -104,7 +104,7 @@ def test_an_obstacle_that_touches_with_a_few_columns_only_is_not_a_piece():
     # the pole's pixels at 4.12 m: they touch about 9 of the pole's 40 footprint columns
     scene = Scene().paint(1, slice(100, 160), slice(60, 160), 4.0).paint(2, slice(10, 200), slice(160, 200), 4.41)
     scene.paint(1, slice(60, 100), slice(160, 163), 4.12)
-    every_column = FootprintJoiningParameters(edge_columns=0)
+    every_column = FootprintJoiningParameters()
     assert scene.pairs(every_column) == []
     assert scene.pairs(replace(every_column, min_close_fraction=0.0)) == [(2, 1)]   # the larger takes it
 
@@ -211,8 +211,8 @@ def test_the_checks_of_the_inputs():
 
 def test_detect_joins_pieces_of_a_box_and_measures_them_at_its_near_face():
     # scene 179's dark box at 2.56 m comes out in four pieces; its top face (805 pixels, the piece
-    # covering most of it) read +8.3 %; joined to two of the other three (403 and 107 pixels; with
-    # 4 edge columns left out, only to the first), they read +0.3 %
+    # covering most of it) reads +10.4 %; joined to two of the other three (403 and 107 of their
+    # pixels on the box; with 4 edge columns left out, only to the first), they read +0.3 %
     from stereo_obstacles.pipeline import DetectionConfig, detect
 
     pair = evaluation_pair(179)
@@ -227,6 +227,6 @@ def test_detect_joins_pieces_of_a_box_and_measures_them_at_its_near_face():
 
     apart = on_the_box(replace(DetectionConfig(), footprint_joining=None))
     joined = on_the_box(DetectionConfig())
-    assert len(joined) == len(apart) - 2
+    assert len(joined) == len(apart) - 2 and joined[0][0] == 805 + 403 + 107
     assert apart[0][1] / box.nearest_depth_m - 1 > 0.05
     assert joined[0][1] == pytest.approx(box.nearest_depth_m, rel=0.01)

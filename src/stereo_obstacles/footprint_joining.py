@@ -11,9 +11,9 @@ on either side can be left out, the matching's fattened fringe; none are in the 
 session 35: with 4 left out, two pieces of a far wall that share 13 image columns stood 0.31 m
 apart, and over the synthetic sets the cases above 5 % fell from 72 to 70 and the repeated
 detections from 605 to 535 with none left out; ``docs/pipeline.md``, "Faces that meet at an
-edge, and two halo filters"). Two
-obstacles of one colour (median chroma within ``max_chroma_distance`` in ``(a*, b*)``, the colour
-split's distinction of two colours) are pieces of one object when their footprints touch: at
+edge, and two halo filters"). Two obstacles of one colour (median chroma within
+``max_chroma_distance`` in ``(a*, b*)``, the colour split's distinction of two colours) are
+pieces of one object when their footprints touch: at
 least ``min_close_columns`` points of each lie within ``max_gap_m`` of the other footprint, and
 so do at least ``min_close_fraction`` of the points of the shorter one (a piece stands on, or
 next to, the object it belongs to; an obstacle that mixes a wall with the box in front of it

@@ -4,8 +4,10 @@ Seen from above, an object stands on one place of the ground, and two objects ca
 one place. A set of matched pixels (an obstacle, or a part of one) gets a *footprint*: every image
 column of it with at least ``min_column_pixels`` matches gives a point ``(X, Z)`` in metres, its
 lateral position and its median depth in that column. The outermost ``edge_columns`` columns on
-either side are left out: the matching spreads an object's disparity over the background beside
-it, which puts those columns at the object's depth but beside it.
+either side can be left out (:data:`EDGE_COLUMNS` by default, as the colour split takes them;
+the footprint joining leaves none out since session 35): the matching spreads an object's
+disparity over the background beside it, which puts those columns at the object's depth but
+beside it.
 
 Two footprints are compared by their *close points*: the points of each that lie within a gap of
 the other footprint. The pieces of one object are joined when they touch that way
