@@ -224,6 +224,27 @@ def test_a_halo_up_to_6_px_wide_is_a_rim(width, split):
     assert bool(scene.split().max() == 1) == split
 
 
+
+@pytest.mark.parametrize("brown_coloured", [True, False])
+def test_a_far_object_ringed_by_its_halo_in_the_near_objects_colour_is_no_rim(brown_coloured):
+    """A brown box (20 x 20 px, disparity 7.0) above a nearer blue box (8.3), with a 3 px ring of
+    blue pixels matched at the brown box's disparity on its other sides (session 36: a box 1.3 m
+    behind another, the sea around it clustered with the nearer box by colour). Measured to the
+    whole blue part, 64 % of the brown part lies within 4 px and 64 pixels beyond 6 px: a rim.
+    The ring, at the brown box's depth, is not counted as the blue part: then only its bottom 4
+    rows lie within 4 px, and it is split off. Ground-coloured, the brown part is measured to the
+    whole blue part and stays a rim."""
+    scene = (Scene().paint(slice(27, 50), slice(47, 73), BLUE, 7.0)
+             .paint(slice(30, 50), slice(50, 70), BROWN, 7.0, coloured=brown_coloured)
+             .paint(slice(50, 80), slice(20, 100), BLUE, 8.3))
+    brown = scene.objects == 1
+    split = scene.split()
+    assert bool(split.max() == 1) == brown_coloured
+    if brown_coloured:
+        assert len(np.unique(split[brown])) == 1 and split[70, 60] != split[brown][0]
+        assert np.count_nonzero(split == split[brown][0]) <= np.count_nonzero(brown) + 3 * 26 + 2 * 3 * 20
+
+
 def test_pieces_apart_in_the_image_need_no_step_where_they_touch():
     scene = Scene().paint(slice(10, 70), slice(0, 40), BROWN, 7.0).paint(slice(10, 70), slice(80, 120), BLUE, 7.5)
     split = scene.split()
