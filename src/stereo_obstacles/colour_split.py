@@ -16,8 +16,9 @@ clusters are two surfaces at two depths:
   object's pixel count farther than ``OBJECT_BEYOND_RIM_PX``: the halo of sky or ground the
   matching spreads around an object lies behind it; a thin part in front is an object, a pole
   before a box, and so is a farther part that holds an object beyond its rim, a box beside the
-  end of a wall in front of it; when the farther part is of an object's colour, the nearer
-  part's pixels at its depth, the farther object's own halo, do not count as the nearer part);
+  end of a wall in front of it; with chroma clusters, the nearer part's pixels at the farther
+  part's depth, when of a third colour, are the farther object's own halo and do not count as the
+  nearer part);
 - their median disparities differ by more than the *gap*, ``max(min_gap_px, min_gap_rel * d)``;
 - each part lies on one plane in disparity (``min_plane_fraction`` of its pixels on its robust
   plane: :func:`~stereo_obstacles.part_boundaries.on_plane_fraction`): a colour boundary
@@ -295,6 +296,7 @@ def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.
         return parts
     whole_group = levels == params.max_levels
     cluster = _colour_clusters(canvas, d, chroma, coloured, min_object_pixels, params)
+    by_chroma = cluster is not None
     # phase 1's verdict only on a whole group without two chroma clusters: within a part split off by
     # chroma, the ground-coloured pixels follow their nearest coloured ones (the foot of a pole); and
     # tried also where the chroma clusters fail the depth tests, it split two objects more over scenes
@@ -302,7 +304,7 @@ def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.
     if cluster is None and whole_group:
         cluster = _phase_one_clusters(canvas, d, coloured, min_object_pixels, params)
     if cluster is not None:
-        cluster = _two_depths(canvas, d, cluster, coloured, min_object_pixels, params)
+        cluster = _two_depths(canvas, d, cluster, chroma if by_chroma else None, min_object_pixels, params)
     if cluster is None and ground_plan is not None:
         cluster = _depth_split(canvas, d, min_object_pixels, params, ground_plan)
     if cluster is None:
@@ -373,7 +375,7 @@ def _depth_split(canvas: PixelCanvas, d: np.ndarray, min_object_pixels: int, par
         return None
     cluster = _without_small_pieces(canvas, cluster, min_object_pixels)
     if cluster is not None:
-        cluster = _two_depths(canvas, d, cluster, np.zeros(len(d), dtype=bool), min_object_pixels, params)
+        cluster = _two_depths(canvas, d, cluster, None, min_object_pixels, params)
     return cluster if cluster is not None and ground_plan.stand_apart(cluster) else None
 
 
@@ -399,19 +401,21 @@ def _median_gap(d: np.ndarray, first: np.ndarray, second: np.ndarray,
     return abs(medians[0] - medians[1]), max(params.min_gap_px, params.min_gap_rel * max(medians))
 
 
-def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, coloured: np.ndarray,
+def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, chroma: np.ndarray | None,
                 min_object_pixels: int, params: ColourSplitParameters) -> np.ndarray | None:
     """``cluster`` with the pixels near the boundary moved to the part whose plane they fit
     better, when the two clusters are two surfaces at two depths (module docstring) and each
-    still holds an object's pixel count; else None. ``coloured`` (``bool (n,)``): the pixels phase 1
-    calls obstacle by their colour (none for depth clusters), for the rim test."""
+    still holds an object's pixel count; else None. ``chroma`` (``uint8 (n, 2)``, as in
+    :class:`ColourCue`): the pixels' colours when the clusters are chroma clusters, for the rim
+    test (:func:`_distance_to_nearer`); None for phase 1's verdict and for depth clusters."""
     apart, gap = _median_gap(d, cluster == 0, cluster == 1, params)
     if apart <= gap:
         return None
     second = cluster == 1
     to_other = distance_to_other(canvas, second)
-    farther = second if median(d[second]) < median(d[~second]) else ~second
-    to_nearer = _distance_to_nearer(canvas, d, farther, coloured, to_other, gap)
+    medians = median(d[~second]), median(d[second])
+    farther = second if medians[1] < medians[0] else ~second
+    to_nearer = _distance_to_nearer(canvas, d, farther, min(medians), max(medians), chroma, to_other, gap, params)
     rim = farther & (to_nearer <= max(RIM_PX, canvas.block))                        # next square at least
     beyond = farther & (to_nearer > max(OBJECT_BEYOND_RIM_PX, 1.5 * canvas.block))
     if (canvas.pixels(rim) > MAX_RIM_FRACTION * canvas.pixels(farther)
@@ -432,23 +436,34 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, coloure
     return cluster if min(canvas.pixels(cluster == 0), canvas.pixels(cluster == 1)) >= min_object_pixels else None
 
 
-def _distance_to_nearer(canvas: PixelCanvas, d: np.ndarray, farther: np.ndarray, coloured: np.ndarray,
-                        to_other: np.ndarray, gap: float) -> np.ndarray:
-    """``float32 (n,)``: each pixel's distance (full-size pixels) to the nearer of two parts
-    (``farther``, ``bool (n,)``, says which pixels form the farther one), as the rim test measures it.
+def _distance_to_nearer(canvas: PixelCanvas, d: np.ndarray, farther: np.ndarray, far_median: float,
+                        near_median: float, chroma: np.ndarray | None, to_other: np.ndarray, gap: float,
+                        params: ColourSplitParameters) -> np.ndarray:
+    """``float32 (n,)``: for each pixel of the farther of two parts (``farther``, ``bool (n,)``; the
+    parts' median disparities ``far_median`` and ``near_median``, pixels), its distance (full-size
+    pixels) to the nearer part as the rim test measures it; for the nearer part's pixels the value
+    means nothing.
 
-    That is ``to_other`` (each pixel's distance to the other part) unless most of the farther
-    part is coloured (``coloured``, ``bool (n,)``: obstacle by its colour in phase 1). Then the
-    nearer part's pixels at the farther part's depth, no more than ``gap`` pixels of disparity in
-    front of its median and at least ``gap`` behind their own part's, are left out of the nearer
-    part: the matching spreads a farther object's disparity over its surroundings, and where
-    those are of the nearer object's colour they cluster with it and ring the farther object,
-    which then reads as a rim (a brown box 1.3 m behind a cyan one, its halo of sea clustered
-    with the cyan box: ``docs/pipeline.md``, session 36). A farther part mostly ground-coloured
-    is the halo itself, or the shaded top face of a box whose sunlit part clusters with the
-    front face, and is measured to the whole nearer part."""
-    if canvas.pixels(farther & coloured) <= 0.5 * canvas.pixels(farther):
+    That is ``to_other`` (each pixel's distance to the other part), unless the nearer part holds
+    the farther object's *halo*. The matching spreads a farther object's disparity over its
+    surroundings, and where those cluster with the nearer part by colour they ring the farther
+    object, which then reads as a rim (a brown box 1.3 m behind a cyan one, the sea around it
+    clustered with the cyan box: ``docs/pipeline.md``, session 36). The halo is the nearer part's
+    pixels no more than ``gap`` pixels of disparity in front of the farther median (or behind it)
+    and at least ``gap`` behind their own part's, when it is of a third colour: the median chromas
+    (``chroma``, ``uint8 (n, 2)``) of the farther part, of the halo and of the rest of the nearer
+    part lie at least ``min_chroma_distance`` apart, each from each. The distances are then
+    measured to the rest. Pixels at that depth of the nearer part's own colour are its receding
+    flank (a cylinder's side) and count; a farther part of the rest's colour is a piece of the
+    nearer object (a near cylinder's flank, its colour shifted by the light), and so is measured to
+    all of it. ``chroma`` None (clusters that are not chroma clusters): ``to_other``."""
+    if chroma is None:
         return to_other
-    far_median, near_median = median(d[farther]), median(d[~farther])
-    at_farther_depth = d <= min(far_median + gap, near_median - gap)
-    return canvas.distance_to(~farther & ~at_farther_depth)
+    halo = ~farther & (d <= min(far_median + gap, near_median - gap))
+    if not halo.any():
+        return to_other
+    rest = ~farther & ~halo
+    colours = [np.median(chroma[members], axis=0) for members in (farther, halo, rest)]
+    if min(math.dist(colours[i], colours[j]) for i, j in ((0, 1), (0, 2), (1, 2))) < params.min_chroma_distance:
+        return to_other
+    return canvas.distance_to(rest)
