@@ -250,17 +250,21 @@ def test_a_far_object_ringed_by_its_halo_is_no_rim(ring, split):
         assert np.count_nonzero(parts == parts[brown][0]) <= np.count_nonzero(brown) + 3 * 26 + 2 * 3 * 20
 
 
-@pytest.mark.parametrize("far_colour, near_d, measured_past_the_ring", [(BROWN, 8.3, True), (BLUE, 8.3, False),
-                                                                       (BROWN, 7.4, False)])
-def test_the_ring_is_left_out_only_where_three_colours_meet_at_two_depths(far_colour, near_d, measured_past_the_ring):
-    """The rim test's distances on the ringed box: past the ring when the farther part, the ring
-    and the nearer part are three colours. With a farther part of the nearer part's own colour
-    they are measured to the whole nearer part (held-out scene 1133: a near cylinder's flank,
-    split off as a farther part of the cylinder's colour, the pixels between 16 from both in
-    chroma); so they are when the ring, here 0.2 px in front of the farther part, does not lie at
-    least the gap (0.3 px) behind the nearer part (at 7.4 px, 0.2 px in front of it)."""
-    scene = _ringed_box(SEA, far_colour)
-    scene.d[scene.objects == 0] = 7.2
+@pytest.mark.parametrize("far_colour, ring, ring_d, near_d, measured_past_the_ring",
+                         [(BROWN, SEA, 7.2, 8.3, True), (BLUE, SEA, 7.2, 8.3, False), (BROWN, BROWN, 7.2, 8.3, False),
+                          (BROWN, SEA, 7.5, 8.3, False), (BROWN, SEA, 7.2, 7.4, False)])
+def test_the_ring_is_left_out_only_where_three_colours_meet_at_two_depths(far_colour, ring, ring_d, near_d,
+                                                                          measured_past_the_ring):
+    """The rim test's distances on the ringed box (the farther part at 7.0 px): past the ring when
+    the farther part, the ring and the nearer part are three colours and the ring lies no more
+    than the gap (0.3 px) in front of the farther part and at least the gap behind the nearer
+    part. Otherwise they are measured to the whole nearer part: with a farther part of the nearer
+    part's own colour (held-out scene 1133: a near cylinder's flank, split off as a farther part
+    of the cylinder's colour, the pixels between 16 from both in chroma); with a ring of the
+    farther part's colour; with the ring 0.5 px in front of the farther part; with the nearer part
+    at 7.4 px, only 0.2 px in front of the ring."""
+    scene = _ringed_box(ring, far_colour)
+    scene.d[scene.objects == 0] = ring_d
     scene.d[scene.objects == 2] = near_d
     ys, xs = np.nonzero(scene.objects >= 0)
     canvas, _, _ = PixelCanvas.of_pixels(ys, xs)
@@ -283,7 +287,7 @@ def test_a_ring_is_not_left_out_of_a_part_of_phase_one_s_verdict():
     clusters (only the brown is obstacle-coloured), so the parts are phase 1's verdict, whose
     ground-coloured part holds ground at any depth; its ring stays in it and the brown box is a
     rim (with the ring left out, as for chroma clusters, it would be split off: 5 more repeated
-    detections over the synthetic sets, session 36)."""
+    detections over scenes 0..959, 9 over the five synthetic sets, session 36)."""
     scene = (Scene().paint(slice(27, 50), slice(47, 73), GREEN, 7.0, coloured=False)
              .paint(slice(30, 50), slice(50, 70), BROWN, 7.0)
              .paint(slice(50, 80), slice(20, 100), GREY, 8.3, coloured=False))

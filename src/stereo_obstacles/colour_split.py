@@ -17,8 +17,8 @@ clusters are two surfaces at two depths:
   matching spreads around an object lies behind it; a thin part in front is an object, a pole
   before a box, and so is a farther part that holds an object beyond its rim, a box beside the
   end of a wall in front of it; with chroma clusters, the nearer part's pixels at the farther
-  part's depth, when of a third colour, are the farther object's own halo and do not count as the
-  nearer part);
+  part's depth, at least the gap behind the nearer part's median and of a third colour, are the
+  farther object's own halo and do not count as the nearer part in this test);
 - their median disparities differ by more than the *gap*, ``max(min_gap_px, min_gap_rel * d)``;
 - each part lies on one plane in disparity (``min_plane_fraction`` of its pixels on its robust
   plane: :func:`~stereo_obstacles.part_boundaries.on_plane_fraction`): a colour boundary
@@ -440,16 +440,18 @@ def _distance_to_nearer(canvas: PixelCanvas, d: np.ndarray, farther: np.ndarray,
                         near_median: float, chroma: np.ndarray | None, to_other: np.ndarray, gap: float,
                         params: ColourSplitParameters) -> np.ndarray:
     """``float32 (n,)``: for each pixel of the farther of two parts (``farther``, ``bool (n,)``; the
-    parts' median disparities ``far_median`` and ``near_median``, pixels), its distance (full-size
-    pixels) to the nearer part as the rim test measures it; for the nearer part's pixels the value
-    means nothing.
+    parts' median disparities ``far_median`` and ``near_median``, pixels; ``d``, ``float64 (n,)``,
+    the pixels' disparities), its distance (full-size pixels) to the nearer part as the rim test
+    measures it; for the nearer part's pixels the value means nothing. The planes and the boundary
+    of the split keep ``to_other``.
 
-    That is ``to_other`` (each pixel's distance to the other part), unless the nearer part holds
+    That is ``to_other`` (``float32 (n,)``, full-size pixels: each pixel's distance to the other
+    part), unless the nearer part holds
     the farther object's *halo*. The matching spreads a farther object's disparity over its
     surroundings, and where those cluster with the nearer part by colour they ring the farther
     object, which then reads as a rim (a brown box 1.3 m behind a cyan one, the sea around it
     clustered with the cyan box: ``docs/pipeline.md``, session 36). The halo is the nearer part's
-    pixels no more than ``gap`` pixels of disparity in front of the farther median (or behind it)
+    pixels no more than ``gap`` (pixels of disparity) in front of the farther median (or behind it)
     and at least ``gap`` behind their own part's, when it is of a third colour: the median chromas
     (``chroma``, ``uint8 (n, 2)``) of the farther part, of the halo and of the rest of the nearer
     part lie at least ``min_chroma_distance`` apart, each from each. The distances are then
