@@ -397,8 +397,14 @@ def _median_gap(d: np.ndarray, first: np.ndarray, second: np.ndarray,
     limit can leave a coloured cluster empty)."""
     if not (first.any() and second.any()):
         return 0.0, params.min_gap_px
-    medians = median(d[first]), median(d[second])
-    return abs(medians[0] - medians[1]), max(params.min_gap_px, params.min_gap_rel * max(medians))
+    return _gap(median(d[first]), median(d[second]), params)
+
+
+def _gap(first_median: float, second_median: float, params: ColourSplitParameters) -> tuple[float, float]:
+    """How far apart (pixels) two median disparities are, and the gap they must exceed,
+    ``max(min_gap_px, min_gap_rel * d)`` at the larger one."""
+    return (abs(first_median - second_median),
+            max(params.min_gap_px, params.min_gap_rel * max(first_median, second_median)))
 
 
 def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, chroma: np.ndarray | None,
@@ -408,12 +414,14 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, chroma:
     still holds an object's pixel count; else None. ``chroma`` (``uint8 (n, 2)``, as in
     :class:`ColourCue`): the pixels' colours when the clusters are chroma clusters, for the rim
     test (:func:`_distance_to_nearer`); None for phase 1's verdict and for depth clusters."""
-    apart, gap = _median_gap(d, cluster == 0, cluster == 1, params)
+    second = cluster == 1
+    if second.all() or not second.any():
+        return None
+    medians = median(d[~second]), median(d[second])
+    apart, gap = _gap(*medians, params)
     if apart <= gap:
         return None
-    second = cluster == 1
     to_other = distance_to_other(canvas, second)
-    medians = median(d[~second]), median(d[second])
     farther = second if medians[1] < medians[0] else ~second
     to_nearer = _distance_to_nearer(canvas, d, farther, min(medians), max(medians), chroma, to_other, gap, params)
     rim = farther & (to_nearer <= max(RIM_PX, canvas.block))                        # next square at least
@@ -439,26 +447,25 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, chroma:
 def _distance_to_nearer(canvas: PixelCanvas, d: np.ndarray, farther: np.ndarray, far_median: float,
                         near_median: float, chroma: np.ndarray | None, to_other: np.ndarray, gap: float,
                         params: ColourSplitParameters) -> np.ndarray:
-    """``float32 (n,)``: for each pixel of the farther of two parts (``farther``, ``bool (n,)``; the
-    parts' median disparities ``far_median`` and ``near_median``, pixels; ``d``, ``float64 (n,)``,
-    the pixels' disparities), its distance (full-size pixels) to the nearer part as the rim test
-    measures it; for the nearer part's pixels the value means nothing. The planes and the boundary
-    of the split keep ``to_other``.
+    """``float32 (n,)``: for each pixel of the farther of two parts (``farther``, ``bool (n,)``;
+    the parts' median disparities ``far_median`` and ``near_median``, pixels; ``d``, ``float64
+    (n,)``, the pixels' disparities), its distance (full-size pixels) to the nearer part as the
+    rim test measures it; for the nearer part's pixels the value means nothing. The planes and
+    the boundary of the split keep ``to_other``.
 
     That is ``to_other`` (``float32 (n,)``, full-size pixels: each pixel's distance to the other
-    part), unless the nearer part holds
-    the farther object's *halo*. The matching spreads a farther object's disparity over its
-    surroundings, and where those cluster with the nearer part by colour they ring the farther
-    object, which then reads as a rim (a brown box 1.3 m behind a cyan one, the sea around it
-    clustered with the cyan box: ``docs/pipeline.md``, session 36). The halo is the nearer part's
-    pixels no more than ``gap`` (pixels of disparity) in front of the farther median (or behind it)
-    and at least ``gap`` behind their own part's, when it is of a third colour: the median chromas
-    (``chroma``, ``uint8 (n, 2)``) of the farther part, of the halo and of the rest of the nearer
-    part lie at least ``min_chroma_distance`` apart, each from each. The distances are then
-    measured to the rest. Pixels at that depth of the nearer part's own colour are its receding
-    flank (a cylinder's side) and count; a farther part of the rest's colour is a piece of the
-    nearer object (a near cylinder's flank, its colour shifted by the light), and so is measured to
-    all of it. ``chroma`` None (clusters that are not chroma clusters): ``to_other``."""
+    part), unless the nearer part holds the farther object's *halo*. The matching spreads a farther
+    object's disparity over its surroundings, and where those cluster with the nearer part by colour
+    they ring the farther object, which then reads as a rim (a brown box 1.3 m behind a cyan one,
+    the sea around it clustered with the cyan box: ``docs/pipeline.md``, session 36). The halo is
+    the nearer part's pixels no more than ``gap`` (pixels of disparity) in front of the farther
+    median (or behind it) and at least ``gap`` behind their own part's, when it is of a third
+    colour: the median chromas (``chroma``, ``uint8 (n, 2)``) of the farther part, of the halo and
+    of the rest of the nearer part lie at least ``min_chroma_distance`` apart, each from each. The
+    distances are then measured to the rest. Pixels at that depth of the nearer part's own colour
+    are its receding flank (a cylinder's side) and count; a farther part of the rest's colour is a
+    piece of the nearer object (a near cylinder's flank, its colour shifted by the light), and so is
+    measured to all of it. ``chroma`` None (clusters that are not chroma clusters): ``to_other``."""
     if chroma is None:
         return to_other
     halo = ~farther & (d <= min(far_median + gap, near_median - gap))

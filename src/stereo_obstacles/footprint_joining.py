@@ -17,13 +17,13 @@ pieces of one object when their footprints touch: at least ``min_close_columns``
 lie within ``max_gap_m`` of the other footprint, and so do at least ``min_close_fraction`` of
 the points of the shorter one (a piece stands on, or next to, the object it belongs to; an
 obstacle that mixes a wall with the box in front of it touches the wall with only its wall
-columns). Two obstacles that coincide stand in one place and
-are joined whatever their colours: a thin piece's median chroma is pulled by the sky or ground
-that its fattened fringe covers (two pieces of a thin pole, 13 and 8 columns wide: 21 apart in
-``(a*, b*)``), and the top face of a wall or a box, lit by the sun, is not the colour of its
-front face. Whether they coincide is asked of their spans (each column's line of sight between
-the depths at the ``1 - span_quantile`` and ``span_quantile`` quantiles of its disparities): at
-least ``min_close_columns`` and ``min_coincident_fraction`` of the spans of each lie within
+columns). Two obstacles that coincide stand in one place and are joined whatever their colours:
+a thin piece's median chroma is pulled by the sky or ground that its fattened fringe covers (two
+pieces of a thin pole, 13 and 8 columns wide: 21 apart in ``(a*, b*)``), and the top face of a
+wall or a box, lit by the sun, is not the colour of its front face. Whether they coincide is
+asked of their spans (each column's line of sight between the depths at the ``1 -
+span_quantile`` and ``span_quantile`` quantiles of its disparities): at least
+``min_close_columns`` and ``min_coincident_fraction`` of the spans of each lie within
 ``max_gap_m`` of the other's. A column's median alone puts the top face of a wall 0.6 m behind
 its front face, though the two meet at the wall's edge; for an upright piece the span is short,
 and close to its point. The one-colour test keeps the points: the spans of an obstacle that

@@ -224,4 +224,3 @@ def _checked_rows(first, second, width: int, name: str) -> tuple[np.ndarray, np.
         raise InvalidInputError(f"footprints must be (n, {width}) arrays of {name}, got {first.shape} and "
                                 f"{second.shape}")
     return first, second
-
