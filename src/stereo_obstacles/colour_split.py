@@ -18,7 +18,10 @@ clusters are two surfaces at two depths:
   before a box, and so is a farther part that holds an object beyond its rim, a box beside the
   end of a wall in front of it; with chroma clusters, the nearer part's pixels at the farther
   part's depth, at least the gap behind the nearer part's median and of a third colour, are the
-  farther object's own halo and do not count as the nearer part in this test);
+  farther object's own halo and do not count as the nearer part in this test; and a farther
+  chroma cluster that is a rim by these counts is still an object when it is obstacle-coloured,
+  of a colour far from the nearer part's, and reaches past the rim in one piece of a quarter of
+  an object's pixel count: a pole beside the end of a wall in front of it);
 - their median disparities differ by more than the *gap*, ``max(min_gap_px, min_gap_rel * d)``;
 - each part lies on one plane in disparity (``min_plane_fraction`` of its pixels on its robust
   plane: :func:`~stereo_obstacles.part_boundaries.on_plane_fraction`): a colour boundary
@@ -91,6 +94,20 @@ the synthetic sets had 14 more repeated detections than from 6 px; in the clean 
 gained a repeat over no such rule, 8 of the 19 repeating detections lay 38-50 % on the background
 around their object (``docs/pipeline.md``, "What the matcher's errors cost the obstacles, and
 rims that hold an object")."""
+HIDDEN_OBJECT_COLOURED_FRACTION = 0.8
+HIDDEN_OBJECT_CHROMA_FACTOR = 2.0
+HIDDEN_OBJECT_BEYOND_FRACTION = 0.25
+"""A farther chroma cluster the rim test calls a rim is a partly hidden object instead when at
+least this fraction of its pixels is obstacle-coloured by phase 1 (the halos the rim test is
+for hold ground-coloured pixels raised by their disparity: 59 and 67 % coloured in the two
+synthetic scenes where dropping this condition split one off), its median chroma lies at least this
+factor times ``min_chroma_distance`` from the nearer part's (not a face of the nearer object lit
+otherwise: 11 and 13 apart), and at least this fraction of an object's pixel count lies beyond
+the rim in one piece (not a band along the nearer object's outline: a near cylinder's flank had 4
+pixels beyond; nor a halo, whose pixels beyond lie in its corners). The two objects mended held
+86 and 96 % coloured pixels, 32 and 41 apart in chroma, 71 and 43 pixels beyond; without the one
+piece, 0.85, 20 and 30 pixels, or 0.8, 15 and 20, gave the same obstacles over the five
+synthetic sets as 0.8, 20 and 30 (``docs/pipeline.md``, session 37)."""
 STEP_PERCENTILE = 10.0
 """Percentile of the planes' difference along the boundary that must exceed the gap: a low one,
 so that planes crossing anywhere along it (a crease) do not read as a step."""
@@ -266,6 +283,15 @@ def split_groups_by_colour(groups: np.ndarray, disparity: np.ndarray, cue: Colou
 
 
 @dataclass(frozen=True, eq=False)
+class _PixelColours:
+    """The colours of a canvas's ``n`` pixels: ``chroma`` (``uint8 (n, 2)``, as in
+    :class:`ColourCue`) and ``coloured`` (``bool (n,)``, obstacle-coloured by phase 1)."""
+
+    chroma: np.ndarray
+    coloured: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
 class _GroundPlan:
     """A whole group's pixels at full size, to compare the footprints of two parts of it whatever
     the squares its canvas decides on: ``xs`` (int64, shape (N,)) their columns, ``d`` (shape (N,),
@@ -304,7 +330,8 @@ def _split(canvas: PixelCanvas, d: np.ndarray, chroma: np.ndarray, coloured: np.
     if cluster is None and whole_group:
         cluster = _phase_one_clusters(canvas, d, coloured, min_object_pixels, params)
     if cluster is not None:
-        cluster = _two_depths(canvas, d, cluster, chroma if by_chroma else None, min_object_pixels, params)
+        cluster = _two_depths(canvas, d, cluster, _PixelColours(chroma, coloured) if by_chroma else None,
+                              min_object_pixels, params)
     if cluster is None and ground_plan is not None:
         cluster = _depth_split(canvas, d, min_object_pixels, params, ground_plan)
     if cluster is None:
@@ -407,13 +434,13 @@ def _gap(first_median: float, second_median: float, params: ColourSplitParameter
             max(params.min_gap_px, params.min_gap_rel * max(first_median, second_median)))
 
 
-def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, chroma: np.ndarray | None,
+def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, colours: _PixelColours | None,
                 min_object_pixels: int, params: ColourSplitParameters) -> np.ndarray | None:
     """``cluster`` with the pixels near the boundary moved to the part whose plane they fit
     better, when the two clusters are two surfaces at two depths (module docstring) and each
-    still holds an object's pixel count; else None. ``chroma`` (``uint8 (n, 2)``, as in
-    :class:`ColourCue`): the pixels' colours when the clusters are chroma clusters, for the rim
-    test (:func:`_distance_to_nearer`); None for phase 1's verdict and for depth clusters."""
+    still holds an object's pixel count; else None. ``colours``: the pixels' colours when the
+    clusters are chroma clusters, for the rim test (:func:`_distance_to_nearer`,
+    :func:`_partly_hidden_object`); None for phase 1's verdict and for depth clusters."""
     second = cluster == 1
     if second.all() or not second.any():
         return None
@@ -423,11 +450,12 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, chroma:
         return None
     to_other = distance_to_other(canvas, second)
     farther = second if medians[1] < medians[0] else ~second
+    chroma = colours.chroma if colours is not None else None
     to_nearer = _distance_to_nearer(canvas, d, farther, min(medians), max(medians), chroma, to_other, gap, params)
     rim = farther & (to_nearer <= max(RIM_PX, canvas.block))                        # next square at least
     beyond = farther & (to_nearer > max(OBJECT_BEYOND_RIM_PX, 1.5 * canvas.block))
-    if (canvas.pixels(rim) > MAX_RIM_FRACTION * canvas.pixels(farther)
-            and canvas.pixels(beyond) < min_object_pixels):
+    if (canvas.pixels(rim) > MAX_RIM_FRACTION * canvas.pixels(farther) and canvas.pixels(beyond) < min_object_pixels
+            and not _partly_hidden_object(canvas, farther, beyond, colours, min_object_pixels, params)):
         return None
     planes = planes_away_from_boundary(canvas, d, second, to_other)
     if planes is None:
@@ -442,6 +470,30 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, chroma:
     residual = [np.abs(d - plane_at(plane, canvas.xs, canvas.ys)) for plane in planes]
     cluster = np.where(near, residual[1] < residual[0], cluster).astype(np.int64)
     return cluster if min(canvas.pixels(cluster == 0), canvas.pixels(cluster == 1)) >= min_object_pixels else None
+
+
+def _partly_hidden_object(canvas: PixelCanvas, farther: np.ndarray, beyond: np.ndarray,
+                          colours: _PixelColours | None, min_object_pixels: int, params: ColourSplitParameters) -> bool:
+    """Whether the farther of two chroma clusters (``farther``, ``bool (n,)``), which the rim test
+    calls a rim, is an object partly hidden behind the nearer one or standing beside it:
+    obstacle-coloured, of a colour far from the nearer part's, and reaching past the rim in one
+    piece of at least a set fraction of an object's pixel count (``beyond``, ``bool (n,)``: its
+    pixels farther from the nearer part than the rim test's ``OBJECT_BEYOND_RIM_PX``; the pieces
+    are :meth:`~stereo_obstacles.part_boundaries.PixelCanvas.small_pieces`'s, counted in
+    full-size pixels), as ``HIDDEN_OBJECT_COLOURED_FRACTION`` and the constants after it say. A red
+    pole at 9.1 m beside the end of a brick wall at 8.6 m lies along the wall's outline, 76 % of it
+    within 4 px, and read -6.8 % merged with the wall; a blue box 1.3 m behind a grey one, -14.3 %
+    (``docs/pipeline.md``, session 37). A halo's pixels beyond the rim lie in its corners, in
+    pieces. False when the clusters are not chroma clusters (``colours`` None)."""
+    if colours is None:
+        return False
+    if canvas.pixels(farther & colours.coloured) < HIDDEN_OBJECT_COLOURED_FRACTION * canvas.pixels(farther):
+        return False
+    far_colour, near_colour = (np.median(colours.chroma[members], axis=0) for members in (farther, ~farther))
+    if math.dist(far_colour, near_colour) < HIDDEN_OBJECT_CHROMA_FACTOR * params.min_chroma_distance:
+        return False
+    least_piece = math.ceil(HIDDEN_OBJECT_BEYOND_FRACTION * min_object_pixels)
+    return canvas.pixels(beyond & ~canvas.small_pieces(beyond, least_piece)) >= least_piece
 
 
 def _distance_to_nearer(canvas: PixelCanvas, d: np.ndarray, farther: np.ndarray, far_median: float,
