@@ -51,7 +51,7 @@ from stereo_obstacles.colour_split import ColourSplitParameters
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.footprints import MIN_COLUMN_PIXELS, close_points, close_spans, footprint, footprint_spans
-from stereo_obstacles.obstacles import ObstacleList
+from stereo_obstacles.obstacles import ObstacleList, obstacle_pixels
 
 __all__ = ["FootprintJoiningParameters", "pieces_of_one_object"]
 
@@ -187,10 +187,8 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
                                 f"{type(calibration).__name__}")
     pixels, colours = {}, {}
     for o in obstacles.obstacles:
-        x0, y0, x1, y1 = o.box_px
-        ys, xs = np.nonzero(id_map[y0:y1, x0:x1] == o.id)
-        pixels[o.id] = (ys + y0, xs + x0)
-        colours[o.id] = np.median(chroma[ys + y0, xs + x0], axis=0)
+        pixels[o.id] = obstacle_pixels(o, id_map)
+        colours[o.id] = np.median(chroma[pixels[o.id]], axis=0)
     prints: dict[int, Footprint] = {}
 
     def footprint_of(k: int) -> Footprint:

@@ -198,6 +198,14 @@ def standing_pixels(candidates: np.ndarray, disparity: np.ndarray, ground: Groun
                          min_excess_px=min_excess_px)
 
 
+def obstacle_pixels(obstacle: Obstacle, id_map: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns (``int64 (n,)``) of the obstacle's pixels in ``id_map`` (``int (H, W)``, as
+    :attr:`ObstacleList.id_map`), found within its box."""
+    x0, y0, x1, y1 = obstacle.box_px
+    ys, xs = np.nonzero(id_map[y0:y1, x0:x1] == obstacle.id)
+    return ys + y0, xs + x0
+
+
 def _box(xs: np.ndarray, ys: np.ndarray) -> tuple[int, int, int, int]:
     return int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1
 

@@ -66,6 +66,7 @@ from stereo_obstacles.depth import disparity_to_depth
 from stereo_obstacles.disparity_uncertainty import disparity_sigma_px, pair_noise_sigma
 from stereo_obstacles.errors import CalibrationError, ImageMismatchError, InvalidInputError
 from stereo_obstacles.face_joining import FaceJoiningParameters, obstacles_sharing_a_face
+from stereo_obstacles.fattened_fringes import FringeParameters, fattened_fringes
 from stereo_obstacles.field_checks import (check_integers, check_numbers, check_positive, check_types, plain_number,
                                            plain_numbers)
 from stereo_obstacles.footprint_joining import FootprintJoiningParameters, pieces_of_one_object
@@ -191,6 +192,10 @@ class DetectionConfig:
     obstacle pixels made mostly of ground-coloured matches that, were they ground, the right
     camera could not see behind a nearer object's left edge is rejected, with its reason
     (:mod:`stereo_obstacles.hidden_ground`); ``None`` keeps such groups.
+    ``fattened_fringes``: with the colour split's colour cue, an obstacle's pixels coloured like
+    a farther obstacle beside them (its edge, carrying the nearer one's disparity by the
+    matching's fattening) are taken out of it before the joinings, and the obstacles measured
+    again (:mod:`stereo_obstacles.fattened_fringes`); ``None`` keeps them.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -210,6 +215,7 @@ class DetectionConfig:
     hidden_ground: HiddenGroundParameters | None = field(default_factory=HiddenGroundParameters)
     face_joining: FaceJoiningParameters | None = field(default_factory=FaceJoiningParameters)
     footprint_joining: FootprintJoiningParameters | None = field(default_factory=FootprintJoiningParameters)
+    fattened_fringes: FringeParameters | None = field(default_factory=FringeParameters)
 
     def __post_init__(self) -> None:
         # a dict or None for a stage's options failed later with AttributeError (API review, session 23)
@@ -219,7 +225,8 @@ class DetectionConfig:
         check_types(self, (("blind_strip", BlindStripParameters), ("visibility", VisibilityParameters),
                            ("textureless_fill", TexturelessFillParameters),
                            ("hidden_ground", HiddenGroundParameters), ("face_joining", FaceJoiningParameters),
-                           ("footprint_joining", FootprintJoiningParameters)),
+                           ("footprint_joining", FootprintJoiningParameters),
+                           ("fattened_fringes", FringeParameters)),
                     allow_none=True)
         check_numbers(self, (("geometric_min_height_m", 0.0, math.inf), ("geometric_min_excess_px", 0.0, math.inf)))
         check_scale(plain_number(self, "matching_scale"))
@@ -677,6 +684,11 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
                                                       config.blind_strip)
     obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles, with_scan=False)
+    if config.fattened_fringes is not None and colour is not None:
+        fringes = fattened_fringes(obstacles, colour.chroma, config.fattened_fringes)
+        if fringes.any():
+            groups = np.where(fringes, 0, groups).astype(groups.dtype, copy=False)
+            obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles, with_scan=False)
     if calibration is not None:
         filling = textureless is not None and ground is not None and colour_trusted
         runs = (bracketed_runs(textureless, obstacles.id_map, disparity, segmentation.labels, ground,
