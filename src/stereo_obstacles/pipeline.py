@@ -30,6 +30,8 @@ Beyond the paper:
   would chain distinct objects through the ground between them;
 * a group holding two colours at two depths (a pole just in front of a box) is split along
   the colours (:mod:`stereo_obstacles.colour_split`);
+* an obstacle's pixels coloured like a farther obstacle beside them, that farther object's edge
+  carrying the nearer one's disparity, are taken out of it (:mod:`stereo_obstacles.fattened_fringes`);
 * faces too flat to match (dark paint), which phase 1 calls obstacle but the matcher leaves
   empty but for their outlines, are filled from those outlines when they stand on the ground at
   their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
