@@ -111,9 +111,12 @@ def test_an_obstacle_is_not_its_own_farther_neighbour():
     assert not fattened_fringes(alone, chroma, params).any()
 
 
-def test_an_obstacle_without_pixels_is_passed_over():
+@pytest.mark.parametrize("ghost_disparity", [8.0, 20.0])
+def test_an_obstacle_without_pixels_is_passed_over(ghost_disparity):
+    """An obstacle listed but without pixels in the id map, as the farther one (8 px) or the
+    nearer one (20 px): no median of no pixels (a warning, an error in the tests)."""
     obstacles, chroma = _box_with_a_strip()
-    ghost = replace(obstacles.obstacles[1], id=3)
+    ghost = replace(obstacles.obstacles[1], id=3, disparity_px=ghost_disparity)
     with_ghost = replace(obstacles, obstacles=obstacles.obstacles + (ghost,))
     assert np.array_equal(fattened_fringes(with_ghost, chroma), fattened_fringes(obstacles, chroma))
 

@@ -123,6 +123,8 @@ def fattened_fringes(obstacles: ObstacleList, chroma: np.ndarray,
         if not neighbours:
             continue
         own = pixels_of(nearer)
+        if len(own.ys) < params.min_pixels:
+            continue
         foreign = own.where(_far(own.chroma, own.colour, params.min_foreign_chroma))
         if len(foreign.ys) < params.min_pixels:
             continue
