@@ -10,7 +10,7 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m, tilt_from_camera_vertical_deg
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.obstacles import (ObstacleParameters, corridor_summary, list_obstacles, measure_groups,
-                                        measure_obstacles)
+                                        measure_obstacles, measure_without)
 
 
 def test_pole_in_front_of_wall_is_a_separate_object_and_marking_is_rejected():
@@ -111,6 +111,23 @@ def test_group_numbers_need_not_be_contiguous():
     gappy = np.where(groups > 0, groups * 5, 0)
     result = measure_obstacles(gappy, scene.disparity, RIG, GROUND)
     assert [o.distance_m for o in result.obstacles] == [o.distance_m for o in scene.calibrated.obstacles]
+
+
+def test_measuring_again_without_some_pixels_is_measuring_the_groups_left():
+    """Part of one group and all of another taken out: the groups that lost pixels are measured
+    again, the one that lost them all is gone, the untouched one is kept as it was measured."""
+    scene = detection()
+    groups = group_obstacle_pixels(scene.disparity, scene.calibrated.id_map > 0)
+    assert groups.max() >= 3
+    taken_out = groups == 3
+    ys, xs = np.nonzero(groups == 1)
+    taken_out[ys[: len(ys) // 3], xs[: len(ys) // 3]] = True
+    measured = measure_groups(groups, scene.disparity, RIG, GROUND)
+    left, again = measure_without(taken_out, groups, measured, scene.disparity, RIG, GROUND)
+    assert np.array_equal(left, np.where(taken_out, 0, groups))
+    assert again == measure_groups(left, scene.disparity, RIG, GROUND)
+    assert 3 not in again and again[1] != measured[1] and again[2] is measured[2]
+    assert list(again) == sorted(again)
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -272,6 +272,23 @@ def measure_groups(groups: np.ndarray, disparity: np.ndarray, calibration: Stere
     return measured
 
 
+def measure_without(taken_out: np.ndarray, groups: np.ndarray, measured: dict[int, Obstacle | RejectedGroup],
+                    disparity: np.ndarray, calibration: StereoCalibration | None, ground: GroundPlane | None,
+                    params: ObstacleParameters = ObstacleParameters()
+                    ) -> tuple[np.ndarray, dict[int, Obstacle | RejectedGroup]]:
+    """``groups`` with the pixels ``taken_out`` (``bool (H, W)``) in no group, and ``measured``
+    (:func:`measure_groups` of ``groups``, the other parameters as it takes them) with only the
+    groups that lost pixels measured again, in group order as :func:`measure_groups` gives them;
+    a group that lost every pixel is left out."""
+    groups = np.asarray(groups)
+    touched = np.unique(groups[taken_out])
+    touched = touched[touched > 0]
+    groups = np.where(taken_out, 0, groups).astype(groups.dtype, copy=False)
+    again = measure_groups(np.where(np.isin(groups, touched), groups, 0), disparity, calibration, ground, params)
+    kept = {group: outcome for group, outcome in measured.items() if group not in set(touched.tolist())}
+    return groups, dict(sorted({**kept, **again}.items()))
+
+
 def list_obstacles(measured: dict[int, Obstacle | RejectedGroup], groups: np.ndarray, disparity: np.ndarray,
                    calibration: StereoCalibration | None, params: ObstacleParameters = ObstacleParameters(), *,
                    with_scan: bool = True) -> ObstacleList:

@@ -81,7 +81,7 @@ from stereo_obstacles.obstacle_joining import measure_joined
 from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_pixels, tilt_from_camera_vertical_deg
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
-                                        measure_groups, measure_obstacles, obstacle_scan, standing_pixels)
+                                        measure_groups, measure_without, obstacle_scan, standing_pixels)
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size, warn_if_scale_raised
@@ -196,8 +196,8 @@ class DetectionConfig:
     (:mod:`stereo_obstacles.hidden_ground`); ``None`` keeps such groups.
     ``fattened_fringes``: with the colour split's colour cue, an obstacle's pixels coloured like
     a farther obstacle beside them (its edge, carrying the nearer one's disparity by the
-    matching's fattening) are taken out of it before the joinings, and the obstacles measured
-    again (:mod:`stereo_obstacles.fattened_fringes`); ``None`` keeps them.
+    matching's fattening) are taken out of it before the joinings, and the groups that lost them
+    measured again (:mod:`stereo_obstacles.fattened_fringes`); ``None`` keeps them.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -685,12 +685,14 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     if config.blind_strip is not None:
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
                                                       config.blind_strip)
-    obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles, with_scan=False)
+    outcomes = measure_groups(groups, measured, calibration, ground, config.obstacles)
+    obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
     if config.fattened_fringes is not None and colour is not None:
         fringes = fattened_fringes(obstacles, colour.chroma, config.fattened_fringes)
         if fringes.any():
-            groups = np.where(fringes, 0, groups).astype(groups.dtype, copy=False)
-            obstacles = measure_obstacles(groups, measured, calibration, ground, config.obstacles, with_scan=False)
+            groups, outcomes = measure_without(fringes, groups, outcomes, measured, calibration, ground,
+                                               config.obstacles)
+            obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
     if calibration is not None:
         filling = textureless is not None and ground is not None and colour_trusted
         runs = (bracketed_runs(textureless, obstacles.id_map, disparity, segmentation.labels, ground,
