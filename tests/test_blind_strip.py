@@ -42,13 +42,37 @@ def test_groups_away_from_the_strip_or_without_obstacle_pixels_in_it_are_left_al
     assert extend_into_blind_strip(far, np.where(far > 0, 18.0, np.nan).astype(np.float32), wall)[2] == 0
 
 
+def test_strip_pixels_of_the_groups_colour_continue_it_where_phase_1_calls_them_ground():
+    truth, wall, disparity, groups = _wall()
+    ground_coloured = wall.copy()
+    ground_coloured[:, :40] = False                    # phase 1 calls the wall's strip ground
+    chroma = np.full(groups.shape + (2,), 128, np.uint8)
+    chroma[wall] = (133, 136)                          # the wall's colour, 9.4 from the background's
+    out_groups, out_disparity, n = extend_into_blind_strip(groups, disparity, ground_coloured, chroma=chroma)
+    strip = wall & np.isnan(disparity)
+    assert n == strip.sum() > 0 and np.all(out_groups[strip] == 1)
+    np.testing.assert_allclose(out_disparity[strip], truth[strip], atol=1e-3)
+    chroma[:, :40] = (141, 136)                        # the strip 8 from the wall's colour: still one colour
+    assert extend_into_blind_strip(groups, disparity, ground_coloured, chroma=chroma)[2] == n
+    chroma[:, :40] = (144, 136)                        # 11 from it: another colour, the strip is not the wall
+    assert extend_into_blind_strip(groups, disparity, ground_coloured, chroma=chroma)[2] == 0
+    strict = BlindStripParameters(max_chroma_distance=0.0)
+    chroma[:, :40] = (133, 136)
+    assert extend_into_blind_strip(groups, disparity, ground_coloured, strict, chroma)[2] == 0
+
+
 def test_nothing_to_do_on_an_empty_map_and_bad_input_is_refused():
     empty = np.full((10, 12), np.nan, np.float32)
     assert extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, np.ones((10, 12), bool))[2] == 0
     with pytest.raises(InvalidInputError, match="must be one 2-D shape"):
         extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, np.ones((10, 11), bool))
+    with pytest.raises(InvalidInputError, match="chroma .* must be uint8"):
+        extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, np.ones((10, 12), bool),
+                                chroma=np.zeros((10, 12, 3), np.uint8))
     with pytest.raises(InvalidInputError, match="fit_width_px must be >= 2"):
         BlindStripParameters(fit_width_px=1)
+    with pytest.raises(InvalidInputError, match="max_chroma_distance >= 0"):
+        BlindStripParameters(max_chroma_distance=-1.0)
 
 
 def test_detect_measures_the_nearest_point_of_a_wall_past_the_left_border():
@@ -64,3 +88,20 @@ def test_detect_measures_the_nearest_point_of_a_wall_past_the_left_border():
         wall = next(c for c in comparisons if c.kind == "wall" and c.true_distance_m < 3)
         errors[name] = wall.relative_error
     assert abs(errors["on"]) < 0.06 < errors["off"]                           # measured: +4.8 % and +12.3 %
+
+
+def test_detect_continues_a_ground_coloured_wall_into_the_strip():
+    from stereo_obstacles.detection_evaluation import compare_with_truth
+    from stereo_obstacles.pipeline import DetectionConfig, detect
+    from stereo_obstacles.synthetic import random_scene, render_pair
+
+    # a brown wall at 1.58-3.2 m that phase 1 calls shadow, its nearest 36 columns in the strip
+    pair = render_pair(random_scene(1285, width_px=640, height_px=480))
+    errors = {}
+    for name, params in (("by colour", BlindStripParameters()),
+                         ("obstacle-labelled only", BlindStripParameters(max_chroma_distance=0.0))):
+        result = detect(pair.left, pair.right, pair.calibration, config=DetectionConfig(blind_strip=params))
+        comparisons, _ = compare_with_truth(result.obstacles, pair.instances, pair.labels, pair.obstacles)
+        wall = next(c for c in comparisons if c.kind == "wall" and c.true_distance_m < 2)
+        errors[name] = wall.relative_error
+    assert abs(errors["by colour"]) < 0.05 < errors["obstacle-labelled only"]   # measured: +1.4 % and +13.6 %

@@ -3,14 +3,18 @@
 A left pixel ``x`` with disparity ``d`` is seen by the right camera at ``x - d``: for ``x < d``
 that lies outside the right image, so no disparity can be matched there. A wall running past
 the left border therefore loses its nearest part, up to ``d`` columns of it (the nearer, the
-wider). Phase 1 still labels those pixels obstacle (it needs one image only), so an obstacle
-group whose matched pixels reach the strip's edge is continued into the strip: a plane
+wider). Phase 1 still labels those pixels (it needs one image only), so an obstacle group
+whose matched pixels reach the strip's edge is continued into the strip: a plane
 ``d = a x + b y + c`` is fitted (least squares) to the group's pixels in the
-``fit_width_px`` columns next to the strip, and each obstacle-labelled, unmatched pixel to
-their left, in a run reaching the group's first column in its row, gets the plane's disparity
-as long as the plane puts it in the strip (``d > x``, or within ``reach_px`` of it). Only the
-obstacle measurement uses those extrapolated disparities; the delivered disparity and depth
-maps stay measured values.
+``fit_width_px`` columns next to the strip, and each unmatched pixel to their left, in a run
+reaching the group's first column in its row, gets the plane's disparity as long as the plane
+puts it in the strip (``d > x``, or within ``reach_px`` of it) and the pixel looks like the
+group: phase 1 calls it obstacle, or (given the chroma) its chroma lies within
+``max_chroma_distance`` of the median chroma of the fitted pixels. The second holds an object
+coloured like the ground, which phase 1 calls ground or shadow and only the disparities make an
+obstacle: a wall at 1.6-3.2 m whose nearest 36 columns lay in the strip was measured at 1.79 m
+instead of 1.58 m (``docs/pipeline.md``, session 38). Only the obstacle measurement uses those
+extrapolated disparities; the delivered disparity and depth maps stay measured values.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stereo_obstacles.colour_split import ColourSplitParameters, chroma_apart
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import plain_numbers
 from stereo_obstacles.plane_fit import least_squares_plane
@@ -41,21 +46,28 @@ class BlindStripParameters:
         most its disparity there plus ``reach_px``), and the unmatched pixels it is continued
         over may lie this far outside the strip (a 5 x 5 window next to the edge often goes
         unmatched too).
+    max_chroma_distance : float
+        A pixel phase 1 does not call obstacle continues the group when its chroma lies less than
+        this from the fitted pixels' median chroma, in ``(a*, b*)``: the colour split's
+        ``min_chroma_distance``, below which two colours are one.
     """
 
     fit_width_px: int = 24
     min_fit_pixels: int = 60
     reach_px: float = 3.0
+    max_chroma_distance: float = ColourSplitParameters.min_chroma_distance
 
     def __post_init__(self) -> None:
         plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
-        if self.fit_width_px < 2 or self.min_fit_pixels < 3 or not self.reach_px >= 0:
-            raise InvalidInputError("fit_width_px must be >= 2, min_fit_pixels >= 3 and reach_px >= 0")
+        if (self.fit_width_px < 2 or self.min_fit_pixels < 3 or not self.reach_px >= 0
+                or not self.max_chroma_distance >= 0):
+            raise InvalidInputError("fit_width_px must be >= 2, min_fit_pixels >= 3, reach_px >= 0 and "
+                                    "max_chroma_distance >= 0")
 
 
 def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_mask: np.ndarray,
-                            params: BlindStripParameters = BlindStripParameters()
-                            ) -> tuple[np.ndarray, np.ndarray, int]:
+                            params: BlindStripParameters = BlindStripParameters(),
+                            chroma: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Continue the groups that reach the strip's edge into the strip.
 
     Parameters
@@ -66,6 +78,11 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
         Measured disparity in pixels, NaN where unmatched.
     obstacle_mask : ndarray of bool, shape (H, W)
         Pixels phase 1 calls obstacle.
+    params
+        Which groups, and how far into the strip.
+    chroma : ndarray of uint8, shape (H, W, 2), optional
+        Chroma of the left image (:attr:`stereo_obstacles.colour_split.ColourCue.chroma`); without
+        it only pixels of ``obstacle_mask`` continue a group.
 
     Returns
     -------
@@ -77,6 +94,9 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
     if not groups.shape == disparity.shape == obstacle_mask.shape or groups.ndim != 2:
         raise InvalidInputError(f"groups {groups.shape}, disparity {disparity.shape} and obstacle_mask "
                                 f"{obstacle_mask.shape} must be one 2-D shape")
+    if chroma is not None and (chroma.shape != groups.shape + (2,) or chroma.dtype != np.uint8):
+        raise InvalidInputError(f"chroma ({chroma.dtype} {chroma.shape}) must be uint8 (H, W, 2) for the groups' "
+                                f"(H, W) = {groups.shape}")
     out_groups, out_disparity, n_extended = groups, disparity, 0
     h, w = groups.shape
     finite = disparity[np.isfinite(disparity)]
@@ -95,6 +115,7 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
         plane = least_squares_plane(xs[near], ys[near], ds[near])
         if plane is None:
             continue
+        colour = None if chroma is None else np.median(chroma[ys[near], xs[near]], axis=0)
         # each row of the group walks left from just before its first pixel in that row
         row_first = np.full(h, w)
         np.minimum.at(row_first, ys, xs)
@@ -106,8 +127,11 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
             if cand.size == 0:
                 continue
             predicted = plane[0] * x + plane[1] * cand + plane[2]
-            ok = (obstacle_mask[cand, x] & np.isnan(disparity[cand, x]) & (predicted > x - params.reach_px)
-                  & (groups[cand, x] == 0))
+            looks_alike = obstacle_mask[cand, x]
+            if colour is not None:
+                looks_alike = looks_alike | ~chroma_apart(chroma[cand, x].astype(np.int32), colour,
+                                                          params.max_chroma_distance)
+            ok = looks_alike & np.isnan(disparity[cand, x]) & (predicted > x - params.reach_px) & (groups[cand, x] == 0)
             active[cand[~ok]] = False
             if ok.any():
                 if out_groups is groups:

@@ -79,7 +79,7 @@ from stereo_obstacles.part_boundaries import (FIT_MARGIN_PX, PixelCanvas, bounda
 from stereo_obstacles.plane_fit import plane_at
 from stereo_obstacles.quantiles import median
 
-__all__ = ["ColourCue", "ColourSplitParameters", "colour_cue", "split_groups_by_colour"]
+__all__ = ["ColourCue", "ColourSplitParameters", "chroma_apart", "colour_cue", "split_groups_by_colour"]
 
 RIM_PX = 4.0
 """The farther part is a rim when more than ``MAX_RIM_FRACTION`` of its pixels lie within this
@@ -182,6 +182,13 @@ class ColourCue:
             raise InvalidInputError(f"chroma must be uint8 (H, W, 2), got {chroma.dtype} {chroma.shape}")
         if coloured.dtype != bool or coloured.shape != chroma.shape[:2]:
             raise InvalidInputError(f"coloured must be bool {chroma.shape[:2]}, got {coloured.dtype} {coloured.shape}")
+
+
+def chroma_apart(chroma: np.ndarray, colour: np.ndarray, distance: float) -> np.ndarray:
+    """``bool (n,)``: whether each chroma (``int32`` or ``float (n, 2)``, :attr:`ColourCue.chroma`
+    values) lies at least ``distance`` from ``colour`` (``(2,)``) in ``(a*, b*)``."""
+    difference = chroma - colour
+    return np.einsum("nk,nk->n", difference, difference) >= distance * distance
 
 
 def colour_cue(left: np.ndarray, coloured: np.ndarray, params: ColourSplitParameters) -> ColourCue:

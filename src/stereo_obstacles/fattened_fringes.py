@@ -26,7 +26,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from stereo_obstacles.colour_split import ColourSplitParameters
+from stereo_obstacles.colour_split import ColourSplitParameters, chroma_apart
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.obstacle_grouping import GroupingParameters
@@ -125,12 +125,12 @@ def fattened_fringes(obstacles: ObstacleList, chroma: np.ndarray,
         own = pixels_of(nearer)
         if len(own.ys) < params.min_pixels:
             continue
-        foreign = own.where(_far(own.chroma, own.colour, params.min_foreign_chroma))
+        foreign = own.where(chroma_apart(own.chroma, own.colour, params.min_foreign_chroma))
         if len(foreign.ys) < params.min_pixels:
             continue
         for farther in neighbours:
             # pixels of the farther obstacle's colour first: most pairs have too few to look further
-            candidates = foreign.where(~_far(foreign.chroma, pixels_of(farther).colour, params.max_same_chroma))
+            candidates = foreign.where(~chroma_apart(foreign.chroma, pixels_of(farther).colour, params.max_same_chroma))
             if len(candidates.ys) >= params.min_pixels:
                 x0, y0, x1, y1 = nearer.box_px
                 fringe[y0:y1, x0:x1] |= _edge_of(farther, ids, candidates, nearer.box_px, params)
@@ -159,13 +159,6 @@ class _Pixels:
     def where(self, chosen: np.ndarray) -> _Pixels:
         """The pixels where ``chosen`` (``bool (n,)``) holds."""
         return _Pixels(self.ys[chosen], self.xs[chosen], self.chroma[chosen])
-
-
-def _far(chroma: np.ndarray, colour: np.ndarray, distance: float) -> np.ndarray:
-    """``bool (n,)``: whether each ``chroma`` (``int32 (n, 2)``) lies at least ``distance`` from
-    ``colour`` in ``(a*, b*)``."""
-    difference = chroma - colour
-    return np.einsum("nk,nk->n", difference, difference) >= distance * distance
 
 
 def _edge_of(farther: Obstacle, ids: np.ndarray, candidates: _Pixels, box: tuple[int, int, int, int],

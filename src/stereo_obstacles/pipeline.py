@@ -684,7 +684,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
                                                        config.hidden_ground)
     if config.blind_strip is not None:
         groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
-                                                      config.blind_strip)
+                                                      config.blind_strip, None if colour is None else colour.chroma)
     outcomes = measure_groups(groups, measured, calibration, ground, config.obstacles)
     obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
     if config.fattened_fringes is not None and colour is not None:
