@@ -30,6 +30,10 @@ and close to its point. The one-colour test keeps the points: the spans of an ob
 mixes a box with the wall behind it reach across the gap between the two, and touch both
 (``docs/pipeline.md``, "Faces that meet at an edge, and two halo filters", session 35).
 
+Two obstacles side by side in the image with the background showing between them are two
+objects, however their footprints lie (:mod:`stereo_obstacles.seen_through`): two leaning poles'
+footprints can meet end to end.
+
 Joins form stars, not chains: the obstacles are taken largest first (in pixels), and each one not
 yet joined takes every other one not yet joined whose footprint touches its own. A piece that
 touches only another piece stays apart: an obstacle holding two objects the grouping could not
@@ -42,16 +46,17 @@ their footprints", and session 32 for coinciding footprints).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from stereo_obstacles.calibration import StereoCalibration
-from stereo_obstacles.colour_split import ColourSplitParameters
+from stereo_obstacles.colour_split import ColourCue, ColourSplitParameters
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.field_checks import check_integers, check_numbers
+from stereo_obstacles.field_checks import check_integers, check_numbers, check_types
 from stereo_obstacles.footprints import MIN_COLUMN_PIXELS, close_points, close_spans, footprint, footprint_spans
 from stereo_obstacles.obstacles import ObstacleList, obstacle_pixels
+from stereo_obstacles.seen_through import SeenThroughParameters, background_between
 
 __all__ = ["FootprintJoiningParameters", "pieces_of_one_object"]
 
@@ -84,6 +89,10 @@ class FootprintJoiningParameters:
         ``2 * edge_columns + 2``); 0 by default (module docstring).
     min_column_pixels : int
         Matched pixels a column needs to give a footprint point.
+    seen_through : SeenThroughParameters or None
+        When the background showing between two obstacles keeps them apart, by ``max_gap_m`` in
+        depth and ``max_chroma_distance`` in colour (:mod:`stereo_obstacles.seen_through`);
+        ``None``: never.
     """
 
     max_gap_m: float = 0.3
@@ -94,6 +103,7 @@ class FootprintJoiningParameters:
     span_quantile: float = 0.25
     edge_columns: int = 0
     min_column_pixels: int = MIN_COLUMN_PIXELS
+    seen_through: SeenThroughParameters | None = field(default_factory=SeenThroughParameters)
 
     def __post_init__(self) -> None:
         check_numbers(self, (("max_gap_m", 0.0, math.inf), ("min_close_fraction", 0.0, 1.0),
@@ -101,6 +111,7 @@ class FootprintJoiningParameters:
                              ("span_quantile", 0.0, 0.5)))
         check_integers(self, (("min_close_columns", 1, 10 ** 6), ("edge_columns", 0, 10 ** 6),
                               ("min_column_pixels", 1, 10 ** 6)))
+        check_types(self, (("seen_through", SeenThroughParameters),), allow_none=True)
 
 
 @dataclass(frozen=True)
@@ -153,7 +164,7 @@ def _close(first: np.ndarray, second: np.ndarray, params: FootprintJoiningParame
             and all(counts[k] >= params.min_close_fraction * lengths[k] for k in shorter))
 
 
-def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma: np.ndarray,
+def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, colour: ColourCue,
                          calibration: StereoCalibration,
                          params: FootprintJoiningParameters = FootprintJoiningParameters()) -> list[tuple[int, int]]:
     """The pairs ``(host, piece)`` of obstacle ids to join (module docstring): each piece once.
@@ -164,9 +175,8 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
         The obstacles, whose ``id_map`` (``int (H, W)``, 0: none) says which pixels each covers.
     disparity
         ``float32 (H, W)`` disparity they were measured on, pixels, NaN where unmatched.
-    chroma
-        ``uint8 (H, W, 2)`` chroma of the left image
-        (:attr:`stereo_obstacles.colour_split.ColourCue.chroma`).
+    colour
+        The left image's chroma and phase-1 colour verdict, ``(H, W)`` as the id map.
     calibration
         The rig, for the footprints in metres.
     params
@@ -175,13 +185,12 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
     Raises
     ------
     InvalidInputError
-        A disparity or chroma of another height and width than the id map, chroma that is not
-        ``uint8 (H, W, 2)``, or no calibration.
+        A disparity or colour of another height and width than the id map, or no calibration.
     """
-    id_map, disparity, chroma = np.asarray(obstacles.id_map), np.asarray(disparity), np.asarray(chroma)
-    if disparity.shape != id_map.shape or chroma.shape != id_map.shape + (2,) or chroma.dtype != np.uint8:
-        raise InvalidInputError(f"disparity {disparity.shape} and chroma ({chroma.dtype} {chroma.shape}) must be "
-                                f"(H, W) and uint8 (H, W, 2) for the id map's (H, W) = {id_map.shape}")
+    id_map, disparity, chroma = np.asarray(obstacles.id_map), np.asarray(disparity), colour.chroma
+    if disparity.shape != id_map.shape or chroma.shape[:2] != id_map.shape:
+        raise InvalidInputError(f"disparity {disparity.shape} and chroma {chroma.shape} must be (H, W) and "
+                                f"(H, W, 2) for the id map's (H, W) = {id_map.shape}")
     if not isinstance(calibration, StereoCalibration):
         raise InvalidInputError(f"calibration must be a StereoCalibration (footprints are in metres), got "
                                 f"{type(calibration).__name__}")
@@ -206,7 +215,11 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, chroma:
             if np.any(np.maximum(first.low, second.low) - np.minimum(first.high, second.high) > params.max_gap_m):
                 continue
             one_colour = math.dist(colours[a], colours[b]) <= params.max_chroma_distance
-            if _touch(first, second, params, one_colour=one_colour):
+            if _touch(first, second, params, one_colour=one_colour) and not (
+                    params.seen_through is not None
+                    and background_between(pixels[a], pixels[b], disparity, colour, (colours[a], colours[b]),
+                                           calibration, params.max_gap_m, params.max_chroma_distance,
+                                           params.seen_through)):
                 touching[a].add(b)
                 touching[b].add(a)
     size = {o.id: o.pixel_count for o in obstacles.obstacles}

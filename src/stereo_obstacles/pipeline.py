@@ -503,7 +503,7 @@ def _pieces_of_one_object(obstacles: ObstacleList, runs: BracketedRuns | None, m
     if runs is not None and config.face_joining is not None:
         pairs += obstacles_sharing_a_face(runs, obstacles.id_map, disparity, calibration, config.face_joining)
     if colour is not None and config.footprint_joining is not None:
-        pairs += pieces_of_one_object(obstacles, measured, colour.chroma, calibration, config.footprint_joining)
+        pairs += pieces_of_one_object(obstacles, measured, colour, calibration, config.footprint_joining)
     return pairs
 
 
