@@ -7,6 +7,12 @@ import pytest
 
 from stereo_obstacles.blind_strip import BlindStripParameters, extend_into_blind_strip
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.labels import Label
+
+
+def _labels(obstacle: np.ndarray, other: Label = Label.GROUND) -> np.ndarray:
+    """Phase-1 labels: obstacle where ``obstacle`` (``bool (H, W)``), ``other`` elsewhere."""
+    return np.where(obstacle, Label.OBSTACLE.value, other.value).astype(np.uint8)
 
 
 def _wall(width: int = 200, height: int = 120):
@@ -22,7 +28,7 @@ def _wall(width: int = 200, height: int = 120):
 
 def test_a_wall_is_continued_into_the_strip_with_its_own_plane():
     truth, wall, disparity, groups = _wall()
-    out_groups, out_disparity, n = extend_into_blind_strip(groups, disparity, wall)
+    out_groups, out_disparity, n = extend_into_blind_strip(groups, disparity, _labels(wall))
     strip = wall & np.isnan(disparity)
     assert n == strip.sum() > 0
     assert np.all(out_groups[strip] == 1) and np.all(out_groups[~wall] == 0)
@@ -35,40 +41,56 @@ def test_groups_away_from_the_strip_or_without_obstacle_pixels_in_it_are_left_al
     truth, wall, disparity, groups = _wall()
     not_obstacle = wall.copy()
     not_obstacle[:, :40] = False                       # phase 1 sees no obstacle in the strip
-    same_groups, same_disparity, n = extend_into_blind_strip(groups, disparity, not_obstacle)
+    same_groups, same_disparity, n = extend_into_blind_strip(groups, disparity, _labels(not_obstacle))
     assert n == 0 and same_groups is groups and same_disparity is disparity
     far = np.zeros_like(groups)
     far[20:100, 120:150] = 1                           # a group starting 90 px right of the strip
-    assert extend_into_blind_strip(far, np.where(far > 0, 18.0, np.nan).astype(np.float32), wall)[2] == 0
+    assert extend_into_blind_strip(far, np.where(far > 0, 18.0, np.nan).astype(np.float32), _labels(wall))[2] == 0
 
 
-def test_strip_pixels_of_the_groups_colour_continue_it_where_phase_1_calls_them_ground():
+def test_strip_pixels_of_the_groups_colour_and_label_continue_a_ground_coloured_group():
     truth, wall, disparity, groups = _wall()
-    ground_coloured = wall.copy()
-    ground_coloured[:, :40] = False                    # phase 1 calls the wall's strip ground
+    shadow = np.full(groups.shape, Label.SHADOW.value, np.uint8)    # phase 1 calls the wall and all else shadow
     chroma = np.full(groups.shape + (2,), 128, np.uint8)
     chroma[wall] = (133, 136)                          # the wall's colour, 9.4 from the background's
-    out_groups, out_disparity, n = extend_into_blind_strip(groups, disparity, ground_coloured, chroma=chroma)
+    out_groups, out_disparity, n = extend_into_blind_strip(groups, disparity, shadow, chroma=chroma)
     strip = wall & np.isnan(disparity)
     assert n == strip.sum() > 0 and np.all(out_groups[strip] == 1)
     np.testing.assert_allclose(out_disparity[strip], truth[strip], atol=1e-3)
     chroma[:, :40] = (141, 136)                        # the strip 8 from the wall's colour: still one colour
-    assert extend_into_blind_strip(groups, disparity, ground_coloured, chroma=chroma)[2] == n
+    assert extend_into_blind_strip(groups, disparity, shadow, chroma=chroma)[2] == n
     chroma[:, :40] = (144, 136)                        # 11 from it: another colour, the strip is not the wall
-    assert extend_into_blind_strip(groups, disparity, ground_coloured, chroma=chroma)[2] == 0
-    strict = BlindStripParameters(max_chroma_distance=0.0)
+    assert extend_into_blind_strip(groups, disparity, shadow, chroma=chroma)[2] == 0
     chroma[:, :40] = (133, 136)
-    assert extend_into_blind_strip(groups, disparity, ground_coloured, strict, chroma)[2] == 0
+    assert extend_into_blind_strip(groups, disparity, shadow, BlindStripParameters(max_chroma_distance=0.0),
+                                   chroma=chroma)[2] == 0
+    lit = shadow.copy()
+    lit[:, :40] = Label.GROUND.value                   # the wall's colour, but lit ground: not the wall
+    assert extend_into_blind_strip(groups, disparity, lit, chroma=chroma)[2] == 0
+    assert extend_into_blind_strip(groups, disparity, shadow)[2] == 0          # no chroma: obstacle pixels only
+
+
+def test_a_shadow_coloured_wall_ending_inside_the_strip_does_not_take_the_lit_ground_beyond_it():
+    truth, wall, disparity, groups = _wall()
+    labels = np.full(groups.shape, Label.GROUND.value, np.uint8)
+    labels[wall & (np.arange(groups.shape[1]) >= 20)] = Label.SHADOW.value     # the wall ends at column 20
+    chroma = np.full(groups.shape + (2,), 133, np.uint8)                      # wall and ground one colour
+    out_groups, _, n = extend_into_blind_strip(groups, disparity, labels, chroma=chroma)
+    strip = wall & np.isnan(disparity)
+    assert n == np.count_nonzero(strip[:, 20:]) > 0
+    assert not out_groups[:, :20].any()
 
 
 def test_nothing_to_do_on_an_empty_map_and_bad_input_is_refused():
     empty = np.full((10, 12), np.nan, np.float32)
-    assert extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, np.ones((10, 12), bool))[2] == 0
+    obstacle = _labels(np.ones((10, 12), bool))
+    assert extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, obstacle)[2] == 0
     with pytest.raises(InvalidInputError, match="must be one 2-D shape"):
-        extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, np.ones((10, 11), bool))
+        extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, obstacle[:, :11])
+    with pytest.raises(InvalidInputError, match="labels must be uint8"):
+        extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, np.ones((10, 12), bool))
     with pytest.raises(InvalidInputError, match="chroma .* must be uint8"):
-        extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, np.ones((10, 12), bool),
-                                chroma=np.zeros((10, 12, 3), np.uint8))
+        extend_into_blind_strip(np.zeros((10, 12), np.int32), empty, obstacle, chroma=np.zeros((10, 12, 3), np.uint8))
     with pytest.raises(InvalidInputError, match="fit_width_px must be >= 2"):
         BlindStripParameters(fit_width_px=1)
     with pytest.raises(InvalidInputError, match="max_chroma_distance >= 0"):

@@ -231,6 +231,8 @@ def test_the_checks_of_the_inputs():
             pieces_of_one_object(obstacles, disparity, cue, RIG)
     with pytest.raises(InvalidInputError, match="calibration must be a StereoCalibration"):
         pieces_of_one_object(obstacles, scene.disparity, colour, None)
+    with pytest.raises(InvalidInputError, match="colour must be a ColourCue"):
+        pieces_of_one_object(obstacles, scene.disparity, scene.chroma, RIG)
 
 
 def test_detect_joins_pieces_of_a_box_and_measures_them_at_its_near_face():

@@ -63,11 +63,44 @@ def test_a_row_needs_matched_pixels_mostly_behind_both():
     assert background_between(first, second, single, cue, *rest, SeenThroughParameters(min_row_matched=1))
 
 
-def test_pieces_one_above_the_other_share_no_row():
+def test_pieces_one_above_the_other_or_overlapping_in_columns_are_not_side_by_side():
     # a pole above and below a nearer box: what lies between them is not beside them
-    first, second, disparity, cue, *rest = _scene(first_rows=slice(10, 60), second_rows=slice(100, 200))
-    stacked = (first[0], first[1] + 24)                        # the same columns as the lower piece
-    assert not background_between(stacked, second, disparity, cue, *rest)
+    assert not background_between(*_scene(first_rows=slice(10, 60), second_rows=slice(100, 200)))
+    first, second, *rest = _scene()
+    overlapping = (second[0], second[1] - 20)                  # columns 104-115 against the first's 100-111
+    assert not background_between(first, overlapping, *rest)
+    touching = (second[0], second[1] - 12)                     # columns 112-123: nothing between them
+    assert not background_between(first, touching, *rest)
+
+
+def test_a_missing_disparity_at_a_facing_pixel_leaves_the_other():
+    first, second, disparity, *rest = _scene()
+    disparity[:, 111] = np.nan                                 # the first pole's last column unmatched
+    assert background_between(first, second, disparity, *rest)
+
+
+def test_ground_coloured_obstacles_ask_for_another_colour():
+    # two poles phase 1 calls ground (grey concrete, say): pixels it calls ground between them are
+    # no sign of background unless their colour differs
+    first, second, disparity, cue, *rest = _scene()
+    ground_everywhere = np.zeros_like(cue.coloured)
+    own_colour = cue.chroma.copy()
+    own_colour[:, 112:124] = POLE
+    assert not background_between(first, second, disparity, ColourCue(own_colour, ground_everywhere), *rest)
+    assert background_between(first, second, disparity, ColourCue(cue.chroma, ground_everywhere), *rest)
+    # the same colour between two obstacle-coloured poles, called ground by phase 1: ground seen
+    ground_between = cue.coloured.copy()
+    ground_between[:, 112:124] = False
+    assert background_between(first, second, disparity, ColourCue(own_colour, ground_between), *rest)
+
+
+def test_bad_input_is_refused():
+    first, second, disparity, cue, *rest = _scene()
+    none = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    with pytest.raises(InvalidInputError, match="at least one pixel"):
+        background_between(first, none, disparity, cue, *rest)
+    with pytest.raises(InvalidInputError, match="must be"):
+        background_between(first, second, disparity[:100], cue, *rest)
 
 
 def test_only_rows_holding_both_count():

@@ -9,12 +9,15 @@ whose matched pixels reach the strip's edge is continued into the strip: a plane
 ``fit_width_px`` columns next to the strip, and each unmatched pixel to their left, in a run
 reaching the group's first column in its row, gets the plane's disparity as long as the plane
 puts it in the strip (``d > x``, or within ``reach_px`` of it) and the pixel looks like the
-group: phase 1 calls it obstacle, or (given the chroma) its chroma lies within
-``max_chroma_distance`` of the median chroma of the fitted pixels. The second holds an object
-coloured like the ground, which phase 1 calls ground or shadow and only the disparities make an
-obstacle: a wall at 1.6-3.2 m whose nearest 36 columns lay in the strip was measured at 1.79 m
-instead of 1.58 m (``docs/pipeline.md``, session 38). Only the obstacle measurement uses those
-extrapolated disparities; the delivered disparity and depth maps stay measured values.
+group: phase 1 calls it obstacle, or (given the chroma) phase 1 gives it the label most of the
+fitted pixels have and its chroma lies within ``max_chroma_distance`` of their median chroma.
+The second holds an object coloured like the ground, which phase 1 calls ground or shadow and
+only the disparities make an obstacle: a grey concrete wall at 1.6-3.2 m, called shadow, whose
+first matched column was 36 was measured there, at 1.79 m instead of 1.58 m (``docs/pipeline.md``,
+session 38). Asking for the group's own label as well keeps the lit ground beyond a
+shadow-coloured wall that ends inside the strip out of it; ground of the wall's label and colour
+beyond its end would still be taken. Only the obstacle measurement uses those extrapolated
+disparities; the delivered disparity and depth maps stay measured values.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import numpy as np
 from stereo_obstacles.colour_split import ColourSplitParameters, chroma_apart
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import plain_numbers
+from stereo_obstacles.labels import Label
 from stereo_obstacles.plane_fit import least_squares_plane
 
 __all__ = ["BlindStripParameters", "extend_into_blind_strip"]
@@ -47,9 +51,9 @@ class BlindStripParameters:
         over may lie this far outside the strip (a 5 x 5 window next to the edge often goes
         unmatched too).
     max_chroma_distance : float
-        A pixel phase 1 does not call obstacle continues the group when its chroma lies less than
-        this from the fitted pixels' median chroma, in ``(a*, b*)``: the colour split's
-        ``min_chroma_distance``, below which two colours are one.
+        A pixel phase 1 does not call obstacle continues the group when it has the fitted
+        pixels' most common label and its chroma lies less than this from their median chroma, in
+        ``(a*, b*)``: the colour split's ``min_chroma_distance``, below which two colours are one.
     """
 
     fit_width_px: int = 24
@@ -65,8 +69,8 @@ class BlindStripParameters:
                                     "max_chroma_distance >= 0")
 
 
-def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_mask: np.ndarray,
-                            params: BlindStripParameters = BlindStripParameters(),
+def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, labels: np.ndarray,
+                            params: BlindStripParameters = BlindStripParameters(), *,
                             chroma: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Continue the groups that reach the strip's edge into the strip.
 
@@ -76,13 +80,13 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
         Obstacle groups, 0 for none (:func:`stereo_obstacles.obstacle_grouping.group_obstacle_pixels`).
     disparity : ndarray of float32, shape (H, W)
         Measured disparity in pixels, NaN where unmatched.
-    obstacle_mask : ndarray of bool, shape (H, W)
-        Pixels phase 1 calls obstacle.
+    labels : ndarray of uint8, shape (H, W)
+        Phase-1 labels (:class:`stereo_obstacles.labels.Label` values).
     params
         Which groups, and how far into the strip.
     chroma : ndarray of uint8, shape (H, W, 2), optional
         Chroma of the left image (:attr:`stereo_obstacles.colour_split.ColourCue.chroma`); without
-        it only pixels of ``obstacle_mask`` continue a group.
+        it only pixels phase 1 calls obstacle continue a group.
 
     Returns
     -------
@@ -91,9 +95,12 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
     n_extended : int
         Pixels added.
     """
-    if not groups.shape == disparity.shape == obstacle_mask.shape or groups.ndim != 2:
-        raise InvalidInputError(f"groups {groups.shape}, disparity {disparity.shape} and obstacle_mask "
-                                f"{obstacle_mask.shape} must be one 2-D shape")
+    labels = np.asarray(labels)
+    if not groups.shape == disparity.shape == labels.shape or groups.ndim != 2:
+        raise InvalidInputError(f"groups {groups.shape}, disparity {disparity.shape} and labels "
+                                f"{labels.shape} must be one 2-D shape")
+    if labels.dtype != np.uint8:
+        raise InvalidInputError(f"labels must be uint8 phase-1 labels, got {labels.dtype}")
     if chroma is not None and (chroma.shape != groups.shape + (2,) or chroma.dtype != np.uint8):
         raise InvalidInputError(f"chroma ({chroma.dtype} {chroma.shape}) must be uint8 (H, W, 2) for the groups' "
                                 f"(H, W) = {groups.shape}")
@@ -116,6 +123,7 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
         if plane is None:
             continue
         colour = None if chroma is None else np.median(chroma[ys[near], xs[near]], axis=0)
+        own_label = np.bincount(labels[ys[near], xs[near]]).argmax()
         # each row of the group walks left from just before its first pixel in that row
         row_first = np.full(h, w)
         np.minimum.at(row_first, ys, xs)
@@ -127,10 +135,10 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, obstacle_
             if cand.size == 0:
                 continue
             predicted = plane[0] * x + plane[1] * cand + plane[2]
-            looks_alike = obstacle_mask[cand, x]
+            looks_alike = labels[cand, x] == Label.OBSTACLE.value
             if colour is not None:
-                looks_alike = looks_alike | ~chroma_apart(chroma[cand, x].astype(np.int32), colour,
-                                                          params.max_chroma_distance)
+                looks_alike |= (labels[cand, x] == own_label) & ~chroma_apart(
+                    chroma[cand, x].astype(np.int32), colour, params.max_chroma_distance)
             ok = looks_alike & np.isnan(disparity[cand, x]) & (predicted > x - params.reach_px) & (groups[cand, x] == 0)
             active[cand[~ok]] = False
             if ok.any():

@@ -185,8 +185,12 @@ def pieces_of_one_object(obstacles: ObstacleList, disparity: np.ndarray, colour:
     Raises
     ------
     InvalidInputError
-        A disparity or colour of another height and width than the id map, or no calibration.
+        A disparity or colour of another height and width than the id map, a colour that is not
+        a :class:`~stereo_obstacles.colour_split.ColourCue`, or no calibration.
     """
+    if not isinstance(colour, ColourCue):
+        raise InvalidInputError(f"colour must be a ColourCue (chroma and phase-1 colour verdict), got "
+                                f"{type(colour).__name__}")
     id_map, disparity, chroma = np.asarray(obstacles.id_map), np.asarray(disparity), colour.chroma
     if disparity.shape != id_map.shape or chroma.shape[:2] != id_map.shape:
         raise InvalidInputError(f"disparity {disparity.shape} and chroma {chroma.shape} must be (H, W) and "

@@ -683,8 +683,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         groups, hidden_rejected = reject_hidden_ground(groups, disparity, segmentation.labels, ground,
                                                        config.hidden_ground)
     if config.blind_strip is not None:
-        groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.obstacle_mask,
-                                                      config.blind_strip, None if colour is None else colour.chroma)
+        groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.labels, config.blind_strip,
+                                                      chroma=None if colour is None else colour.chroma)
     outcomes = measure_groups(groups, measured, calibration, ground, config.obstacles)
     obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
     if config.fattened_fringes is not None and colour is not None:

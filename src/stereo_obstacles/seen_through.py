@@ -11,12 +11,13 @@ session 38).
 In each row where one obstacle lies wholly left of the other, the matched pixels between them
 *show the background* when at least ``min_row_fraction`` of them (and ``min_row_matched`` at
 least) lie more than ``gap_m`` behind the farther of the two obstacles' pixels that face each
-other across the row, and look unlike both obstacles: phase 1 calls them ground by their colour,
-or their chroma lies at least ``min_chroma_distance`` from both obstacles' median chroma. The
-second condition keeps the stray matches of a textureless face, which carry the background's
-disparity but the face's colour, from parting its outlines. The background shows between the
-two when it does in at least ``min_rows`` of those rows, and in at least ``min_rows_fraction``
-of them.
+other across the row, and look unlike both obstacles: their chroma lies at least
+``min_chroma_distance`` from both obstacles' median chroma, or, when phase 1 calls most pixels
+of both obstacles obstacle, phase 1 does not call them obstacle (grey ground between two grey
+objects). The colour condition keeps the stray matches of a textureless face, which carry the
+background's disparity but the face's colour, from parting its outlines. The background shows
+between the two when it does in at least ``min_rows`` of those rows, and in at least
+``min_rows_fraction`` of them.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ import numpy as np
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.colour_split import ColourCue, chroma_apart
 from stereo_obstacles.depth import disparity_to_depth
+from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 
 __all__ = ["SeenThroughParameters", "background_between"]
@@ -60,7 +62,7 @@ class SeenThroughParameters:
 
 
 def background_between(first: tuple[np.ndarray, np.ndarray], second: tuple[np.ndarray, np.ndarray],
-                       disparity: np.ndarray, colour: ColourCue, colours: tuple[np.ndarray, np.ndarray],
+                       disparity: np.ndarray, cue: ColourCue, median_chroma: tuple[np.ndarray, np.ndarray],
                        calibration: StereoCalibration, gap_m: float, min_chroma_distance: float,
                        params: SeenThroughParameters = SeenThroughParameters()) -> bool:
     """Whether the background shows between two obstacles (module docstring).
@@ -68,24 +70,39 @@ def background_between(first: tuple[np.ndarray, np.ndarray], second: tuple[np.nd
     Parameters
     ----------
     first, second
-        Each obstacle's pixels: rows and columns (``int64 (n,)``), none shared.
+        Each obstacle's pixels: rows and columns (``int64 (n,)``, ``n >= 1``), none shared.
     disparity
-        ``float32 (H, W)``, pixels, NaN where unmatched; finite at the obstacles' pixels.
-    colour
+        ``float32 (H, W)``, pixels, NaN where unmatched (the disparity the obstacles were
+        measured on, finite at their pixels).
+    cue
         The left image's chroma and phase-1 colour verdict, ``(H, W)`` as ``disparity``.
-    colours
+    median_chroma
         Each obstacle's median chroma (``(2,)``, as :attr:`ColourCue.chroma`).
     calibration
         The rig, for depths in metres.
     gap_m
         Depth (metres) by which a pixel must lie behind the two.
     min_chroma_distance
-        Its chroma must lie this far from both obstacles' (``(a*, b*)`` units), unless phase 1
-        calls it ground.
+        Its chroma must lie this far from both obstacles' (``(a*, b*)`` units).
     params
         How many rows must show it.
+
+    Returns
+    -------
+    bool
+        False as well when the two share fewer than ``min_rows`` rows side by side.
+
+    Raises
+    ------
+    InvalidInputError
+        An obstacle without pixels, or ``disparity`` and ``cue`` of other heights and widths.
     """
     (ys_a, xs_a), (ys_b, xs_b) = first, second
+    if min(len(ys_a), len(ys_b)) == 0:
+        raise InvalidInputError("each obstacle needs at least one pixel")
+    if np.ndim(disparity) != 2 or cue.chroma.shape[:2] != np.shape(disparity):
+        raise InvalidInputError(f"disparity {np.shape(disparity)} and chroma {cue.chroma.shape} must be (H, W) and "
+                                f"(H, W, 2)")
     y0, y1 = max(ys_a.min(), ys_b.min()), min(ys_a.max(), ys_b.max()) + 1
     if y0 >= y1:
         return False
@@ -104,15 +121,17 @@ def background_between(first: tuple[np.ndarray, np.ndarray], second: tuple[np.nd
     columns = np.arange(x0, x1)
     between = (columns > left_end[:, None]) & (columns < right_start[:, None])
     depth = disparity_to_depth(disparity[ys, x0:x1], calibration)
-    # the depth of the farther of the two pixels that face each other across each row
-    facing = disparity_to_depth(np.minimum(disparity[ys, left_end], disparity[ys, right_start])[:, None], calibration)
+    # the depth of the farther of the two pixels that face each other across each row (fmin: a
+    # missing one leaves the other; both missing, the row shows nothing)
+    facing = disparity_to_depth(np.fmin(disparity[ys, left_end], disparity[ys, right_start])[:, None], calibration)
     matched = between & np.isfinite(depth)
     with np.errstate(invalid="ignore"):
         behind = matched & (depth > facing + gap_m)
-    chroma = colour.chroma[ys, x0:x1].reshape(-1, 2).astype(np.int32)
-    unlike = (chroma_apart(chroma, colours[0], min_chroma_distance)
-              & chroma_apart(chroma, colours[1], min_chroma_distance)).reshape(between.shape)
-    unlike |= ~colour.coloured[ys, x0:x1]
+    chroma = cue.chroma[ys, x0:x1].reshape(-1, 2).astype(np.int32)
+    unlike = (chroma_apart(chroma, median_chroma[0], min_chroma_distance)
+              & chroma_apart(chroma, median_chroma[1], min_chroma_distance)).reshape(between.shape)
+    if all(np.count_nonzero(cue.coloured[pixels]) > 0.5 * len(pixels[0]) for pixels in (first, second)):
+        unlike |= ~cue.coloured[ys, x0:x1]
     n_matched = matched.sum(axis=1)
     showing = (n_matched >= params.min_row_matched) & ((behind & unlike).sum(axis=1) >= params.min_row_fraction * n_matched)
     return int(showing.sum()) >= max(params.min_rows, params.min_rows_fraction * rows.size)
