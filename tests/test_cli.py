@@ -149,7 +149,7 @@ NUMBA_CACHE_IN_USE = os.environ.get("NUMBA_DISABLE_JIT", "0") == "0" and os.envi
 
 @pytest.mark.skipif(not NUMBA_CACHE_IN_USE, reason="numba's JIT or the kernel cache is switched off here")
 def test_a_cold_numba_cache_is_announced_and_a_warm_one_is_not(tmp_path, capsys):
-    """The first run after installing compiles for about 20 s: it says so instead of looking hung."""
+    """The first run after installing compiles for about half a minute: it says so instead of looking hung."""
     from stereo_obstacles.commands._compile_notice import announce_compilation, kernels_cached
     from stereo_obstacles.pipeline import warm_up
 

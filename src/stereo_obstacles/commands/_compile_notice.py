@@ -1,6 +1,6 @@
 """A word on stderr before a command's work when numba must compile the kernels first.
 
-numba compiles the kernels on their first use after an install or upgrade (about 20 s on a
+numba compiles the kernels on their first use after an install or upgrade (about 30-35 s on a
 2-core machine) and loads them from its on-disk cache afterwards (0.3-0.5 s). Without a word the
 first run looks hung.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-NOTICE = ("stereo-obstacles: compiling the numba kernels first (about 20 s after installing or upgrading; "
+NOTICE = ("stereo-obstacles: compiling the numba kernels first (about 30 s after installing or upgrading; "
           "cached afterwards) ...")
 
 SENTINEL_KERNELS = (
