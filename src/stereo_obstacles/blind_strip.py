@@ -122,8 +122,9 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, labels: n
         plane = least_squares_plane(xs[near], ys[near], ds[near])
         if plane is None:
             continue
-        colour = None if chroma is None else np.median(chroma[ys[near], xs[near]], axis=0)
-        own_label = np.bincount(labels[ys[near], xs[near]]).argmax()
+        if chroma is not None:      # the fitted pixels' colour and most common label
+            colour = np.median(chroma[ys[near], xs[near]], axis=0)
+            own_label = np.bincount(labels[ys[near], xs[near]]).argmax()
         # each row of the group walks left from just before its first pixel in that row
         row_first = np.full(h, w)
         np.minimum.at(row_first, ys, xs)
@@ -136,7 +137,7 @@ def extend_into_blind_strip(groups: np.ndarray, disparity: np.ndarray, labels: n
                 continue
             predicted = plane[0] * x + plane[1] * cand + plane[2]
             looks_alike = labels[cand, x] == Label.OBSTACLE.value
-            if colour is not None:
+            if chroma is not None:
                 looks_alike |= (labels[cand, x] == own_label) & ~chroma_apart(
                     chroma[cand, x].astype(np.int32), colour, params.max_chroma_distance)
             ok = looks_alike & np.isnan(disparity[cand, x]) & (predicted > x - params.reach_px) & (groups[cand, x] == 0)
