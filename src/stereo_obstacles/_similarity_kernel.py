@@ -1,4 +1,4 @@
-"""Compiled similarity of one disparity-space point and the scanline search of seeds.
+"""Compiled similarity of disparity-space points and the scanline search of seeds.
 
 Private: :mod:`stereo_obstacles.similarity` prepares the padded images and the window
 statistics these kernels read, so the kernels need no bounds checks.
@@ -133,6 +133,14 @@ def _window_stats_kernel(grey, offset, kind, min_var):
             else:
                 norm[y, x] = var
     return pad, mean32, norm
+
+
+@njit(cache=CACHE, fastmath=FASTMATH, nogil=True)
+def _similarity_points(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, ys, xs, xrs, out):
+    """Write into ``out`` (float32, ``(N,)``) the similarity of each left pixel ``(xs[k], ys[k])``
+    with the right pixel ``(xrs[k], ys[k])`` (int64 arrays of length ``N``, inside the image)."""
+    for k in range(ys.shape[0]):
+        out[k] = _similarity(left_pad, right_pad, mean_l, norm_l, mean_r, norm_r, kind, ys[k], xs[k], xrs[k])
 
 
 @njit(cache=CACHE, fastmath=FASTMATH, nogil=True)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stereo_obstacles._similarity_kernel import (KIND_MNCC, KIND_NCC, RADIUS, UNDEFINED, _similarity,
+from stereo_obstacles._similarity_kernel import (KIND_MNCC, KIND_NCC, RADIUS, UNDEFINED, _similarity_points,
                                                  _window_stats_kernel)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.image_pairs import check_same_size
@@ -229,8 +229,6 @@ def similarity_at(inputs: SimilarityInputs, y: np.ndarray, x: np.ndarray, x_righ
     if y.size and (y.min() < 0 or y.max() >= h or min(x.min(), x_right.min()) < 0
                    or max(x.max(), x_right.max()) >= w):
         raise InvalidInputError(f"points: expected 0 <= y < {h} and 0 <= x, x_right < {w}")
-    args = inputs.kernel_args()
-    out = np.empty(y.shape, np.float32)
-    for i in np.ndindex(y.shape):
-        out[i] = _similarity(*args, y[i], x[i], x_right[i])
-    return out
+    out = np.empty(y.size, np.float32)
+    _similarity_points(*inputs.kernel_args(), y.ravel(), x.ravel(), x_right.ravel(), out)
+    return out.reshape(y.shape)
