@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from stereo_obstacles.errors import InvalidInputError
-from stereo_obstacles.speckles import speckle_mask
+from stereo_obstacles.speckles import disparity_regions, speckle_mask
 
 
 def _reference_mask(disparity, max_size, max_difference):
@@ -100,3 +100,45 @@ def test_a_huge_range_joins_far_apart_finite_values_only():
     assert not speckle_mask(d, max_size_px=1, max_difference_px=1e308)[0, :2].any()   # one region of 2 stays
     with pytest.raises(InvalidInputError, match="max_difference_px"):
         speckle_mask(d, max_size_px=2, max_difference_px=10 ** 400)
+
+
+def _reference_regions(disparity, max_difference):
+    """Slow and plain: number the regions in raster order of their first pixel by a walk over a
+    Python set."""
+    h, w = disparity.shape
+    labels = np.full((h, w), -1, np.int32)
+    count = 0
+    for start in np.ndindex(h, w):
+        if labels[start] >= 0 or not np.isfinite(disparity[start]):
+            continue
+        labels[start] = count
+        todo = [start]
+        while todo:
+            y, x = todo.pop()
+            for ny, nx in ((y - 1, x), (y + 1, x), (y, x - 1), (y, x + 1)):
+                if (0 <= ny < h and 0 <= nx < w and labels[ny, nx] < 0 and np.isfinite(disparity[ny, nx])
+                        and abs(float(disparity[ny, nx]) - float(disparity[y, x])) <= max_difference):
+                    labels[ny, nx] = count
+                    todo.append((ny, nx))
+        count += 1
+    return labels, count
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), h=st.integers(1, 14), w=st.integers(1, 14),
+       max_difference=st.sampled_from([0.0, 0.5, 1.0, 2.5]))
+def test_regions_agree_with_the_slow_reference(seed, h, w, max_difference):
+    rng = np.random.default_rng(seed)
+    d = (rng.integers(0, 5, (h, w)) + rng.choice([0.0, 0.25, 0.5], (h, w))).astype(np.float32)
+    d[rng.random((h, w)) < 0.25] = np.nan
+    labels, count = disparity_regions(d, max_difference_px=max_difference)
+    expected_labels, expected_count = _reference_regions(d, max_difference)
+    assert labels.dtype == np.int32 and count == expected_count
+    np.testing.assert_array_equal(labels, expected_labels)
+
+
+def test_regions_refuse_what_speckles_refuse():
+    with pytest.raises(InvalidInputError, match="max_difference_px"):
+        disparity_regions(np.zeros((3, 3), np.float32), max_difference_px=-1.0)
+    with pytest.raises(InvalidInputError, match="disparity"):
+        disparity_regions(np.zeros((3, 3), np.int32), max_difference_px=1.0)
