@@ -18,6 +18,9 @@ Beyond the paper:
   plane's by three times its own uncertainty, estimated from the pair's noise and the texture
   of its window (:mod:`stereo_obstacles.disparity_uncertainty`): patches of noisy far ground
   matched a pixel too near are not obstacles;
+* islands of matches that took a repeat of the texture around them, one period too far (a
+  wall, a fence, paving), are removed (:mod:`stereo_obstacles.repeated_texture`): they stand in
+  front of the surface as phantoms;
 * matches the right camera cannot see (half-occluded background beside the left edge of a
   near object, matched anyway to the near object's texture) are removed first
   (:mod:`stereo_obstacles.visibility`): they put phantom surfaces between two depths;
@@ -84,6 +87,7 @@ from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParamete
                                         measure_groups, measure_without, obstacle_scan, standing_pixels)
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
+from stereo_obstacles.repeated_texture import RepeatedTextureParameters, repeat_islands
 from stereo_obstacles.scaled_matching import check_scale, match_at_scale, refine_at_full_size, warn_if_scale_raised
 from stereo_obstacles.segmentation import SegmentationParameters, SegmentationResult, segment
 from stereo_obstacles.similarity import to_grey
@@ -164,6 +168,10 @@ class DetectionConfig:
     ``visibility``: matches the right camera cannot see (half-occluded pixels beside the left
     edge of a near object, matched anyway) are removed from the disparity before anything uses
     it (:mod:`stereo_obstacles.visibility`); ``None`` keeps them.
+    ``repeated_texture``: islands of matches standing in front of the surface around them that
+    match as well at its disparity, and not between the two (a patch of a wall, fence or paving
+    matched to a repeat of its texture, one period too far), are removed before the visibility
+    test, which would trust them (:mod:`stereo_obstacles.repeated_texture`); ``None`` keeps them.
     ``blind_strip``: obstacles reaching the strip at the left border that only the left camera
     sees are continued into it for their measurement (:mod:`stereo_obstacles.blind_strip`);
     ``None`` switches that off.
@@ -211,6 +219,7 @@ class DetectionConfig:
     geometric_min_excess_px: float = 0.5
     blind_strip: BlindStripParameters | None = field(default_factory=BlindStripParameters)
     visibility: VisibilityParameters | None = field(default_factory=VisibilityParameters)
+    repeated_texture: RepeatedTextureParameters | None = field(default_factory=RepeatedTextureParameters)
     standing_significance: float | None = 3.0
     standing_max_sigma_px: float = 0.75
     textureless_fill: TexturelessFillParameters | None = field(default_factory=TexturelessFillParameters)
@@ -225,6 +234,7 @@ class DetectionConfig:
                            ("matching", MatchingOptions), ("grouping", GroupingParameters),
                            ("obstacles", ObstacleParameters), ("check_rectification", bool)))
         check_types(self, (("blind_strip", BlindStripParameters), ("visibility", VisibilityParameters),
+                           ("repeated_texture", RepeatedTextureParameters),
                            ("textureless_fill", TexturelessFillParameters),
                            ("hidden_ground", HiddenGroundParameters), ("face_joining", FaceJoiningParameters),
                            ("footprint_joining", FootprintJoiningParameters),
@@ -580,7 +590,8 @@ def pair_rectification_check(left: np.ndarray, right: np.ndarray) -> Rectificati
 
 def _match_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, seed_points, disparity_estimate,
                  timings: dict[str, float]):
-    """Phase 2: ``(disparity, matched)`` with the matches the right camera cannot see removed;
+    """Phase 2: ``(disparity, matched)`` with the islands matched to a repeat of the texture
+    around them and the matches the right camera cannot see removed;
     its time written to ``timings["matching"]`` (seconds)."""
     t = time.perf_counter()
     if disparity_estimate is None:
@@ -591,6 +602,9 @@ def _match_stage(left: np.ndarray, right: np.ndarray, config: DetectionConfig, s
     else:
         matched = refine_at_full_size(left, right, disparity_estimate, **pipeline_match_kwargs(config.matching))
         disparity = matched.disparity
+    if config.repeated_texture is not None:
+        disparity = np.where(repeat_islands(disparity, left, right, config.repeated_texture), np.float32(np.nan),
+                             disparity)
     if config.visibility is not None:
         disparity = np.where(hidden_in_right(disparity, config.visibility), np.float32(np.nan), disparity)
     timings["matching"] = time.perf_counter() - t
