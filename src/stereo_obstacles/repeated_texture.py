@@ -17,11 +17,15 @@ exceeds by
 matched pixels within ``ring_px`` of it (``min_ring_pixels`` of them at least). A pixel of an
 island *repeats* when
 
-* it matches as well at the surrounding disparity: its best similarity within ``search_px`` of
-  it reaches ``min_similarity``;
-* and not between the two: the median of its similarities at ``between_samples`` disparities
-  spread evenly between the two (outside ``search_px`` of both) is below
-  ``max_between_similarity``.
+* it matches well at the surrounding disparity: its best NCC within ``search_px`` of it reaches
+  ``min_similarity``;
+* and not between the two: the median of its NCC at ``between_samples`` whole disparities
+  spread evenly between the two (outside ``search_px`` of both; windows too flat to score, or
+  right pixels outside the image, left out) is below ``max_between_similarity``.
+
+NCC as the matcher scores it on 5 x 5 windows, with the default ``min_std`` of
+:func:`~stereo_obstacles.similarity.prepare_similarity`; ``ring_px`` bounds both the ring (pixels
+within ``ring_px`` rows and columns of the island) and the first look below.
 
 Only the regions whose facing matches (the next match of another region along each row and
 column, within ``ring_px``) lie on average ``min_jump_px`` or more below them have their ring
@@ -46,7 +50,9 @@ import numpy as np
 from stereo_obstacles._repeated_texture_kernel import region_stats_kernel
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
-from stereo_obstacles.similarity import RADIUS, UNDEFINED, SimilarityInputs, grey_pair, prepare_similarity, similarity_at
+from stereo_obstacles.image_pairs import check_same_size
+from stereo_obstacles.similarity import (RADIUS, UNDEFINED, SimilarityInputs, grey_pair, prepare_similarity,
+                                         similarity_at)
 from stereo_obstacles.speckles import disparity_regions
 
 __all__ = ["RepeatedTextureParameters", "repeat_islands"]
@@ -68,7 +74,8 @@ class RepeatedTextureParameters:
     min_jump_px : float
         An island stands at least this far in front of the surrounding disparity.
     ring_px : int
-        Width of the ring around an island whose matches give the surrounding disparity.
+        The ring around an island whose matches give the surrounding disparity: the pixels
+        within this many rows and columns of it; also how far the first look reaches.
     min_ring_pixels : int
         Matches the ring needs to give it.
     search_px : int
@@ -139,12 +146,12 @@ def repeat_islands(disparity: np.ndarray, left: np.ndarray, right: np.ndarray,
     >>> bool(found[20:30, 60:75].all()), int(found.sum())
     (True, 150)
     """
-    if np.ndim(disparity) != 2 or np.shape(disparity) != np.shape(left)[:2]:
-        raise InvalidInputError(f"disparity: expected the images' shape {np.shape(left)[:2]}, got "
-                                f"{np.shape(disparity)}")
+    check_same_size(left, right)
+    labels, count = disparity_regions(disparity, max_difference_px=params.max_step_px)   # checks the map
+    if labels.shape != np.shape(left)[:2]:
+        raise InvalidInputError(f"disparity: expected the images' shape {np.shape(left)[:2]}, got {labels.shape}")
     disparity = np.ascontiguousarray(disparity, np.float32)
     removed = np.zeros(disparity.shape, np.bool_)
-    labels, count = disparity_regions(disparity, max_difference_px=params.max_step_px)
     if count == 0:
         return removed
     sizes, boxes, mean_step = region_stats_kernel(labels, disparity, count, params.ring_px)
@@ -187,18 +194,18 @@ def _repeating(greys: tuple[np.ndarray, np.ndarray], ys: np.ndarray, xs: np.ndar
                surrounding: float, params: RepeatedTextureParameters) -> np.ndarray:
     """``bool (n,)``: which of the pixels ``(ys, xs)`` of an island at disparity ``own`` repeat
     at the ``surrounding`` disparity (module docstring), on the grey pair ``greys``."""
-    # the window statistics of the island's rows only: a window reads its own rows and the
-    # RADIUS rows around, which the band keeps (or the image's border, reflected alike)
+    # the window statistics of the island's rows only, as SimilarityInputs.rows keeps them
     top, bottom = max(int(ys.min()) - RADIUS, 0), min(int(ys.max()) + RADIUS + 1, greys[0].shape[0])
     inputs = prepare_similarity(greys[0][top:bottom], greys[1][top:bottom])
     ys = ys - top
     centre = int(round(surrounding))
     around = np.arange(centre - params.search_px, centre + params.search_px + 1)
-    between = np.rint(np.linspace(surrounding + params.search_px + 1, own - params.search_px - 1,
+    between = np.rint(np.linspace(centre + params.search_px + 1, round(own) - params.search_px - 1,
                                   params.between_samples)).astype(np.int64)
     similarities = _similarity_at_disparities(inputs, ys, xs, np.concatenate([around, between]))
     at_surrounding = similarities[:around.size].max(axis=0)
-    in_between = np.median(similarities[around.size:], axis=0)
+    scored = np.ma.masked_equal(similarities[around.size:], UNDEFINED)
+    in_between = np.ma.median(scored, axis=0).filled(np.inf)          # nothing scored: no evidence
     return (at_surrounding >= params.min_similarity) & (in_between < params.max_between_similarity)
 
 
