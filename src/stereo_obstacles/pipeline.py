@@ -169,9 +169,9 @@ class DetectionConfig:
     edge of a near object, matched anyway) are removed from the disparity before anything uses
     it (:mod:`stereo_obstacles.visibility`); ``None`` keeps them.
     ``repeated_texture``: islands of matches standing in front of the surface around them that
-    match as well at its disparity, and not between the two (a patch of a wall, fence or paving
-    matched to a repeat of its texture, one period too far), are removed before the visibility
-    test, which would trust them (:mod:`stereo_obstacles.repeated_texture`); ``None`` keeps them.
+    also match well at its disparity (NCC 0.8 or more), and not between the two (a patch of a
+    wall, fence or paving matched to a repeat of its texture, one period too far), are removed
+    before the visibility test, which would trust them (:mod:`stereo_obstacles.repeated_texture`); ``None`` keeps them.
     ``blind_strip``: obstacles reaching the strip at the left border that only the left camera
     sees are continued into it for their measurement (:mod:`stereo_obstacles.blind_strip`);
     ``None`` switches that off.
