@@ -206,3 +206,18 @@ def test_region_stats_agree_with_the_slow_reference(seed, h, w, max_gap):
     np.testing.assert_array_equal(sizes, expected_sizes)
     np.testing.assert_array_equal(boxes, expected_boxes)
     np.testing.assert_allclose(mean_step, expected_step, equal_nan=True)
+
+
+def test_windows_too_flat_to_score_do_not_count_in_the_median_between():
+    """The horizontal edge above, with the right image flat where most disparities between the two
+    surfaces land: those windows score nothing, and the median between is that of the windows that
+    do score (the stripes, which match there too), not dragged down by the flat ones."""
+    left, right = _periodic_wall()
+    stripes = np.repeat(np.random.default_rng(2).uniform(0, 255, (12, 1)), 60, axis=1).astype(np.float32)
+    left[20:32, 60:120] = stripes
+    right[20:32, 60 - 30:120 - 30] = stripes
+    right[14:38, 30:60] = 128.0                         # flat: every window touching it is undefined
+    disparity = np.full(left.shape, WALL_D, np.float32)
+    disparity[20:32, 66:90] = 30.0
+    disparity[:, :WALL_D] = np.nan
+    assert not repeat_islands(disparity, left, right).any()
