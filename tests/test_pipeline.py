@@ -117,6 +117,7 @@ def test_what_a_library_user_passes_wrongly_is_refused_by_its_name(default_pair,
     ("grouping", None, "grouping must be GroupingParameters, got NoneType"),
     ("visibility", 1, "visibility must be VisibilityParameters or None, got int"),
     ("repeated_texture", {}, "repeated_texture must be RepeatedTextureParameters or None, got dict"),
+    ("own_colour", 0.5, "own_colour must be OwnColourParameters or None, got float"),
     ("check_rectification", "no", "check_rectification must be bool, got str"),
     ("geometric_min_height_m", "0.1", "geometric_min_height_m must be in"),
     ("standing_significance", float("nan"), "standing_significance must be in")])

@@ -222,7 +222,7 @@ def _split_depth_layers(groups: np.ndarray, tight: np.ndarray, d: np.ndarray,
     return splits.groups
 
 
-def _object_sized(groups: np.ndarray, d: np.ndarray, counts: np.ndarray, params: GroupingParameters) -> np.ndarray:
+def object_sized(groups: np.ndarray, d: np.ndarray, counts: np.ndarray, params: GroupingParameters) -> np.ndarray:
     """``bool (n,)``: which groups hold an object's pixel count, ``min_object_pixels`` or, far
     away by their mean disparity, fewer (:class:`GroupingParameters`). ``groups`` int64 ``(H, W)``,
     ``0..n-1``, -1 for none; ``d`` the disparity (pixels), finite at every grouped pixel;
@@ -310,7 +310,7 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
     if raw is not loose:
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
     if params.coplanar_tolerance_px > 0:
-        sized = _object_sized(raw, d, counts, params)
+        sized = object_sized(raw, d, counts, params)
         sized_label = np.concatenate([[-1], np.cumsum(sized) - 1])
         sized_label[1:][~sized] = -1
         raw = sized_label[raw + 1]
@@ -323,7 +323,7 @@ def group_obstacle_pixels(disparity: np.ndarray, obstacle_mask: np.ndarray,
                                     colour_reach_cells=params.coplanar_colour_reach_cells,
                                     max_chroma_distance=params.coplanar_max_chroma_distance)
         counts = np.bincount(raw[raw >= 0], minlength=int(raw.max()) + 1)
-    keep = np.flatnonzero(_object_sized(raw, d, counts, params))
+    keep = np.flatnonzero(object_sized(raw, d, counts, params))
     order = keep[np.argsort(-counts[keep], kind="stable")]
     relabel = np.zeros(len(counts) + 1, dtype=np.int32)
     relabel[order + 1] = np.arange(1, len(order) + 1, dtype=np.int32)

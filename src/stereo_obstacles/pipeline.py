@@ -35,6 +35,10 @@ Beyond the paper:
   the colours (:mod:`stereo_obstacles.colour_split`);
 * an obstacle's pixels coloured like a farther obstacle beside them, that farther object's edge
   carrying the nearer one's disparity, are taken out of it (:mod:`stereo_obstacles.fattened_fringes`);
+* optionally (off by default), a strip of another colour in an obstacle that matches farther with
+  windows weighted to its own colour (a farther object seen in a sliver beside the nearer one) is
+  re-matched there and leaves it, an obstacle of its own when large enough
+  (:mod:`stereo_obstacles.own_colour_matching`);
 * faces too flat to match (dark paint), which phase 1 calls obstacle but the matcher leaves
   empty but for their outlines, are filled from those outlines when they stand on the ground at
   their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
@@ -85,6 +89,7 @@ from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
                                         measure_groups, measure_without, obstacle_scan, standing_pixels)
+from stereo_obstacles.own_colour_matching import OwnColourParameters, moved_groups, own_colour_matches
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.repeated_texture import RepeatedTextureParameters, repeat_islands
@@ -206,6 +211,13 @@ class DetectionConfig:
     a farther obstacle beside them (its edge, carrying the nearer one's disparity by the
     matching's fattening) are taken out of it before the joinings, and the groups that lost them
     measured again (:mod:`stereo_obstacles.fattened_fringes`); ``None`` keeps them.
+    ``own_colour``: with the colour cue, the strips of another colour in an obstacle that match
+    farther with windows weighted to their own colour are re-matched there (in the delivered
+    disparity and depth too), taken out of the obstacle and grouped on their own
+    (:mod:`stereo_obstacles.own_colour_matching`). Off (``None``) by default: it mends slivers of
+    a farther object beside a nearer one, but costs 5-7 ms a 640 x 480 pair and about 200 ms on
+    KITTI 000005, whose many objects of several colours hold some 200 such pieces
+    (``docs/pipeline.md``, session 40); ``OwnColourParameters()`` switches it on.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -227,6 +239,7 @@ class DetectionConfig:
     face_joining: FaceJoiningParameters | None = field(default_factory=FaceJoiningParameters)
     footprint_joining: FootprintJoiningParameters | None = field(default_factory=FootprintJoiningParameters)
     fattened_fringes: FringeParameters | None = field(default_factory=FringeParameters)
+    own_colour: OwnColourParameters | None = None
 
     def __post_init__(self) -> None:
         # a dict or None for a stage's options failed later with AttributeError (API review, session 23)
@@ -238,7 +251,7 @@ class DetectionConfig:
                            ("textureless_fill", TexturelessFillParameters),
                            ("hidden_ground", HiddenGroundParameters), ("face_joining", FaceJoiningParameters),
                            ("footprint_joining", FootprintJoiningParameters),
-                           ("fattened_fringes", FringeParameters)),
+                           ("fattened_fringes", FringeParameters), ("own_colour", OwnColourParameters)),
                     allow_none=True)
         check_numbers(self, (("geometric_min_height_m", 0.0, math.inf), ("geometric_min_excess_px", 0.0, math.inf)))
         check_scale(plain_number(self, "matching_scale"))
@@ -706,6 +719,21 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         if fringes.any():
             groups, outcomes = measure_without(fringes, groups, outcomes, measured, calibration, ground,
                                                config.obstacles)
+            obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
+    if config.own_colour is not None and colour is not None:
+        taken_out, rematched, new_disparity = own_colour_matches(obstacles, colour.chroma, segmentation.labels,
+                                                                 left, right, disparity, config.own_colour)
+        if taken_out.any() or rematched.any():
+            disparity, measured = (np.where(rematched, new_disparity, d).astype(np.float32)
+                                   for d in (disparity, measured))
+            depth = _depth(disparity, calibration)
+            standing_rematched = standing_pixels(rematched, disparity, ground, calibration, config.obstacles,
+                                                 min_excess_px=min_excess)
+            groups, outcomes = measure_without(taken_out | rematched, groups, outcomes, measured, calibration,
+                                               ground, config.obstacles)
+            pieces = moved_groups(standing_rematched, disparity, int(groups.max(initial=0)) + 1, config.grouping)
+            groups = np.where(pieces > 0, pieces, groups)
+            outcomes = {**outcomes, **measure_groups(pieces, measured, calibration, ground, config.obstacles)}
             obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
     if calibration is not None:
         filling = textureless is not None and ground is not None and colour_trusted
