@@ -20,20 +20,21 @@ def own_colour_best_kernel(lab_left, lab_right, grey_left, grey_right, ys, xs, d
     ``w_left(q) w_right(q - d)``, each ``1 / (1 + |lab(q) - lab(centre)|^2 / colour_scale^2)`` in
     its own image (the support of adaptive support weights: the pixels of the centre's colour,
     whatever lies beside them). The score is the weighted zero-mean normalised cross-correlation
-    of the grey values; windows whose weights sum to less than ``min_weight_sum``, or that leave the
-    image, are not scored.
+    of the grey values; windows whose weights sum to less than ``min_weight_sum``, whose weighted
+    variance is 1e-6 or less in either image (flat), or that leave the image, are not scored.
 
     Returns ``disparity`` (``float32 (n,)``: the best whole disparity moved by a parabola through
     the scores beside it, NaN when none was scored), ``score`` (``float32 (n,)``, NaN likewise) and
     ``runner_up`` (``float32 (n,)``: the best score more than ``exclusion_px`` whole disparities
-    from the best, -1 when there is none): a ramp or a repeat scores alike at many disparities.
+    from the best, NaN when none was scored there): a ramp or a repeat scores alike at many
+    disparities.
     """
     h, w = grey_left.shape
     n = ys.shape[0]
     size = 2 * radius + 1
     best_d = np.full(n, np.nan, np.float32)
     best_s = np.full(n, np.nan, np.float32)
-    second_s = np.full(n, -1.0, np.float32)
+    second_s = np.full(n, np.nan, np.float32)
     inv_scale_sq = 1.0 / (colour_scale * colour_scale)
     weight_left = np.empty((size, size), np.float64)
     for i in range(n):
@@ -48,6 +49,8 @@ def own_colour_best_kernel(lab_left, lab_right, grey_left, grey_right, ys, xs, d
                     dist += e * e
                 weight_left[v, u] = 1.0 / (1.0 + dist * inv_scale_sq)
         top = min(d_max[i], x - radius)
+        if top < 0:
+            continue
         scores = np.full(top + 1, -np.inf)
         for d in range(top + 1):
             xr = x - d
@@ -93,7 +96,7 @@ def own_colour_best_kernel(lab_left, lab_right, grey_left, grey_right, ys, xs, d
         best_d[i] = k + offset
         best_s[i] = scores[k]
         for d in range(top + 1):
-            if abs(d - k) > exclusion_px and scores[d] > second_s[i]:
+            if abs(d - k) > exclusion_px and scores[d] > -np.inf and not scores[d] <= second_s[i]:
                 second_s[i] = scores[d]
     return best_d, best_s, second_s
 

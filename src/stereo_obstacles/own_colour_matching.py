@@ -17,13 +17,13 @@ in each image (adaptive support weights,
 then hardly count. When at least ``min_agreeing`` of the confident matches of up to
 ``max_tested`` of its pixels agree (within ``agree_px``) on a disparity at least ``max(min_step_px,
 min_step_rel * d)`` below the piece's median disparity ``d``, the strip lies farther: its pixels
-that agree are re-matched there, and the piece's pixels leave the obstacle, but those that match
-confidently where they are (a piece may hold a few pixels of the obstacle's own surface whose
-blurred colour the strip tinted). The caller groups the re-matched pixels; with an object's pixel
+that agree are re-matched there, and the strip's pixels that the obstacle holds leave it, but
+those that match confidently where they are (a strip may hold a few pixels of the obstacle's own
+surface whose blurred colour it tinted). The caller groups the re-matched pixels; with an object's pixel
 count they are an obstacle of their own.
 
 The pipeline runs this only when asked (``DetectionConfig(own_colour=OwnColourParameters())``):
-it costs a median 7 ms a 640 x 480 pair and about 200 ms on KITTI 000005, whose objects of
+it costs a median 7 ms a 640 x 480 pair and about 210 ms on KITTI 000005, whose objects of
 several colours hold some 200 pieces (``docs/pipeline.md``, session 40).
 """
 
@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 
 from stereo_obstacles._own_colour_kernel import own_colour_best_kernel, right_cover_rows_kernel
-from stereo_obstacles.colour_split import chroma_apart
+from stereo_obstacles.colour_split import ColourSplitParameters, chroma_apart
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.fattened_fringes import FringeParameters
 from stereo_obstacles.field_checks import check_integers, check_numbers, check_positive
@@ -79,7 +79,8 @@ class OwnColourParameters:
         Least weighted NCC of a new match.
     min_margin : float
         A new match scores at least this much above the best score more than ``EXCLUSION_PX``
-        whole disparities from it (a ramp or a repeat matches alike at many).
+        whole disparities from it (a ramp or a repeat matches alike at many); a match with no
+        such runner-up scored (a search cut short by the image's left border) is not confident.
     min_step_px, min_step_rel : float
         A strip's new matches lie at least ``max(min_step_px, min_step_rel * d)`` below the median
         disparity ``d`` of its piece: the strip lies clearly farther than the obstacle holding it.
@@ -94,7 +95,7 @@ class OwnColourParameters:
         pixels are matched again only when it does.
     """
 
-    min_foreign_chroma: float = FringeParameters.max_same_chroma
+    min_foreign_chroma: float = ColourSplitParameters.min_chroma_distance
     min_pixels: int = FringeParameters.min_pixels
     max_same_chroma: float = FringeParameters.max_same_chroma
     reach_px: int = 10
@@ -136,21 +137,23 @@ def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.n
     left, right
         ``uint8 (H, W, 3)`` RGB pair.
     disparity
-        ``float (H, W)`` disparity the obstacles were measured from (pixels, NaN unmatched).
+        ``float (H, W)`` left disparity in pixels, NaN where unmatched: the matches themselves,
+        without the blind strip's extrapolation (pixels without a match are in no piece).
     params
         Which pieces, and when.
 
     Returns
     -------
     tuple
-        ``taken_out`` (``bool (H, W)``): the obstacles' pixels of the strips that match farther;
+        ``taken_out`` (``bool (H, W)``): the obstacles' pixels of the strips that match farther
+        (but those that match where they are);
         ``rematched`` (``bool (H, W)``): the strips' pixels whose new match agrees with their
         strip's; ``new_disparity`` (``float32 (H, W)``, pixels): those matches, NaN elsewhere.
 
     Raises
     ------
     InvalidInputError
-        Inputs of other shapes than the id map's.
+        Inputs of other shapes than the id map's, or images that are not ``uint8``.
     """
     ids = np.asarray(obstacles.id_map)
     shape = ids.shape
@@ -159,6 +162,9 @@ def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.n
         raise InvalidInputError(f"chroma {np.shape(chroma)}, labels {np.shape(labels)}, disparity "
                                 f"{np.shape(disparity)}, left {np.shape(left)} and right {np.shape(right)} must "
                                 f"match the id map's (H, W) = {shape}")
+    if np.asarray(left).dtype != np.uint8 or np.asarray(right).dtype != np.uint8:
+        raise InvalidInputError(f"left and right must be uint8 RGB, got {np.asarray(left).dtype} and "
+                                f"{np.asarray(right).dtype}")
     taken_out = np.zeros(shape, dtype=bool)
     rematched = np.zeros(shape, dtype=bool)
     new_disparity = np.full(shape, np.nan, dtype=np.float32)
@@ -171,7 +177,7 @@ def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.n
     margin = params.reach_px + params.radius_px
     for obstacle, ys, xs in pieces:
         current = float(np.median(d[ys, xs]))
-        d_max = int(np.ceil(current)) + 1
+        d_max = max(int(np.ceil(current)) + 1, 0)
         below = current - max(params.min_step_px, params.min_step_rel * current)
         # the pair around the piece: its strip, the strip's windows, and their search to the left
         rows = (max(int(ys.min()) - margin, 0), min(int(ys.max()) + margin + 1, h))
@@ -183,15 +189,15 @@ def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.n
         centre = _farther_centre(*_own_matches(images, sy[tested], sx[tested], d_max, cover, params), below, params)
         if centre is None:
             continue
-        in_piece = ids[sy, sx] == obstacle.id
+        of_obstacle = ids[sy, sx] == obstacle.id
         cover = _RightCover.of(d, sy, (ys, xs))
         new, confident = _own_matches(images, sy, sx, d_max, cover, params)
         agree = confident & (new <= below) & (np.abs(new - centre) <= params.agree_px)
         rematched[sy[agree], sx[agree]] = True
         new_disparity[sy[agree], sx[agree]] = new[agree]
-        # the piece's pixels leave the obstacle, but those that match confidently where they are
-        where_they_are = confident & (np.abs(new - d[sy, sx]) <= params.agree_px)
-        taken_out[sy[in_piece & ~where_they_are], sx[in_piece & ~where_they_are]] = True
+        # the strip's pixels leave the obstacle, but those that match confidently where they are
+        leaving = of_obstacle & ~(confident & (np.abs(new - d[sy, sx]) <= params.agree_px))
+        taken_out[sy[leaving], sx[leaving]] = True
     return taken_out, rematched, new_disparity
 
 
@@ -264,7 +270,7 @@ def _foreign_pieces(obstacles: ObstacleList, ids: np.ndarray, chroma: np.ndarray
         x0, y0, x1, y1 = obstacle.box_px
         mask = np.zeros((y1 - y0, x1 - x0), dtype=np.uint8)
         mask[ys[foreign] - y0, xs[foreign] - x0] = 1
-        count, piece_of, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        _, piece_of, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         for piece in np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= params.min_pixels) + 1:
             py, px = np.nonzero(piece_of == piece)
             pieces.append((obstacle, py.astype(np.int64) + y0, px.astype(np.int64) + x0))
@@ -312,7 +318,15 @@ class _RightCover:
     def sees(self, ys: np.ndarray, xs: np.ndarray, d: np.ndarray) -> np.ndarray:
         """``bool (n,)``: whether the right camera sees the left pixels ``(ys, xs)`` at disparities
         ``d`` (no surface more than the visibility test's ``min_depth_gap_px`` nearer covers
-        their right-image column); False where ``d`` is NaN."""
+        their right-image column); False where ``d`` is NaN.
+
+        Raises
+        ------
+        ValueError
+            A row the cover was not made for.
+        """
+        if (self.row_index[ys] < 0).any():
+            raise ValueError("the cover was not made for all these rows")
         with np.errstate(invalid="ignore"):
             columns = np.floor(xs - d + 0.5)
         inside = np.isfinite(columns) & (columns >= 0) & (columns < self.nearest.shape[1])

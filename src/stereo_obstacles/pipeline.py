@@ -215,8 +215,8 @@ class DetectionConfig:
     farther with windows weighted to their own colour are re-matched there (in the delivered
     disparity and depth too), taken out of the obstacle and grouped on their own
     (:mod:`stereo_obstacles.own_colour_matching`). Off (``None``) by default: it mends slivers of
-    a farther object beside a nearer one, but costs 5-7 ms a 640 x 480 pair and about 200 ms on
-    KITTI 000005, whose many objects of several colours hold some 200 such pieces
+    a farther object beside a nearer one, but costs a median 7 ms a 640 x 480 pair and about
+    210 ms on KITTI 000005, whose many objects of several colours hold some 200 such pieces
     (``docs/pipeline.md``, session 40); ``OwnColourParameters()`` switches it on.
     """
 
