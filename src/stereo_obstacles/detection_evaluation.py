@@ -221,14 +221,23 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
     (:class:`~stereo_obstacles.synthetic.RenderOptions`; default: ``EVALUATION_SUPERSAMPLE`` rays
     per pixel along each axis, no noise, uncompressed), detect, compare with the truth (the
     scan's with the true obstacles at least ``min_height_m`` high)."""
-    import time
-
-    from stereo_obstacles.pipeline import DetectionConfig, detect
     from stereo_obstacles.synthetic import RenderOptions, default_scene, random_scene, render_pair
 
     scene = default_scene(width_px, height_px) if seed == 0 else random_scene(seed, width_px=width_px,
                                                                               height_px=height_px)
     pair = render_pair(scene, render_options or RenderOptions(supersample=EVALUATION_SUPERSAMPLE))
+    return evaluate_rendered_pair(seed, scene.ground.name, pair, config=config, min_height_m=min_height_m)
+
+
+def evaluate_rendered_pair(seed: int, ground: str, pair, *, config=None, min_height_m: float = 0.3) -> SceneEvaluation:
+    """:func:`evaluate_synthetic_scene` of a pair already rendered
+    (:class:`~stereo_obstacles.synthetic.SyntheticPair` of scene ``seed``, whose ground material is
+    named ``ground``): detect with ``config`` (default :class:`~stereo_obstacles.pipeline.DetectionConfig`),
+    timed, and compare with the truth."""
+    import time
+
+    from stereo_obstacles.pipeline import DetectionConfig, detect
+
     started = time.perf_counter()
     result = detect(pair.left, pair.right, pair.calibration, config=config or DetectionConfig())
     seconds = time.perf_counter() - started
@@ -239,7 +248,7 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
                                    calibration.focal_baseline_px_m / pair.depth - calibration.doffs_px, pair.nonocc,
                                    pair.obstacles, calibration, min_height_m=min_height_m,
                                    min_pixels=result.config.obstacles.scan_min_pixels)
-    return SceneEvaluation(seed=seed, ground=scene.ground.name, comparisons=tuple(comparisons),
+    return SceneEvaluation(seed=seed, ground=ground, comparisons=tuple(comparisons),
                            false_alarms=tuple(alarms), seconds=seconds, n_detections=len(result.obstacles.obstacles),
                            n_repeated=len(repeated_detections(result.obstacles, pair.instances)), scan=scan)
 
