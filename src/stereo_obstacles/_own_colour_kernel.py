@@ -6,6 +6,7 @@ import numpy as np
 from numba import njit
 
 from stereo_obstacles._similarity_kernel import CACHE
+from stereo_obstacles._subpixel_kernel import _parabola_offsets
 from stereo_obstacles._visibility_kernel import right_image_cover
 
 
@@ -34,6 +35,9 @@ def own_colour_best_kernel(lab_left, lab_right, grey_left, grey_right, ys, xs, d
     size = 2 * radius + 1
     best_d = np.full(n, np.nan, np.float32)
     best_s = np.full(n, np.nan, np.float32)
+    before = np.full(n, np.nan, np.float64)      # the scores beside the best, for its parabola
+    peak = np.full(n, np.nan, np.float64)
+    after = np.full(n, np.nan, np.float64)
     second_s = np.full(n, np.nan, np.float32)
     inv_scale_sq = 1.0 / (colour_scale * colour_scale)
     weight_left = np.empty((size, size), np.float64)
@@ -88,16 +92,16 @@ def own_colour_best_kernel(lab_left, lab_right, grey_left, grey_right, ys, xs, d
         k = np.argmax(scores)
         if scores[k] == -np.inf:
             continue
-        offset = 0.0
         if 0 < k < top and scores[k - 1] > -np.inf and scores[k + 1] > -np.inf:
-            curvature = scores[k - 1] - 2.0 * scores[k] + scores[k + 1]
-            if curvature < 0.0:
-                offset = 0.5 * (scores[k - 1] - scores[k + 1]) / curvature
-        best_d[i] = k + offset
+            before[i] = scores[k - 1]
+            peak[i] = scores[k]
+            after[i] = scores[k + 1]
+        best_d[i] = k
         best_s[i] = scores[k]
         for d in range(top + 1):
             if abs(d - k) > exclusion_px and scores[d] > -np.inf and not scores[d] <= second_s[i]:
                 second_s[i] = scores[d]
+    best_d += _parabola_offsets(before, peak, after)    # 0 where a neighbour was not scored
     return best_d, best_s, second_s
 
 
