@@ -7,7 +7,7 @@ pipeline found on the Python path against it, two processes at a time:
 
     python benchmarks/eval_detection_sets.py render CACHE            # all sets, about 15 min
     PYTHONPATH=src python benchmarks/eval_detection_sets.py run CACHE RESULTS/base
-    PYTHONPATH=/tmp/other/src python benchmarks/eval_detection_sets.py run CACHE RESULTS/new [--own-colour]
+    PYTHONPATH=/tmp/other/src python benchmarks/eval_detection_sets.py run CACHE RESULTS/new [--without-own-colour]
     python benchmarks/eval_detection_sets.py compare RESULTS/new RESULTS/base
 
 ``compare`` prints, per set, the figures of the issue's targets (found, median, cases above 5 %,
@@ -55,16 +55,15 @@ def _render(cache: Path, name: str, seed: int) -> None:
     os.replace(partial, path)
 
 
-def _evaluate(cache: Path, name: str, seeds: range, own_colour: bool) -> list:
+def _evaluate(cache: Path, name: str, seeds: range, without_own_colour: bool) -> list:
     import logging
 
     from stereo_obstacles.detection_evaluation import evaluate_rendered_pair
-    from stereo_obstacles.own_colour_matching import OwnColourParameters
     from stereo_obstacles.pipeline import DetectionConfig, warm_up
 
     logging.disable(logging.WARNING)          # the reference-area notes of scene after scene
     warm_up()
-    config = DetectionConfig(own_colour=OwnColourParameters() if own_colour else None)
+    config = DetectionConfig(own_colour=None) if without_own_colour else DetectionConfig()
     evaluations = []
     for seed in seeds:
         ground, pair = pickle.loads(_pair_path(cache, name, seed).read_bytes())
@@ -84,8 +83,8 @@ def run(args: argparse.Namespace) -> None:
     results = {}
     with ProcessPoolExecutor(PROCESSES) as pool:
         for name, (first, stop, _, _) in SETS.items():
-            halves = [pool.submit(_evaluate, args.cache, name, range(first + k, stop, PROCESSES), args.own_colour)
-                      for k in range(PROCESSES)]
+            halves = [pool.submit(_evaluate, args.cache, name, range(first + k, stop, PROCESSES),
+                                  args.without_own_colour) for k in range(PROCESSES)]
             results[name] = sorted((e for half in halves for e in half.result()), key=lambda e: e.seed)
     args.results.parent.mkdir(parents=True, exist_ok=True)
     args.results.write_bytes(pickle.dumps(results))
@@ -135,7 +134,8 @@ def main() -> None:
     p = commands.add_parser("run", help="score the pipeline on the Python path over the cached sets")
     p.add_argument("cache", type=Path)
     p.add_argument("results", type=Path)
-    p.add_argument("--own-colour", action="store_true", help="with DetectionConfig(own_colour=OwnColourParameters())")
+    p.add_argument("--without-own-colour", action="store_true",
+                   help="with DetectionConfig(own_colour=None), the default before session 41")
     p = commands.add_parser("compare", help="figures per set, and what moved against BASE")
     p.add_argument("new", type=Path)
     p.add_argument("base", type=Path, nargs="?")

@@ -35,10 +35,9 @@ Beyond the paper:
   the colours (:mod:`stereo_obstacles.colour_split`);
 * an obstacle's pixels coloured like a farther obstacle beside them, that farther object's edge
   carrying the nearer one's disparity, are taken out of it (:mod:`stereo_obstacles.fattened_fringes`);
-* optionally (off by default), a strip of another colour in an obstacle that matches farther with
-  windows weighted to its own colour (a farther object seen in a sliver beside the nearer one) is
-  re-matched there and leaves it, an obstacle of its own when large enough
-  (:mod:`stereo_obstacles.own_colour_matching`);
+* a strip of another colour in an obstacle that matches farther with windows weighted to its own
+  colour (a farther object seen in a sliver beside the nearer one) is re-matched there and leaves
+  it, an obstacle of its own when large enough (:mod:`stereo_obstacles.own_colour_matching`);
 * faces too flat to match (dark paint), which phase 1 calls obstacle but the matcher leaves
   empty but for their outlines, are filled from those outlines when they stand on the ground at
   their depth (:mod:`stereo_obstacles.textureless_fill`), for the free range per direction and
@@ -214,10 +213,10 @@ class DetectionConfig:
     ``own_colour``: with the colour cue, the strips of another colour in an obstacle that match
     farther with windows weighted to their own colour are re-matched there (in the delivered
     disparity and depth too), taken out of the obstacle and grouped on their own
-    (:mod:`stereo_obstacles.own_colour_matching`). Off (``None``) by default: it mends slivers of
-    a farther object beside a nearer one, but costs a median 7 ms a 640 x 480 pair and about
-    210 ms on KITTI 000005, whose many objects of several colours hold some 200 such pieces
-    (``docs/pipeline.md``, session 40); ``OwnColourParameters()`` switches it on.
+    (:mod:`stereo_obstacles.own_colour_matching`); ``None`` keeps them as matched. It mends slivers
+    of a farther object beside a nearer one, for a median 5 ms a 640 x 480 pair and 75 ms on KITTI
+    000005, whose many objects of several colours hold some 200 such pieces (``docs/pipeline.md``,
+    sessions 40-41).
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -239,7 +238,7 @@ class DetectionConfig:
     face_joining: FaceJoiningParameters | None = field(default_factory=FaceJoiningParameters)
     footprint_joining: FootprintJoiningParameters | None = field(default_factory=FootprintJoiningParameters)
     fattened_fringes: FringeParameters | None = field(default_factory=FringeParameters)
-    own_colour: OwnColourParameters | None = None
+    own_colour: OwnColourParameters | None = field(default_factory=OwnColourParameters)
 
     def __post_init__(self) -> None:
         # a dict or None for a stage's options failed later with AttributeError (API review, session 23)
