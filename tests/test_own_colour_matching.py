@@ -45,28 +45,43 @@ def _paint(image: np.ndarray, rows: slice, columns: range, disparity: int, colou
             image[rows, column] = np.clip(np.asarray(colour)[None, :] + texture[rows, x][:, None], 0, 255)
 
 
-def _scene(box_d: int = BOX_D, box_texture: float = 6.0, box_colour=(200, 150, 140)):
+def _scene(box_d: int = BOX_D, box_texture: float = 6.0, box_colour=(200, 150, 140), shift: int = 0):
     """A textured green wall at :data:`WALL_D` px ending at column 56, a pink box of faint texture
     at ``box_d`` px showing in the 6 columns beside it, grey ground-like texture at
     :data:`FAR_D` px behind; the box's sliver matched at the wall's disparity and grouped with it,
-    as the 5 x 5 NCC did in scene 881. Returns ``(left, right, disparity, obstacles, labels)``."""
+    as the 5 x 5 NCC did in scene 881; the wall and the box ``shift`` columns to the left.
+    Returns ``(left, right, disparity, obstacles, labels)``."""
+    wall_end, box_start, box_end = WALL_END - shift, BOX_START - shift, BOX_END - shift
     images = []
     for right in (False, True):
         image = np.zeros((H, W, 3), np.float64)
         _paint(image, slice(0, H), range(W + FAR_D), FAR_D, (128, 128, 128), _texture(1, 30), right)
-        _paint(image, ROWS, range(BOX_START, BOX_END), box_d, box_colour, _texture(2, box_texture), right)
-        _paint(image, ROWS, range(0, WALL_END), WALL_D, (60, 120, 40), _texture(3, 30), right)
+        _paint(image, ROWS, range(box_start, box_end), box_d, box_colour, _texture(2, box_texture), right)
+        _paint(image, ROWS, range(0, wall_end), WALL_D, (60, 120, 40), _texture(3, 30), right)
         images.append(image.astype(np.uint8))
     left, right = images
     disparity = np.full((H, W), float(FAR_D), np.float32)
-    disparity[ROWS, :BOX_END] = WALL_D
+    disparity[ROWS, :box_end] = WALL_D
     disparity[:, :WALL_D] = np.nan
     ids = np.zeros((H, W), np.int32)
-    ids[ROWS, WALL_D:BOX_END] = 1
+    ids[ROWS, WALL_D:box_end] = 1
     labels = np.full((H, W), Label.GROUND.value, np.uint8)
-    labels[ROWS, :BOX_END] = Label.OBSTACLE.value
-    wall = Obstacle(1, (WALL_D, ROWS.start, BOX_END, ROWS.stop), int(np.count_nonzero(ids)), float(WALL_D), 1.0)
+    labels[ROWS, :box_end] = Label.OBSTACLE.value
+    wall = Obstacle(1, (WALL_D, ROWS.start, box_end, ROWS.stop), int(np.count_nonzero(ids)), float(WALL_D), 1.0)
     return left, right, disparity, ObstacleList(obstacles=(wall,), id_map=ids), labels
+
+
+def _stacked(lower, upper):
+    """Two scenes of :func:`_scene` one above the other, the ``lower`` one's wall obstacle 1 and
+    the ``upper`` one's obstacle 2. Returns what :func:`_scene` returns."""
+    (left_l, right_l, d_l, walls_l, labels_l), (left_u, right_u, d_u, walls_u, labels_u) = lower, upper
+    (wall_l,), (wall_u,) = walls_l.obstacles, walls_u.obstacles
+    x0, y0, x1, y1 = wall_l.box_px
+    wall_l = replace(wall_l, box_px=(x0, y0 + H, x1, y1 + H))
+    wall_u = replace(wall_u, id=2)
+    ids = np.vstack([walls_u.id_map * 2, walls_l.id_map])
+    return (np.vstack([left_u, left_l]), np.vstack([right_u, right_l]), np.vstack([d_u, d_l]),
+            ObstacleList(obstacles=(wall_l, wall_u), id_map=ids), np.vstack([labels_u, labels_l]))
 
 
 def _scene_left_of_the_wall():
@@ -108,18 +123,46 @@ def test_a_sliver_of_a_farther_box_matched_at_the_wall_is_matched_again_at_its_o
     assert np.isnan(new[~rematched]).all()
 
 
-def test_a_first_look_at_some_tested_pixels_decides_whether_the_others_are_matched():
-    """The sliver moves only when enough of its first look match farther; a first look of every
-    tested pixel that never refuses gives the same answer as the default one."""
-    params = OwnColourParameters()
-    looked = -(-params.max_tested // params.first_look_step)           # pixels in the first look
-    _, refused, _ = _matches(*_scene(), params=replace(params, first_look_min=looked + 1))
-    assert not refused.any()
-    _, rematched, new = _matches(*_scene())
-    _, all_looked, all_new = _matches(*_scene(), params=replace(params, first_look_step=1, first_look_min=0))
-    assert rematched.any()
-    np.testing.assert_array_equal(all_looked, rematched)
-    np.testing.assert_array_equal(all_new, new)
+def test_slivers_of_two_obstacles_above_and_beside_each_other_move_as_each_alone():
+    """The pair is converted once around every piece: the first obstacle's piece lies below and
+    right of the second's, whose rows, windows and search must be converted too."""
+    lower, upper = _scene(), _scene(shift=30)
+    together = _matches(*_stacked(lower, upper))
+    for got, upper_alone, lower_alone in zip(together, _matches(*upper), _matches(*lower)):
+        np.testing.assert_array_equal(got, np.vstack([upper_alone, lower_alone]))
+    rematched = together[1]
+    assert rematched[:H].any() and rematched[H:].any()
+
+
+def test_the_pair_is_converted_over_every_piece_its_margin_and_its_search():
+    images = own_colour_matching._MatchingImages.around
+    blank = np.zeros((100, 200, 3), np.uint8)
+    pieces = [(np.array([60, 70]), np.array([150, 160])), (np.array([20, 30]), np.array([80, 90]))]
+    got = images(blank, blank, pieces, [10, 40], 5)
+    assert (got.top, got.left) == (15, 35)        # the second piece's first row; its search 40 left of 80
+    assert got.grey_left.shape == got.lab_right.shape[:2] == (76 - 15, 166 - 35)   # the first's last row, column
+    clipped = images(blank, blank, pieces, [10, 40], 50)
+    assert (clipped.top, clipped.left, clipped.grey_right.shape) == (0, 0, (100, 200))
+
+
+def test_a_first_look_at_every_third_tested_pixel_decides_whether_the_others_are_matched():
+    """Unless the first look refuses, every tested pixel is matched as alone; it refuses when fewer
+    than ``first_look_min`` of every ``first_look_step``-th lie clearly farther."""
+    left, right, disparity, _, _ = _scene()
+    # every third a pixel of the sliver, the others of the wall, which match at the wall's disparity
+    sliver = np.stack(np.mgrid[ROWS.start:ROWS.stop:4, WALL_END:BOX_END], axis=-1).reshape(-1, 1, 2)
+    wall = np.stack(np.mgrid[ROWS.start:ROWS.stop:4, 30:42], axis=-1).reshape(-1, 2, 2)
+    ys, xs = np.concatenate([sliver, wall], axis=1).reshape(-1, 2).T
+    d_max, below = WALL_D + 1, 15.0
+    images = own_colour_matching._MatchingImages.around(left, right, [(ys, xs)], [d_max], 20)
+    params = OwnColourParameters(min_agreeing_pixels=len(ys))
+    alone = own_colour_matching._own_matches(images, ys, xs, d_max, params)
+    looked = np.count_nonzero(alone[1][::3] & (alone[0][::3] <= below))
+    assert 0 < looked < len(ys[::3])
+    first_look = own_colour_matching._first_look_then_all
+    for got, want in zip(first_look(images, ys, xs, d_max, below, replace(params, first_look_min=looked)), alone):
+        np.testing.assert_array_equal(got, want)
+    assert first_look(images, ys, xs, d_max, below, replace(params, first_look_min=looked + 1)) is None
 
 
 def test_a_stripe_painted_on_the_wall_stays_with_it():
@@ -245,7 +288,8 @@ def test_inputs_of_other_shapes_are_refused():
 @pytest.mark.parametrize("changes, message", [
     ({"radius_px": 0}, "radius_px"), ({"colour_scale": 0.0}, "colour_scale"), ({"min_agreeing": 1.5}, "min_agreeing"),
     ({"min_margin": -0.1}, "min_margin"), ({"max_tested": 0}, "max_tested"),
-    ({"first_look_step": 0}, "first_look_step"), ({"first_look_min": -1}, "first_look_min")])
+    ({"first_look_step": 0}, "first_look_step"), ({"first_look_min": -1}, "first_look_min"),
+    ({"first_look_min": 11}, "must not exceed min_agreeing_pixels")])
 def test_bad_parameters_are_refused(changes, message):
     with pytest.raises(InvalidInputError, match=message):
         OwnColourParameters(**changes)

@@ -197,15 +197,18 @@ def test_density_is_that_of_the_delivered_full_size_disparity():
 
 @pytest.mark.skipif(os.environ.get("NUMBA_DISABLE_JIT", "0") != "0",
                     reason="counts compiled signatures; NUMBA_DISABLE_JIT is set, nothing is compiled")
-def test_warm_up_compiles_the_refinement_and_the_colour_split_too():
+def test_warm_up_compiles_the_refinement_the_colour_split_and_the_own_colour_stage_too():
+    """The own-colour stage's cover is built only for a strip that matches clearly farther, which
+    the warm-up pair has none of."""
     import subprocess
     import sys
 
     code = ("from stereo_obstacles.pipeline import warm_up; warm_up(); "
             "from stereo_obstacles._refinement_kernel import _refine_rows; "
             "from stereo_obstacles import _colour_split_kernel as k; "
+            "from stereo_obstacles import _own_colour_kernel as o; "
             "print(*(len(f.signatures) for f in (_refine_rows, k.group_runs_kernel, k.one_per_block_kernel, "
-            "k.two_colours_kernel)))")
+            "k.two_colours_kernel, o.own_colour_best_kernel, o.right_cover_rows_kernel)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert all(int(n) >= 1 for n in out.strip().splitlines()[-1].split())  # in a fresh process: nothing else did
 

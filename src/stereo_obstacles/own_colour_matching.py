@@ -48,7 +48,7 @@ from stereo_obstacles.visibility import VisibilityParameters
 EXCLUSION_PX = 2
 """Whole disparities on either side of the best match left out of its runner-up."""
 
-__all__ = ["OwnColourParameters", "moved_groups", "own_colour_matches"]
+__all__ = ["OwnColourParameters", "compile_cover", "moved_groups", "own_colour_matches"]
 
 
 @dataclass(frozen=True)
@@ -129,6 +129,16 @@ class OwnColourParameters:
                               ("max_tested", 1, 10 ** 6), ("min_agreeing_pixels", 1, 10 ** 6),
                               ("first_look_step", 1, 10 ** 6), ("first_look_min", 0, 10 ** 6)))
         check_positive(self, ("colour_scale", "agree_px"))
+        if self.first_look_min > self.min_agreeing_pixels:
+            raise InvalidInputError(f"first_look_min ({self.first_look_min}) must not exceed min_agreeing_pixels "
+                                    f"({self.min_agreeing_pixels}): the first look would refuse strips that move")
+
+
+def compile_cover() -> None:
+    """Compile the right camera's cover (:class:`_RightCover`), which a frame builds only for a
+    strip that matches clearly farther (none in :func:`stereo_obstacles.pipeline.warm_up`'s pair)."""
+    no_pixels = np.zeros(0, np.int64)
+    _RightCover.of(np.zeros((1, 1), np.float32), np.zeros(1, np.int64), (no_pixels, no_pixels))
 
 
 def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.ndarray, left: np.ndarray,
@@ -196,7 +206,7 @@ def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.n
         if looked is None:
             continue
         new, scored = looked
-        if np.count_nonzero(scored & (new <= below)) < params.min_agreeing_pixels:
+        if np.count_nonzero(_farther(new, scored, below)) < params.min_agreeing_pixels:
             continue        # too few to agree farther, whatever the right camera sees (its cover costs)
         seen = _RightCover.of(d, sy[tested], (ys, xs)).sees(sy[tested], sx[tested], new)
         centre = _farther_centre(new, scored & seen, below, params)
@@ -205,7 +215,7 @@ def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.n
         of_obstacle = ids[sy, sx] == obstacle.id
         new, scored = _own_matches(images, sy, sx, d_max, params)
         confident = scored & _RightCover.of(d, sy, (ys, xs)).sees(sy, sx, new)
-        agree = confident & (new <= below) & (np.abs(new - centre) <= params.agree_px)
+        agree = _farther(new, confident, below) & (np.abs(new - centre) <= params.agree_px)
         rematched[sy[agree], sx[agree]] = True
         new_disparity[sy[agree], sx[agree]] = new[agree]
         # the strip's pixels leave the obstacle, but those that match confidently where they are
@@ -322,7 +332,7 @@ def _first_look_then_all(images: _MatchingImages, ys: np.ndarray, xs: np.ndarray
     new = np.empty(len(ys), dtype=np.float32)
     scored = np.empty(len(ys), dtype=bool)
     new[first], scored[first] = _own_matches(images, ys[first], xs[first], d_max, params)
-    if np.count_nonzero(scored[first] & (new[first] <= below)) < params.first_look_min:
+    if np.count_nonzero(_farther(new[first], scored[first], below)) < params.first_look_min:
         return None
     new[~first], scored[~first] = _own_matches(images, ys[~first], xs[~first], d_max, params)
     return new, scored
@@ -372,12 +382,18 @@ class _RightCover:
         return seen
 
 
+def _farther(new: np.ndarray, kept: np.ndarray, below: float) -> np.ndarray:
+    """``bool (n,)``: the matches ``new`` (``float32 (n,)``, pixels) that are ``kept`` (``bool
+    (n,)``) and lie at ``below`` or lower."""
+    return kept & (new <= below)
+
+
 def _farther_centre(new: np.ndarray, confident: np.ndarray, below: float, params: OwnColourParameters) -> float | None:
     """The disparity the confident matches ``new`` (``float32 (n,)``, ``bool (n,)``) agree on at
     ``below`` or lower (their median), or ``None`` when fewer than ``min_agreeing`` of the confident
     matches, or fewer than ``min_agreeing_pixels``, lie there within ``agree_px`` of it (the pixels
     of the obstacle's own surface that a strip holds match confidently where they are)."""
-    farther = confident & (new <= below)
+    farther = _farther(new, confident, below)
     needed = max(params.min_agreeing * np.count_nonzero(confident), params.min_agreeing_pixels)
     if np.count_nonzero(farther) < needed:
         return None

@@ -88,7 +88,7 @@ from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
                                         measure_groups, measure_without, obstacle_scan, standing_pixels)
-from stereo_obstacles.own_colour_matching import OwnColourParameters, moved_groups, own_colour_matches
+from stereo_obstacles.own_colour_matching import OwnColourParameters, compile_cover, moved_groups, own_colour_matches
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
 from stereo_obstacles.repeated_texture import RepeatedTextureParameters, repeat_islands
@@ -557,7 +557,9 @@ def _depth(disparity: np.ndarray, calibration: StereoCalibration | None) -> np.n
 
 
 def warm_up() -> float:
-    """Compile every kernel of :func:`detect` on a small rendered pair; return the seconds spent.
+    """Compile every kernel of :func:`detect` on a small rendered pair, and the own-colour stage's
+    cover, which that pair does not build (:func:`~stereo_obstacles.own_colour_matching.compile_cover`);
+    return the seconds spent.
 
     numba caches the compiled code on disk, so only the first process pays in full. The pair is
     320 x 240, the smallest matched as 640 x 480 pairs are (grown at half size, refined at full
@@ -570,6 +572,7 @@ def warm_up() -> float:
     started = time.perf_counter()
     pair = render_pair(default_scene(320, 240))
     detect(pair.left, pair.right, pair.calibration)
+    compile_cover()
     return time.perf_counter() - started
 
 
