@@ -11,8 +11,8 @@ pipeline found on the Python path against it, two processes at a time:
     python benchmarks/eval_detection_sets.py compare RESULTS/new RESULTS/base
 
 ``compare`` prints, per set, the figures of the issue's targets (found, median, cases above 5 %,
-false alarms, repeats) and each true obstacle whose distance error moved by more than 0.3 points,
-or that was found or lost. The cache holds pickled pairs: read only caches this script wrote.
+false alarms, repeats), each true obstacle whose distance error moved by more than 0.3 points,
+or that was found or lost, and each scene whose false alarms changed. The cache holds pickled pairs: read only caches this script wrote.
 The sets: 0..959, 960..1139, 1140..1319, 1320..1499 (640 x 480), noise 2 on 0..119, and 320 x 240
 on 0..39 (``docs/pipeline.md``, sessions 27-40).
 """
@@ -124,6 +124,14 @@ def compare(args: argparse.Namespace) -> None:
                     print(f"   {evaluation.seed} #{c.truth_id} {c.kind} at {c.true_distance_m:.2f} m: "
                           f"{'missed' if was is None else f'{was:+.1f} %'} -> "
                           f"{'missed' if now is None else f'{now:+.1f} %'}{scored}")
+            if _alarms(evaluation) != _alarms(old):
+                print(f"   {evaluation.seed} false alarms: {_alarms(old) or 'none'} -> {_alarms(evaluation) or 'none'}")
+
+
+def _alarms(evaluation) -> str:
+    """The scene's false alarms, each as its distance and what it lies on (``7.87 m on ground``)."""
+    return ", ".join(f"{'?' if a.distance_m is None else f'{a.distance_m:.2f}'} m on {a.lies_on}"
+                     for a in evaluation.false_alarms)
 
 
 def main() -> None:
