@@ -33,6 +33,9 @@ Beyond the paper:
   would chain distinct objects through the ground between them;
 * a group holding two colours at two depths (a pole just in front of a box) is split along
   the colours (:mod:`stereo_obstacles.colour_split`);
+* the standing pixels no group took that lie behind the groups beside them and stand on the
+  ground (a farther object's strip beside a nearer one) become a group
+  (:mod:`stereo_obstacles.leftover_groups`);
 * an obstacle's pixels coloured like a farther obstacle beside them, that farther object's edge
   carrying the nearer one's disparity, are taken out of it (:mod:`stereo_obstacles.fattened_fringes`);
 * a strip of another colour in an obstacle that matches farther with windows weighted to its own
@@ -88,6 +91,7 @@ from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
                                         measure_groups, measure_without, obstacle_scan, standing_pixels)
+from stereo_obstacles.leftover_groups import LeftoverParameters, leftover_groups
 from stereo_obstacles.own_colour_matching import OwnColourParameters, compile_cover, moved_groups, own_colour_matches
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
@@ -217,6 +221,11 @@ class DetectionConfig:
     of a farther object beside a nearer one, for a median 5 ms a 640 x 480 pair and 75 ms on KITTI
     000005, whose many objects of several colours hold some 200 such pieces (``docs/pipeline.md``,
     sessions 40-41).
+    ``leftover``: with a calibration and a ground plane, the standing pixels of phase-1 obstacle
+    colour that no group took (a farther object's strip beside a nearer one, in cells the nearer
+    one holds) become a group when they hold an object's pixel count, lie behind every group
+    beside them and stand on the ground (:mod:`stereo_obstacles.leftover_groups`); ``None``
+    leaves them out.
     """
 
     reference: ReferenceArea = DEFAULT_REFERENCE_AREA
@@ -239,6 +248,7 @@ class DetectionConfig:
     footprint_joining: FootprintJoiningParameters | None = field(default_factory=FootprintJoiningParameters)
     fattened_fringes: FringeParameters | None = field(default_factory=FringeParameters)
     own_colour: OwnColourParameters | None = field(default_factory=OwnColourParameters)
+    leftover: LeftoverParameters | None = field(default_factory=LeftoverParameters)
 
     def __post_init__(self) -> None:
         # a dict or None for a stage's options failed later with AttributeError (API review, session 23)
@@ -250,7 +260,8 @@ class DetectionConfig:
                            ("textureless_fill", TexturelessFillParameters),
                            ("hidden_ground", HiddenGroundParameters), ("face_joining", FaceJoiningParameters),
                            ("footprint_joining", FootprintJoiningParameters),
-                           ("fattened_fringes", FringeParameters), ("own_colour", OwnColourParameters)),
+                           ("fattened_fringes", FringeParameters), ("own_colour", OwnColourParameters),
+                           ("leftover", LeftoverParameters)),
                     allow_none=True)
         check_numbers(self, (("geometric_min_height_m", 0.0, math.inf), ("geometric_min_excess_px", 0.0, math.inf)))
         check_scale(plain_number(self, "matching_scale"))
@@ -706,6 +717,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     if ground is not None:
         calls.append((_flat_groups, disparity, candidates & ~standing, calibration, ground, config))
     groups, depth, *flat = run_each_in_threads(calls)
+    if config.leftover is not None and ground is not None and calibration is not None:
+        groups = leftover_groups(groups, disparity, standing, segmentation.labels, ground, calibration,
+                                 config.grouping, config.leftover)
     measured = disparity
     hidden_rejected: tuple[RejectedGroup, ...] = ()
     if config.hidden_ground is not None and ground is not None and calibration is not None and colour_trusted:
