@@ -5,6 +5,8 @@ where the miss was found."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,7 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.ground_plane import GroundPlane
 from stereo_obstacles.labels import Label
 from stereo_obstacles.leftover_groups import LeftoverParameters, leftover_groups
+from stereo_obstacles.obstacle_grouping import GroupingParameters
 from stereo_obstacles.pipeline import DetectionConfig
 
 H, W = 80, 120
@@ -23,9 +26,9 @@ CALIBRATION = StereoCalibration(focal_px=500.0, cx_px=60.0, cy_px=40.0, baseline
 STRIP_COLUMNS = slice(44, 50)
 
 
-def _scene(strip_rows=slice(30, 70), pole_d=POLE_D, pole=True, strip_columns=STRIP_COLUMNS):
+def _scene(strip_rows=slice(30, 70), pole_d=POLE_D, pole=True, strip_columns=STRIP_COLUMNS, strip_d=STRIP_D):
     """A pole (group 1) at ``pole_d`` px in columns 50..59 and, left of it, a strip of
-    standing obstacle-coloured pixels at :data:`STRIP_D` px that no group holds. Returns ``(groups,
+    standing obstacle-coloured pixels at ``strip_d`` px that no group holds. Returns ``(groups,
     disparity, standing, labels)``."""
     groups = np.zeros((H, W), np.int32)
     disparity = np.full((H, W), np.nan, np.float32)
@@ -36,14 +39,14 @@ def _scene(strip_rows=slice(30, 70), pole_d=POLE_D, pole=True, strip_columns=STR
         disparity[10:70, 50:60] = pole_d
         standing[10:70, 50:60] = True
         labels[10:70, 50:60] = Label.OBSTACLE.value
-    disparity[strip_rows, strip_columns] = STRIP_D
+    disparity[strip_rows, strip_columns] = strip_d
     standing[strip_rows, strip_columns] = True
     labels[strip_rows, strip_columns] = Label.OBSTACLE.value
     return groups, disparity, standing, labels
 
 
-def _grouped(groups, disparity, standing, labels, params=LeftoverParameters()):
-    return leftover_groups(groups, disparity, standing, labels, GROUND, CALIBRATION, params=params)
+def _grouped(groups, disparity, standing, labels, params=LeftoverParameters(), grouping=GroupingParameters()):
+    return leftover_groups(groups, disparity, standing, labels, GROUND, CALIBRATION, grouping, params)
 
 
 def test_a_farther_strip_beside_a_pole_standing_on_the_ground_becomes_a_group():
@@ -59,6 +62,12 @@ def test_a_strip_floating_above_its_foot_stays_out():
     """Its lowest row 40, 30 rows above where the ground lies at its disparity: 0.6 m."""
     assert not (_grouped(*_scene(strip_rows=slice(0, 41))) == 2).any()
     assert (_grouped(*_scene(strip_rows=slice(0, 41)), params=LeftoverParameters(max_foot_m=0.7)) == 2).any()
+
+
+def test_a_strip_whose_foot_lies_deep_below_the_ground_stays_out():
+    """At 3 px the ground lies at row 40: the strip's lowest row, 69, would be 1.2 m below it."""
+    assert not (_grouped(*_scene(strip_d=3.0)) == 2).any()
+    assert (_grouped(*_scene(strip_d=3.0), params=LeftoverParameters(max_foot_m=1.3)) == 2).any()
 
 
 def test_a_strip_at_its_neighbour_s_depth_is_its_halo():
@@ -77,8 +86,64 @@ def test_a_strip_phase_1_calls_ground_stays_out():
     assert not (_grouped(groups, disparity, standing, labels) == 2).any()
 
 
-def test_a_strip_smaller_than_an_object_stays_out():
-    assert not (_grouped(*_scene(strip_rows=slice(50, 70), strip_columns=slice(46, 50))) == 2).any()   # 80 px
+def test_a_strip_of_fewer_pixels_than_a_far_object_stays_out():
+    assert not (_grouped(*_scene(strip_rows=slice(62, 70))) == 2).any()                 # 48 px
+    assert (_grouped(*_scene(strip_rows=slice(62, 70)), grouping=replace(GroupingParameters(),
+                                                                          min_object_pixels=40)) == 2).any()
+
+
+def test_a_strip_narrower_than_a_far_object_stays_out():
+    """80 pixels, enough at 6 px of disparity, but 4 columns: a far object spans 8."""
+    assert not (_grouped(*_scene(strip_rows=slice(50, 70), strip_columns=slice(46, 50))) == 2).any()
+
+
+def test_a_strip_broken_by_a_gap_of_two_rows_is_one_piece():
+    """Each half (6 x 19 pixels, 6 columns wide) is too small for an object; linked, they are one."""
+    groups, disparity, standing, labels = _scene()
+    disparity[49:51, STRIP_COLUMNS] = np.nan
+    assert (_grouped(groups, disparity, standing, labels) == 2).sum() == 6 * 38
+    assert not (_grouped(groups, disparity, standing, labels, params=LeftoverParameters(link_px=0)) == 2).any()
+
+
+def test_the_densest_window_not_the_median_s_keeps_the_strip():
+    """Stray leftover pixels linked to the strip, more of them than the strip's, spread over
+    8-11 px: their median lies among them, the densest window on the strip."""
+    groups, disparity, standing, labels = _scene()
+    spread = np.linspace(8.0, 11.0, 8 * 40, dtype=np.float32).reshape(40, 8)
+    disparity[30:70, 36:44] = spread
+    standing[30:70, 36:44] = True
+    labels[30:70, 36:44] = Label.OBSTACLE.value
+    got = _grouped(groups, disparity, standing, labels)
+    assert (got[30:70, STRIP_COLUMNS] == 2).all() and not (got[30:70, 36:44] == 2).any()
+
+
+def test_a_strip_beside_a_group_at_its_own_depth_stays_out():
+    """It lies behind the pole but not behind the group on its other side: that group's halo,
+    or part of it."""
+    groups, disparity, standing, labels = _scene()
+    groups[30:70, 38:44] = 3
+    disparity[30:70, 38:44] = STRIP_D + 0.3
+    assert not (_grouped(groups, disparity, standing, labels) == 4).any()
+
+
+def test_only_groups_within_ring_px_are_beside_it():
+    groups, disparity, standing, labels = _scene()
+    groups[30:70, 34:38] = 3                          # 6 columns from the strip
+    disparity[30:70, 34:38] = STRIP_D + 0.3
+    assert (_grouped(groups, disparity, standing, labels) == 4).any()
+    assert not (_grouped(groups, disparity, standing, labels, params=LeftoverParameters(ring_px=7)) == 4).any()
+
+
+def test_the_foot_is_measured_with_doffs_and_a_tilted_ground():
+    """A rig with doffs 10 px and ground whose disparity changes along the row too: the strip's
+    lowest pixel at its disparity lies on that ground; 49 rows higher it floats (0.37 m at 3.75 m)."""
+    calibration = StereoCalibration(focal_px=500.0, cx_px=60.0, cy_px=40.0, baseline_m=0.12, doffs_px=10.0)
+    x_mid, lowest = 46.5, 69
+    ground = GroundPlane(a=0.02, b=0.1, c=STRIP_D - 0.02 * x_mid - 0.1 * lowest)
+    on_ground = leftover_groups(*_scene(), ground, calibration)
+    assert (on_ground[30:70, STRIP_COLUMNS] == 2).all()
+    floating = leftover_groups(*_scene(strip_rows=slice(0, 21)), ground, calibration)
+    assert not (floating == 2).any()
 
 
 def test_the_strip_keeps_its_densest_disparities_not_the_stray_pixels_beside_it():

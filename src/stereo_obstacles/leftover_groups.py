@@ -18,13 +18,14 @@ nearer object's stray pixels beside it). A piece becomes a group of its own when
   d)``, and there is at least one: a strip beside a nearer object, the one place cells lose it (a
   piece at a neighbour's depth is that neighbour's halo, the matching's spread of it over the
   background);
-- its lowest pixel lies within ``max_foot_m`` of the ground where the ground has its disparity:
-  it stands on the ground. Strips of sky beside a pole, matched between the pole and the sky,
+- its lowest pixel, at its median disparity, lies within ``max_foot_m`` of the ground (above
+  or below): it stands on the ground. Strips of sky beside a pole, matched between the pole and the sky,
   float a metre or more above theirs (1287, 1336: false alarms without this test).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -33,7 +34,7 @@ import numpy as np
 from stereo_obstacles.calibration import StereoCalibration
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
-from stereo_obstacles.ground_plane import GroundPlane
+from stereo_obstacles.ground_plane import GroundPlane, height_above_ground_m
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacle_grouping import GroupingParameters, object_sized
 
@@ -57,8 +58,8 @@ class LeftoverParameters:
         Each neighbour's median disparity lies more than ``max(behind_px, behind_rel * d)`` above
         the piece's (pixels).
     max_foot_m : float
-        Most height (metres) of the piece's lowest pixel above the ground at the piece's
-        disparity.
+        Most height (metres) of the piece's lowest pixel above the ground, or depth below it, at
+        the piece's median disparity.
     """
 
     link_px: int = 2
@@ -116,6 +117,8 @@ def leftover_groups(groups: np.ndarray, disparity: np.ndarray, standing: np.ndar
     if not (groups.ndim == 2 and d.shape == np.shape(standing) == np.shape(labels) == groups.shape):
         raise InvalidInputError(f"groups {groups.shape}, disparity {d.shape}, standing {np.shape(standing)} and "
                                 f"labels {np.shape(labels)} must have one 2-D shape")
+    if groups.size == 0:
+        return groups.astype(np.int32, copy=False)
     leftover = (np.asarray(standing, dtype=bool) & (groups == 0) & (np.asarray(labels) == Label.OBSTACLE.value)
                 & np.isfinite(d))
     least = grouping.far_min_fraction * grouping.min_object_pixels    # no object has fewer (far ones)
@@ -135,8 +138,8 @@ def leftover_groups(groups: np.ndarray, disparity: np.ndarray, standing: np.ndar
         kept = _densest_window(d[ys, xs], params)
         ys, xs = ys[kept], xs[kept]
         median = float(np.median(d[ys, xs]))
-        if (len(ys) >= least and _object_sized(ys, xs, d, grouping)
-                and _foot_m(ys, xs, median, ground, calibration) <= params.max_foot_m
+        if (_object_sized(ys, xs, d, grouping)
+                and abs(_foot_m(ys, xs, median, ground, calibration)) <= params.max_foot_m
                 and neighbours.all_nearer(ys, xs, median)):
             if result is groups:
                 result = result.copy()              # the caller's groups stay as they were
@@ -161,19 +164,22 @@ def _object_sized(ys: np.ndarray, xs: np.ndarray, d: np.ndarray, grouping: Group
     y0, x0 = int(ys.min()), int(xs.min())
     box = np.full((int(ys.max()) - y0 + 1, int(xs.max()) - x0 + 1), -1, np.int64)
     box[ys - y0, xs - x0] = 0
-    at = np.nan_to_num(d[y0:y0 + box.shape[0], x0:x0 + box.shape[1]].astype(np.float64))
+    at = d[y0:y0 + box.shape[0], x0:x0 + box.shape[1]].astype(np.float64)     # read at the pixels only
     return bool(object_sized(box, at, np.array([len(ys)]), grouping)[0])
 
 
 def _foot_m(ys: np.ndarray, xs: np.ndarray, median: float, ground: GroundPlane, calibration: StereoCalibration
             ) -> float:
-    """Height (metres) of the lowest of the pixels ``(ys, xs)`` above the row where the ground has
-    their ``median`` disparity (pixels), at their median column; ``inf`` when the ground's
-    disparity does not change with the row."""
-    if ground.b <= 0.0:
-        return float("inf")
-    contact_row = (median - ground.a * float(np.median(xs)) - ground.c) / ground.b
-    return (contact_row - float(ys.max())) * calibration.baseline_m / max(median + calibration.doffs_px, 1e-6)
+    """Signed height (metres, :func:`~stereo_obstacles.ground_plane.height_above_ground_m`) of
+    the pixels' lowest row, at their median column and their ``median`` disparity (pixels), above
+    the ground; ``inf`` when that disparity puts the point at or beyond infinity."""
+    if median + calibration.doffs_px <= 0.0:
+        return math.inf
+    z = calibration.focal_baseline_px_m / (median + calibration.doffs_px)
+    column, row = float(np.median(xs)), float(ys.max())
+    point = np.array([(column - calibration.cx_px) * z / calibration.focal_px,
+                      (row - calibration.cy_px) * z / calibration.focal_px, z])
+    return float(height_above_ground_m(ground, point, calibration))
 
 
 class _Neighbours:
@@ -201,6 +207,7 @@ class _Neighbours:
         return len(beside) > 0 and all(self._median(int(g)) - median > step for g in beside)
 
     def _median(self, group: int) -> float:
+        """The median disparity (pixels) of ``group``'s pixels, all matched."""
         if group not in self._medians:
             self._medians[group] = float(np.median(self._disparity[self._groups == group]))
         return self._medians[group]

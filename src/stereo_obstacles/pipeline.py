@@ -84,6 +84,7 @@ from stereo_obstacles.footprint_joining import FootprintJoiningParameters, piece
 from stereo_obstacles.image_pairs import check_same_size
 from stereo_obstacles.fileio import to_uint8
 from stereo_obstacles.labels import Label
+from stereo_obstacles.leftover_groups import LeftoverParameters, leftover_groups
 from stereo_obstacles.matching import MIN_SIZE, check_match_options, disparity_range, warn_if_range_cut_off
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
 from stereo_obstacles.obstacle_joining import measure_joined
@@ -91,7 +92,6 @@ from stereo_obstacles.ground_plane import GroundPlane, fit_ground_plane, raised_
 from stereo_obstacles.hidden_ground import HiddenGroundParameters, reject_hidden_ground
 from stereo_obstacles.obstacles import (Obstacle, ObstacleList, ObstacleParameters, RejectedGroup, list_obstacles,
                                         measure_groups, measure_without, obstacle_scan, standing_pixels)
-from stereo_obstacles.leftover_groups import LeftoverParameters, leftover_groups
 from stereo_obstacles.own_colour_matching import OwnColourParameters, compile_cover, moved_groups, own_colour_matches
 from stereo_obstacles.rectification_check import RectificationCheck, check_rectification
 from stereo_obstacles.reference_area import DEFAULT_REFERENCE_AREA, ReferenceArea
