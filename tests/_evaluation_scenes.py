@@ -16,7 +16,8 @@ def evaluation_pair(seed: int, noise_sigma: float = 0.0) -> SyntheticPair:
 
 def true_obstacle(pair: SyntheticPair, kind: str, nearest_depth_m: float) -> ObstacleTruth:
     """The pair's true obstacle of ``kind`` whose nearest depth is ``nearest_depth_m`` (within 1 cm)."""
-    found = [t for t in pair.obstacles if t.kind == kind and abs(t.nearest_depth_m - nearest_depth_m) < 0.01]
+    found = [t for t in pair.obstacles if t.kind == kind and t.nearest_depth_m is not None   # off-screen: None
+             and abs(t.nearest_depth_m - nearest_depth_m) < 0.01]
     assert found, f"no {kind} at {nearest_depth_m} m in the scene: " \
                   f"{[(t.kind, t.nearest_depth_m) for t in pair.obstacles]}"
     return found[0]

@@ -8,9 +8,11 @@ hold: its matches are right, they stand above the ground, and no group takes the
 cylinder at 9.89 m, missed: ``docs/pipeline.md``, session 41).
 
 Here the standing pixels that phase 1 calls obstacle and that no group took are linked across
-``link_px`` (a strip broken by a few unmatched pixels is one piece), and each piece keeps its
-densest window of disparities (``2 max(window_px, window_rel * d)`` wide: the strip, not the
-nearer object's stray pixels beside it). A piece becomes a group of its own when
+``link_px`` (a strip broken by a few unmatched pixels is one piece), and each piece is cut into
+windows of disparities (``2 max(window_px, window_rel * d)`` wide), densest first, while an
+object's count of its pixels remains: the strip, and the nearer object's stray pixels beside it,
+each in a window of its own (scene 588's box, an L 2-5 px wide around a nearer box, holds fewer
+pixels than the strays its piece takes in). A window becomes a group of its own when
 
 - it holds an object's pixel count by the grouping's rule (far ones fewer:
   :func:`stereo_obstacles.obstacle_grouping.object_sized`);
@@ -50,8 +52,8 @@ class LeftoverParameters:
     link_px : int
         Leftover pixels this far apart (pixels) are one piece.
     window_px, window_rel : float
-        A piece keeps the pixels of its densest disparity window ``2 max(window_px, window_rel *
-        d)`` wide (pixels; ``d`` the piece's median disparity).
+        A piece is cut into disparity windows ``2 max(window_px, window_rel * d)`` wide (pixels;
+        ``d`` the median disparity of the pixels not yet in a window), densest first.
     ring_px : int
         Groups within this (pixels) of the piece are its neighbours.
     behind_px, behind_rel : float
@@ -80,7 +82,7 @@ def leftover_groups(groups: np.ndarray, disparity: np.ndarray, standing: np.ndar
                     ground: GroundPlane, calibration: StereoCalibration,
                     grouping: GroupingParameters = GroupingParameters(),
                     params: LeftoverParameters = LeftoverParameters()) -> np.ndarray:
-    """``groups`` with the leftover pieces that pass (module docstring) as new groups.
+    """``groups`` with the windows of leftover pieces that pass (module docstring) as new groups.
 
     Parameters
     ----------
@@ -134,17 +136,19 @@ def leftover_groups(groups: np.ndarray, disparity: np.ndarray, standing: np.ndar
         x0, y0, width, height = (int(v) for v in stats[piece, [cv2.CC_STAT_LEFT, cv2.CC_STAT_TOP, cv2.CC_STAT_WIDTH,
                                                                 cv2.CC_STAT_HEIGHT]])
         ys, xs = np.nonzero(piece_of[y0:y0 + height, x0:x0 + width] == piece)
-        ys, xs = ys + y0, xs + x0
-        kept = _densest_window(d[ys, xs], params)
-        ys, xs = ys[kept], xs[kept]
-        median = float(np.median(d[ys, xs]))
-        if (_object_sized(ys, xs, d, grouping)
-                and abs(_foot_m(ys, xs, median, ground, calibration)) <= params.max_foot_m
-                and neighbours.all_nearer(ys, xs, median)):
-            if result is groups:
-                result = result.copy()              # the caller's groups stay as they were
-            result[ys, xs] = number
-            number += 1
+        rest_ys, rest_xs = ys + y0, xs + x0           # the piece's pixels in no window yet
+        while len(rest_ys) >= least:
+            kept = _densest_window(d[rest_ys, rest_xs], params)
+            ys, xs = rest_ys[kept], rest_xs[kept]
+            rest_ys, rest_xs = rest_ys[~kept], rest_xs[~kept]
+            median = float(np.median(d[ys, xs]))
+            if (_object_sized(ys, xs, d, grouping)
+                    and abs(_foot_m(ys, xs, median, ground, calibration)) <= params.max_foot_m
+                    and neighbours.all_nearer(ys, xs, median)):
+                if result is groups:
+                    result = result.copy()              # the caller's groups stay as they were
+                result[ys, xs] = number
+                number += 1
     return result
 
 
