@@ -21,8 +21,8 @@ pixels than the strays its piece takes in). A window becomes a group of its own 
   piece at a neighbour's depth is that neighbour's halo, the matching's spread of it over the
   background);
 - its lowest pixel, at its median disparity, lies within ``max_foot_m`` of the ground (above
-  or below): it stands on the ground. Strips of sky beside a pole, matched between the pole and the sky,
-  float a metre or more above theirs (1287, 1336: false alarms without this test).
+  or below): it stands on the ground. Strips of sky beside a pole, matched between the pole and
+  the sky, float 0.7 m or more above theirs (1287, 1336: false alarms without this test).
 """
 
 from __future__ import annotations
