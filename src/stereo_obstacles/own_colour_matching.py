@@ -208,13 +208,13 @@ def own_colour_matches(obstacles: ObstacleList, chroma: np.ndarray, labels: np.n
         new, scored = looked
         if np.count_nonzero(_farther(new, scored, below)) < params.min_agreeing_pixels:
             continue        # too few to agree farther, whatever the right camera sees (its cover costs)
-        seen = _RightCover.of(d, sy[tested], (ys, xs)).sees(sy[tested], sx[tested], new)
-        centre = _farther_centre(new, scored & seen, below, params)
+        cover = _RightCover.of(d, sy, (ys, xs))         # the strip's rows, for its tested pixels and all
+        centre = _farther_centre(new, scored & cover.sees(sy[tested], sx[tested], new), below, params)
         if centre is None:
             continue
         of_obstacle = ids[sy, sx] == obstacle.id
         new, scored = _own_matches(images, sy, sx, d_max, params)
-        confident = scored & _RightCover.of(d, sy, (ys, xs)).sees(sy, sx, new)
+        confident = scored & cover.sees(sy, sx, new)
         agree = _farther(new, confident, below) & (np.abs(new - centre) <= params.agree_px)
         rematched[sy[agree], sx[agree]] = True
         new_disparity[sy[agree], sx[agree]] = new[agree]
