@@ -17,9 +17,10 @@ from stereo_obstacles.textureless_fill import BracketedRuns
 RIG = StereoCalibration(focal_px=554.26, cx_px=319.5, cy_px=239.5, baseline_m=0.12)   # f B = 66.5 px m
 
 
-def _two_outlines(d_left: float, d_right: float, rows: int = 8):
+def _two_outlines(d_left: float, d_right: float, rows: int = 8, contacts: tuple[float, float] = (np.nan, np.nan)):
     """Obstacle 1 in columns 10..13 at ``d_left``, obstacle 2 in columns 30..33 at ``d_right``,
-    and the runs between them (columns 14..29) in the first ``rows`` rows."""
+    and the runs between them (columns 14..29) in the first ``rows`` rows, meeting the ground at
+    disparities ``contacts`` in their first and last columns (NaN: nowhere)."""
     ids = np.zeros((20, 40), np.int32)
     disparity = np.full((20, 40), np.nan, np.float32)
     ids[:, 10:14], disparity[:, 10:14] = 1, d_left
@@ -27,7 +28,8 @@ def _two_outlines(d_left: float, d_right: float, rows: int = 8):
     y = np.arange(rows)
     runs = BracketedRuns(y=y, x0=np.full(rows, 14), x1=np.full(rows, 29), xl=np.full(rows, 13),
                          xr=np.full(rows, 30), d_left=np.full(rows, d_left, np.float32),
-                         d_right=np.full(rows, d_right, np.float32))
+                         d_right=np.full(rows, d_right, np.float32), contact_left=np.full(rows, contacts[0]),
+                         contact_right=np.full(rows, contacts[1]))
     return runs, ids, disparity
 
 
@@ -54,6 +56,18 @@ def test_too_few_rows_or_obstacles_whose_own_depths_differ_are_not_joined():
     runs, ids, disparity = _two_outlines(60.0, 60.0)
     disparity[ids == 2] = 44.5
     assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == []
+
+
+def test_the_outlines_of_a_face_receding_from_one_to_the_other_are_joined_where_each_stands():
+    # 2.56 and 2.89 m: ends 0.33 m apart and the obstacles' medians too, but each outline stands
+    # on the ground at its own depth (the ground 0.05 m and 0.04 m from them)
+    runs, ids, disparity = _two_outlines(26.0, 23.0, contacts=(25.5, 23.3))
+    assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == [(1, 2)]
+    for contacts in ((26.0, 26.0), (np.nan, 23.0)):     # one outline not on the ground at its depth, or not known
+        runs, ids, disparity = _two_outlines(26.0, 23.0, contacts=contacts)
+        assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == [], contacts
+    runs, ids, disparity = _two_outlines(26.0, 23.0, rows=4, contacts=(26.0, 23.0))
+    assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == []          # 4 rows, 5 needed
 
 
 @pytest.mark.parametrize("field, value", [("min_runs", 0), ("min_runs", 2.0), ("end_tolerance_m", -0.1),

@@ -104,7 +104,8 @@ LOOSE_CONTACT = TexturelessFillParameters(contact_tolerance_fraction=0.5)
 
 
 @pytest.mark.parametrize("world, params, why", [
-    (lambda: _world(box_m=4.0, right_outline_m=3.4), LOOSE_CONTACT, "outlines 15 % apart: two surfaces"),
+    (lambda: _world(box_m=4.0, right_outline_m=3.4), TexturelessFillParameters(),
+     "outlines 15 % apart, the nearer one not standing on the ground at its depth: two surfaces"),
     (lambda: _world(floating=True), TexturelessFillParameters(), "it meets the ground nearer than its outlines"),
     (lambda: _world(floating=True, hanging_rows=60, hanging_columns=slice(120, 190)), TexturelessFillParameters(),
      "a few of its columns meet the ground (at its depth), the others none within 40 rows"),
@@ -113,6 +114,53 @@ def test_a_face_is_left_empty_unless_one_surface_continues_and_stands_on_the_gro
     ids, disparity, labels, left = w = world()
     filled_ids, filled = _fill(w, params)
     assert np.array_equal(filled_ids, ids) and np.array_equal(np.isnan(filled), np.isnan(disparity)), why
+
+
+def _receding_face(near_m: float, far_m: float, step: bool = False):
+    """:func:`_world` with its box replaced by a dark face 1 m tall standing on the ground in columns
+    120-199, matched only along its outlines (obstacle 1 left, obstacle 4 right): a plane receding
+    from ``near_m`` at its left outline to ``far_m`` at its right (its disparity linear across it), or
+    with ``step`` two faces of its colour side by side, the left half at ``near_m`` and the right
+    half at ``far_m``. Returns the world, the face's true disparity per column (``(80,)``) and
+    ``bool (H, W)``: its pixels between the outlines."""
+    ids, disparity, labels, left = _world()
+    face, clear = slice(120, 200), slice(216, 296)          # clear ground and sky, the checks in phase
+    for layer in (ids, disparity, labels, left):
+        layer[:, face] = layer[:, clear]
+    near_d, far_d = (RIG.focal_baseline_px_m / z for z in (near_m, far_m))
+    t = np.arange(80) / 79
+    between = np.zeros((H, W), bool)
+    true_d = np.where(t < 0.5, near_d, far_d) if step else near_d + (far_d - near_d) * t
+    for k, d in enumerate(true_d):
+        x = 120 + k
+        bottom = int(round(RIG.cy_px + d * CAMERA_HEIGHT_M / RIG.baseline_m))       # f h / Z
+        top = int(round(bottom - d / RIG.baseline_m))                               # 1 m tall
+        labels[top:bottom, x], left[top:bottom, x], disparity[top:bottom, x] = Label.OBSTACLE.value, (45, 45, 50), np.nan
+        if k < OUTLINE_PX or k >= 80 - OUTLINE_PX:
+            disparity[top:bottom, x], ids[top:bottom, x] = d, 1 if k < OUTLINE_PX else 4
+        else:
+            between[top:bottom, x] = True
+    return (ids, disparity, labels, left), true_d, between
+
+
+def test_a_face_receding_in_depth_is_filled_along_its_slant():
+    # outlines at 4.0 and 4.6 m, 13 % apart in disparity: no longer one depth, but each stands
+    # on the ground where the face meets it, along a straight line
+    world, true_d, between = _receding_face(4.0, 4.6)
+    ids = world[0]
+    bracketed_rows = (ids[:, 120] == 1) & (ids[:, 199] == 4)                  # the face's top slants down to the right
+    filled_ids, filled = _fill(world)
+    assert np.isfinite(filled[between & bracketed_rows[:, None]]).mean() > 0.9    # but the rim the edges keep empty
+    columns = np.nonzero(between)[1]
+    error = filled[between] - true_d[columns - 120]
+    assert np.nanmax(np.abs(error)) < 0.1                                     # 1.37 px from end to end
+    assert set(np.unique(filled_ids[between & np.isfinite(filled)])) == {1}   # the nearer outline's id
+
+
+def test_two_faces_at_two_depths_meeting_the_ground_with_a_step_are_left_empty():
+    world, _, _ = _receding_face(4.0, 4.6, step=True)
+    filled_ids, filled = _fill(world)
+    assert np.array_equal(filled_ids, world[0]) and np.array_equal(np.isnan(filled), np.isnan(world[1]))
 
 
 def test_a_textured_face_is_no_candidate():

@@ -10,7 +10,14 @@ the two ends of at least ``min_runs`` of them belong to two different obstacles,
 surface, and the obstacles are joined, if
 
 * the two ends of each of those runs lie within ``end_tolerance_m`` of each other in depth, and
-* the two obstacles' median depths lie within ``max_depth_gap_m`` of each other.
+* the two obstacles' median depths lie within ``max_depth_gap_m`` of each other;
+
+or when at least ``min_runs`` of them stand on the ground at both ends, each end within
+``end_tolerance_m`` in depth of the ground the face meets in the run's first (or last) columns
+(:class:`~stereo_obstacles.textureless_fill.BracketedRuns`): a face slanted in depth, whose
+outlines lie at two depths and whose obstacles' medians may lie farther apart, the one holding
+background beside the outline. The fill has already asked that the ground between the two ends
+follow a straight line (one face, not two objects at two depths).
 
 Joins chain: three pieces of a long face, each pair within the tolerances, make one obstacle
 that may span more in depth (the pieces of a wall receding from the camera are one wall); the
@@ -81,14 +88,21 @@ def obstacles_sharing_a_face(runs: BracketedRuns | None, id_map: np.ndarray, dis
         return []
     ids = np.asarray(id_map)
     a, b = ids[runs.y, runs.xl], ids[runs.y, runs.xr]
-    counted = (a != b) & (a > 0) & (b > 0) & _within_m(runs.d_left, runs.d_right, params.end_tolerance_m, calibration)
+    level = _within_m(runs.d_left, runs.d_right, params.end_tolerance_m, calibration)
+    on_ground = (_within_m(runs.d_left, runs.contact_left, params.end_tolerance_m, calibration)
+                 & _within_m(runs.d_right, runs.contact_right, params.end_tolerance_m, calibration))
+    counted = (a != b) & (a > 0) & (b > 0) & (level | on_ground)
     if not counted.any():
         return []
-    pairs, counts = np.unique(np.stack([np.minimum(a, b)[counted], np.maximum(a, b)[counted]]), axis=1,
-                              return_counts=True)
+    pair_keys = np.stack([np.minimum(a, b)[counted], np.maximum(a, b)[counted]])
+    pairs, pair_of, counts = np.unique(pair_keys, axis=1, return_inverse=True, return_counts=True)
+    grounded = np.bincount(np.ravel(pair_of), weights=on_ground[counted], minlength=counts.size)
     joined = []
-    for (first, second), count in zip(pairs.T, counts):
+    for (first, second), count, on_ground_count in zip(pairs.T, counts, grounded):
         if count < params.min_runs:
+            continue
+        if on_ground_count >= params.min_runs:      # a face standing on the ground from one end to the other
+            joined.append((int(first), int(second)))
             continue
         medians = [float(np.nanmedian(disparity[ids == k])) for k in (first, second)]
         if _within_m(*medians, params.max_depth_gap_m, calibration):

@@ -13,7 +13,15 @@ half the size, dilated by one pixel: a textured surface falls apart into small p
 least ``min_area_px`` pixels remain. Along each
 row, a run of the region is *bracketed* when an obstacle pixel with a disparity lies within
 ``reach_px`` on both sides and the two disparities agree (``max(end_tolerance_px,
-end_tolerance_fraction * d)``): one surface continues between them. A region is filled when
+end_tolerance_fraction * d)``): one surface continues between them. A run is bracketed too when
+its two ends lie at two depths but each stands on the ground at its own: the ground the region
+meets in the run's first :data:`END_CONTACT_COLUMNS` columns agrees with the left end's disparity
+and in its last ones with the right end's (the contact tolerance below), and in between the ground
+it meets follows the straight line in disparity from the one to the other within
+``slant_tolerance_px`` (in :data:`STRAIGHT_SHARE` of its columns): a face slanted in depth, whose
+bottom is a straight line on the ground, and not two objects of one colour at two depths, which
+meet the ground with a step (``docs/pipeline.md``, "Textureless faces slanted in depth", session
+43). A region is filled when
 
 * at least ``min_bracketed_fraction`` of its rows have a bracketed run, and
 * it stands on the ground at the depth of its outline: walking down from its lowest pixel in
@@ -23,8 +31,9 @@ end_tolerance_fraction * d)``): one surface continues between them. A region is 
   disparities (median) within ``max(contact_tolerance_px, contact_tolerance_fraction * d)``.
 
 Of a filled region, only the bracketed runs whose nearer end agrees in the same way with the
-ground the region meets in the run's own columns (their mean) are filled: a run between the
-edges of two nearer objects, over a face that stands behind them, meets the ground behind them.
+ground the region meets in the run's own columns (their mean), or that stand on the ground at
+both ends as above, are filled: a run between the edges of two nearer objects, over a face that
+stands behind them, meets the ground behind them.
 
 The sky between two poles is textureless and labelled obstacle too, and bracketed by the poles,
 but it meets the ground at the horizon, far behind them: the contact test keeps it empty.
@@ -59,7 +68,9 @@ class TexturelessFillParameters:
     """When a textureless region is filled (module docstring). Lengths in pixels; disparity
     tolerances in pixels or as a fraction of the disparity.
 
-    ``edge_thresholds`` are Canny's two thresholds on the left image's grey levels (0-255).
+    ``edge_thresholds`` are Canny's two thresholds on the left image's grey levels (0-255);
+    ``slant_tolerance_px`` how far (pixels of disparity) the ground a run of a face slanted in depth
+    meets may lie from the straight line between its ends' contacts.
     """
 
     min_area_px: int = 150
@@ -72,13 +83,15 @@ class TexturelessFillParameters:
     min_contact_fraction: float = 0.5
     max_walk_px: int = 40
     edge_thresholds: tuple[float, float] = (20.0, 60.0)
+    slant_tolerance_px: float = 0.3
 
     def __post_init__(self) -> None:
         plain_numbers(self)                      # NumPy scalars as Python numbers (JSON-ready)
         check_integers(self, (("min_area_px", 1, 10 ** 9), ("reach_px", 1, 1000), ("max_walk_px", 1, 10 ** 5)))
         check_numbers(self, (("end_tolerance_px", 0.0, 1000.0), ("end_tolerance_fraction", 0.0, 1.0),
                              ("min_bracketed_fraction", 0.0, 1.0), ("contact_tolerance_px", 0.0, 1000.0),
-                             ("contact_tolerance_fraction", 0.0, 1.0), ("min_contact_fraction", 0.0, 1.0)))
+                             ("contact_tolerance_fraction", 0.0, 1.0), ("min_contact_fraction", 0.0, 1.0),
+                             ("slant_tolerance_px", 0.0, 1000.0)))
         pair = self.edge_thresholds
         if not (isinstance(pair, tuple) and len(pair) == 2 and all(is_finite_real(v) for v in pair)
                 and 0 <= pair[0] <= pair[1]):
@@ -137,12 +150,19 @@ def _mean_over_columns(contacts: np.ndarray, contact_d: np.ndarray, n_regions: i
         return np.where(n > 0, (sums[region, x1 + 1] - sums[region, x0]) / n, np.nan)
 
 
+END_CONTACT_COLUMNS = 3
+"""A run's end meets the ground where the region does in the run's first (or last) this many columns."""
+
+
 @dataclass(frozen=True)
 class BracketedRuns:
     """The runs of the textureless regions that :func:`fill_textureless` fills: in row ``y``,
     columns ``x0..x1`` (inclusive), bracketed by obstacle pixels at columns ``xl`` (left) and
-    ``xr`` (right) of disparities ``d_left`` and ``d_right``. Each field is an array of one value
-    per run (``int64``; the disparities ``float32``, pixels)."""
+    ``xr`` (right) of disparities ``d_left`` and ``d_right``; the region meets the ground at
+    disparities ``contact_left`` and ``contact_right`` in the run's first and last
+    :data:`END_CONTACT_COLUMNS` columns (their mean, NaN where it meets none there). Each field is
+    an array of one value per run (``int64``; the disparities ``float32``, the contacts
+    ``float64``, pixels)."""
 
     y: np.ndarray
     x0: np.ndarray
@@ -151,6 +171,8 @@ class BracketedRuns:
     xr: np.ndarray
     d_left: np.ndarray
     d_right: np.ndarray
+    contact_left: np.ndarray
+    contact_right: np.ndarray
 
 
 def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray, labels: np.ndarray,
@@ -164,23 +186,71 @@ def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.nda
     if n_regions == 0:
         return None
     y, x0, x1, region, xl, xr = bracketed_runs_kernel(regions, ids, d, params.reach_px).T
-    bracketed = (xl >= 0) & (xr >= 0)
+    both_ends = (xl >= 0) & (xr >= 0)
     d_left, d_right = d[y, np.maximum(xl, 0)], d[y, np.maximum(xr, 0)]
-    bracketed &= _agree(d_left, d_right, params.end_tolerance_px, params.end_tolerance_fraction)
     contacts, columns = ground_contacts_kernel(regions, n_regions, np.ascontiguousarray(labels, dtype=np.uint8),
                                                Label.GROUND.value, Label.SHADOW.value, params.max_walk_px)
     contact_d = ground.disparity_at(contacts[:, 1].astype(np.float64), contacts[:, 2].astype(np.float64))
+
+    def contact_in(first: np.ndarray, last: np.ndarray) -> np.ndarray:
+        return _mean_over_columns(contacts, contact_d, n_regions, ids.shape[1], region, first, last)
+
+    def on_ground(end_d: np.ndarray, contact: np.ndarray) -> np.ndarray:
+        return _agree(end_d, contact, params.contact_tolerance_px, params.contact_tolerance_fraction)
+
+    # the ground each end of a run meets in the run's own first and last columns: a face slanted in
+    # depth stands on the ground at each of its outlines' depths
+    contact_left = contact_in(x0, np.minimum(x0 + END_CONTACT_COLUMNS - 1, x1))
+    contact_right = contact_in(np.maximum(x1 - END_CONTACT_COLUMNS + 1, x0), x1)
+    slanted = both_ends & on_ground(d_left, contact_left) & on_ground(d_right, contact_right)
+    slanted[slanted] = _straight_contacts(contacts, contact_d, n_regions, ids.shape[1], region[slanted], x0[slanted],
+                                          x1[slanted], contact_left[slanted], contact_right[slanted],
+                                          params.slant_tolerance_px)
+    bracketed = both_ends & (_agree(d_left, d_right, params.end_tolerance_px, params.end_tolerance_fraction)
+                             | slanted)
     standing = _standing_regions(region * ids.shape[0] + y, bracketed, d_left, d_right, contacts, contact_d, columns,
                                  n_regions, ids.shape[0], params)
     # each run stands where its nearer end does: the ground it meets in its own columns agrees
     # with that end (a run between the edges of two nearer objects meets the ground behind them)
-    run_contact = _mean_over_columns(contacts, contact_d, n_regions, ids.shape[1], region, x0, x1)
-    stands = _agree(np.maximum(d_left, d_right), run_contact, params.contact_tolerance_px,
-                    params.contact_tolerance_fraction)
+    stands = on_ground(np.maximum(d_left, d_right), contact_in(x0, x1)) | slanted
     chosen = bracketed & standing[region] & stands
     if not chosen.any():
         return None
-    return BracketedRuns(y[chosen], x0[chosen], x1[chosen], xl[chosen], xr[chosen], d_left[chosen], d_right[chosen])
+    return BracketedRuns(y[chosen], x0[chosen], x1[chosen], xl[chosen], xr[chosen], d_left[chosen], d_right[chosen],
+                         contact_left[chosen], contact_right[chosen])
+
+
+STRAIGHT_SHARE = 0.9
+"""A slanted run's contacts follow the straight line between its ends in at least this share of its
+columns that meet the ground."""
+
+
+def _straight_contacts(contacts: np.ndarray, contact_d: np.ndarray, n_regions: int, width: int, region: np.ndarray,
+                       x0: np.ndarray, x1: np.ndarray, first: np.ndarray, last: np.ndarray,
+                       tolerance_px: float) -> np.ndarray:
+    """``bool (n,)``: which runs (region ``region[i]``, columns ``x0[i]..x1[i]``) meet the ground
+    along a straight line in disparity from ``first[i]`` at ``x0`` to ``last[i]`` at ``x1``, within
+    ``tolerance_px`` in :data:`STRAIGHT_SHARE` of their columns that meet it. The bottom of a plane
+    standing on the ground is a straight line in the image, its disparity linear along it; two
+    objects at two depths meet the ground with a step. ``contacts`` rows ``(region, x, y)`` with
+    disparities ``contact_d``."""
+    ground_at = np.full((n_regions + 1, width), np.nan)
+    ground_at[contacts[:, 0], contacts[:, 1]] = contact_d
+    run, xs = _run_columns(x0, x1)
+    line = first[run] + (last[run] - first[run]) * (xs - x0[run]) / np.maximum(x1[run] - x0[run], 1)
+    met = ground_at[region[run], xs]
+    measured = np.isfinite(met)
+    near_line = measured & (np.abs(met - line) <= tolerance_px)
+    return (np.bincount(run, weights=near_line, minlength=x0.size)
+            >= STRAIGHT_SHARE * np.bincount(run, weights=measured, minlength=x0.size))
+
+
+def _run_columns(x0: np.ndarray, x1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every pixel of the runs ``x0[i]..x1[i]`` (``int (n,)``, inclusive): the run it lies in and
+    its column, ``int64 (m,)`` each, run by run from left to right."""
+    lengths = x1 - x0 + 1
+    run = np.repeat(np.arange(lengths.size), lengths)
+    return run, x0[run] + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
 
 
 def _checked_maps(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray,
@@ -257,9 +327,7 @@ def paint_runs(id_map: np.ndarray, disparity: np.ndarray,
     ids, d = np.asarray(id_map, dtype=np.int32), np.asarray(disparity, dtype=np.float32)
     if runs is None:
         return ids, d
-    lengths = runs.x1 - runs.x0 + 1
-    run = np.repeat(np.arange(lengths.size), lengths)
-    xs = runs.x0[run] + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    run, xs = _run_columns(runs.x0, runs.x1)
     ys = runs.y[run]
     left_d, right_d = runs.d_left[run], runs.d_right[run]
     t = (xs - runs.xl[run]) / (runs.xr[run] - runs.xl[run])
