@@ -9,8 +9,9 @@ import pytest
 from _obstacle_scene import CAMERA_HEIGHT_M, GROUND, RIG
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
-from stereo_obstacles.textureless_fill import (TexturelessFillParameters, fill_textureless, textureless_candidates,
-                                               widen_obstacles)
+from stereo_obstacles.face_joining import obstacles_sharing_a_face
+from stereo_obstacles.textureless_fill import (TexturelessFillParameters, bracketed_runs, fill_textureless,
+                                               textureless_candidates, widen_obstacles)
 
 H, W = RIG.height_px, RIG.width_px
 OUTLINE_PX = 3
@@ -104,8 +105,7 @@ LOOSE_CONTACT = TexturelessFillParameters(contact_tolerance_fraction=0.5)
 
 
 @pytest.mark.parametrize("world, params, why", [
-    (lambda: _world(box_m=4.0, right_outline_m=3.4), TexturelessFillParameters(),
-     "outlines 15 % apart, the nearer one not standing on the ground at its depth: two surfaces"),
+    (lambda: _world(box_m=4.0, right_outline_m=3.4), LOOSE_CONTACT, "outlines 15 % apart: two surfaces"),
     (lambda: _world(floating=True), TexturelessFillParameters(), "it meets the ground nearer than its outlines"),
     (lambda: _world(floating=True, hanging_rows=60, hanging_columns=slice(120, 190)), TexturelessFillParameters(),
      "a few of its columns meet the ground (at its depth), the others none within 40 rows"),
@@ -161,6 +161,50 @@ def test_two_faces_at_two_depths_meeting_the_ground_with_a_step_are_left_empty()
     world, _, _ = _receding_face(4.0, 4.6, step=True)
     filled_ids, filled = _fill(world)
     assert np.array_equal(filled_ids, world[0]) and np.array_equal(np.isnan(filled), np.isnan(world[1]))
+
+
+def _runs(world):
+    ids, disparity, labels, left = world
+    return bracketed_runs(textureless_candidates(labels, left), ids, disparity, labels, GROUND)
+
+
+def test_a_receding_face_meets_the_ground_at_its_outlines_depths_and_its_outlines_are_joined():
+    world, true_d, _ = _receding_face(4.0, 4.6)
+    runs = _runs(world)
+    # the contacts: the mean of the ground met in the run's first and last 3 columns (0.1 px a row)
+    np.testing.assert_allclose(runs.contact_left, true_d[OUTLINE_PX + 1], atol=0.12)
+    np.testing.assert_allclose(runs.contact_right, true_d[80 - OUTLINE_PX - 2], atol=0.12)
+    assert obstacles_sharing_a_face(runs, world[0], world[1], RIG) == [(1, 4)]
+
+
+def test_two_objects_of_one_colour_a_little_apart_in_depth_are_not_joined_as_one_face():
+    # 4.0 and 4.35 m: their ends agree within the fill's 10 %, each stands on the ground at its
+    # own depth, but the ground steps between them (a review of session 43 joined them)
+    world, _, _ = _receding_face(4.0, 4.35, step=True)
+    runs = _runs(world)
+    assert runs is not None and np.isnan(runs.contact_left).all() and np.isnan(runs.contact_right).all()
+    assert obstacles_sharing_a_face(runs, world[0], world[1], RIG) == []
+
+
+def test_end_contacts_need_the_ground_met_along_most_of_the_run_and_on_one_line():
+    from stereo_obstacles.textureless_fill import _end_contacts, _GroundMet
+
+    def contacts_of(ground_d):                          # region 1 meets the ground below columns 0..19
+        xs = np.flatnonzero(np.isfinite(ground_d))
+        rows = np.stack([np.ones_like(xs), xs, np.zeros_like(xs)], axis=1)
+        met = _GroundMet.of(rows, ground_d[xs], 1, 20)
+        one = np.array([1])
+        return _end_contacts(met, one, np.array([0]), np.array([19]), np.array([True]), TexturelessFillParameters())
+
+    line = np.linspace(10.0, 12.0, 20)
+    left, right = contacts_of(line)
+    np.testing.assert_allclose([left[0], right[0]], [line[1], line[18]])             # the 3-column means
+    steep = np.linspace(10.0, 19.5, 20)                 # 0.5 px a column: the line through the windows' centres
+    assert np.isfinite(contacts_of(steep)).all()
+    only_ends = np.where((np.arange(20) < 3) | (np.arange(20) > 16), line, np.nan)
+    assert np.isnan(contacts_of(only_ends)).all()                                    # 6 of 20 columns met
+    step = np.where(np.arange(20) < 10, 10.0, 12.0)
+    assert np.isnan(contacts_of(step)).all()
 
 
 def test_a_textured_face_is_no_candidate():

@@ -5,19 +5,21 @@ A face of dull paint or plastic gives the matcher nothing inside its outline
 obstacles: its left edge, its right edge, a lit strip. Each is measured on its own pixels, and the
 one that overlaps the object most need not be the nearest (a cylinder 2.79 m away listed at 2.84,
 2.88 and 2.96 m). The textureless fill finds the rows of such a face that are bracketed on both
-sides by obstacle pixels of agreeing disparity and that stand on the ground at that depth; when
+sides by obstacle pixels of agreeing disparity and that stand on the ground at that depth, or
+whose two ends each stand on the ground at their own depth (a face slanted in depth); when
 the two ends of at least ``min_runs`` of them belong to two different obstacles, both are one
 surface, and the obstacles are joined, if
 
 * the two ends of each of those runs lie within ``end_tolerance_m`` of each other in depth, and
 * the two obstacles' median depths lie within ``max_depth_gap_m`` of each other;
 
-or when at least ``min_runs`` of them stand on the ground at both ends, each end within
-``end_tolerance_m`` in depth of the ground the face meets in the run's first (or last) columns
-(:class:`~stereo_obstacles.textureless_fill.BracketedRuns`): a face slanted in depth, whose
-outlines lie at two depths and whose obstacles' medians may lie farther apart, the one holding
-background beside the outline. The fill has already asked that the ground between the two ends
-follow a straight line (one face, not two objects at two depths).
+or when at least ``min_runs`` of them stand on the ground at both ends: each end within
+``end_tolerance_m`` in depth of the ground the face meets under the run's first (or last)
+columns, the ground it meets along the run on the straight line between those two
+(``contact_left`` and ``contact_right`` of
+:class:`~stereo_obstacles.textureless_fill.BracketedRuns`, which the fill gives only then). Such
+a face may be slanted in depth, its outlines at two depths; its obstacles' medians may lie
+farther apart too, one of them holding background beside the outline.
 
 Joins chain: three pieces of a long face, each pair within the tolerances, make one obstacle
 that may span more in depth (the pieces of a wall receding from the camera are one wall); the
@@ -89,19 +91,19 @@ def obstacles_sharing_a_face(runs: BracketedRuns | None, id_map: np.ndarray, dis
     ids = np.asarray(id_map)
     a, b = ids[runs.y, runs.xl], ids[runs.y, runs.xr]
     level = _within_m(runs.d_left, runs.d_right, params.end_tolerance_m, calibration)
-    on_ground = (_within_m(runs.d_left, runs.contact_left, params.end_tolerance_m, calibration)
-                 & _within_m(runs.d_right, runs.contact_right, params.end_tolerance_m, calibration))
-    counted = (a != b) & (a > 0) & (b > 0) & (level | on_ground)
+    standing_ends = (_within_m(runs.d_left, runs.contact_left, params.end_tolerance_m, calibration)
+                     & _within_m(runs.d_right, runs.contact_right, params.end_tolerance_m, calibration))
+    counted = (a != b) & (a > 0) & (b > 0) & (level | standing_ends)
     if not counted.any():
         return []
     pair_keys = np.stack([np.minimum(a, b)[counted], np.maximum(a, b)[counted]])
     pairs, pair_of, counts = np.unique(pair_keys, axis=1, return_inverse=True, return_counts=True)
-    grounded = np.bincount(np.ravel(pair_of), weights=on_ground[counted], minlength=counts.size)
+    standing_counts = np.bincount(np.ravel(pair_of), weights=standing_ends[counted], minlength=counts.size)
     joined = []
-    for (first, second), count, on_ground_count in zip(pairs.T, counts, grounded):
+    for (first, second), count, standing_count in zip(pairs.T, counts, standing_counts):
         if count < params.min_runs:
             continue
-        if on_ground_count >= params.min_runs:      # a face standing on the ground from one end to the other
+        if standing_count >= params.min_runs:      # a face standing on the ground from one end to the other
             joined.append((int(first), int(second)))
             continue
         medians = [float(np.nanmedian(disparity[ids == k])) for k in (first, second)]

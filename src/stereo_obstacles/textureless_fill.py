@@ -14,14 +14,14 @@ least ``min_area_px`` pixels remain. Along each
 row, a run of the region is *bracketed* when an obstacle pixel with a disparity lies within
 ``reach_px`` on both sides and the two disparities agree (``max(end_tolerance_px,
 end_tolerance_fraction * d)``): one surface continues between them. A run is bracketed too when
-its two ends lie at two depths but each stands on the ground at its own: the ground the region
-meets in the run's first :data:`END_CONTACT_COLUMNS` columns agrees with the left end's disparity
-and in its last ones with the right end's (the contact tolerance below), and in between the ground
-it meets follows the straight line in disparity from the one to the other within
-``slant_tolerance_px`` (in :data:`STRAIGHT_SHARE` of its columns): a face slanted in depth, whose
-bottom is a straight line on the ground, and not two objects of one colour at two depths, which
-meet the ground with a step (``docs/pipeline.md``, "Textureless faces slanted in depth", session
-43). A region is filled when
+its two ends lie at two depths but each stands on the ground at its own, as a face slanted in
+depth does: the region meets the ground below at least ``min_contact_fraction`` of the run's
+columns, along the straight line in disparity (within ``slant_tolerance_px`` in
+:data:`STRAIGHT_SHARE` of those columns) between its means under the run's first and under its
+last :data:`END_CONTACT_COLUMNS` columns, and each end agrees with the mean at its side as two ends
+must agree. The bottom of a plane standing on the ground is a straight line in the image, its
+disparity linear along it; two objects of one colour at two depths meet the ground with a step
+(``docs/pipeline.md``, "Textureless faces slanted in depth", session 43). A region is filled when
 
 * at least ``min_bracketed_fraction`` of its rows have a bracketed run, and
 * it stands on the ground at the depth of its outline: walking down from its lowest pixel in
@@ -69,8 +69,8 @@ class TexturelessFillParameters:
     tolerances in pixels or as a fraction of the disparity.
 
     ``edge_thresholds`` are Canny's two thresholds on the left image's grey levels (0-255);
-    ``slant_tolerance_px`` how far (pixels of disparity) the ground a run of a face slanted in depth
-    meets may lie from the straight line between its ends' contacts.
+    ``slant_tolerance_px`` how far (pixels of disparity) the ground a run meets may lie from the
+    straight line between the ground under its two ends, for a face slanted in depth.
     """
 
     min_area_px: int = 150
@@ -135,34 +135,53 @@ def textureless_candidates(labels: np.ndarray, left_rgb: np.ndarray,
     return cv2.resize(renumber[components], (w, h), interpolation=cv2.INTER_NEAREST) * obstacle
 
 
-def _mean_over_columns(contacts: np.ndarray, contact_d: np.ndarray, n_regions: int, width: int, region: np.ndarray,
-                       x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
-    """``float64 (n,)``: the mean ground disparity where region ``region[i]`` meets the ground in
-    columns ``x0[i]..x1[i]`` (NaN: nowhere there); ``contacts`` rows ``(region, x, y)`` with
-    their disparities ``contact_d``."""
-    sums = np.zeros((n_regions + 1, width + 1))
-    counts = np.zeros((n_regions + 1, width + 1))
-    np.add.at(sums, (contacts[:, 0], contacts[:, 1] + 1), contact_d)
-    np.add.at(counts, (contacts[:, 0], contacts[:, 1] + 1), 1.0)
-    sums, counts = np.cumsum(sums, axis=1), np.cumsum(counts, axis=1)
-    n = counts[region, x1 + 1] - counts[region, x0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(n > 0, (sums[region, x1 + 1] - sums[region, x0]) / n, np.nan)
+@dataclass(frozen=True)
+class _GroundMet:
+    """Where each textureless region meets the ground, column by column: ``at[k, x]`` (``float64
+    (n_regions + 1, W)``) is the ground plane's disparity where region ``k`` meets it below column
+    ``x`` (NaN: it meets none there), with its cumulative sums and counts along the columns."""
+
+    at: np.ndarray
+    sums: np.ndarray
+    counts: np.ndarray
+
+    @classmethod
+    def of(cls, contacts: np.ndarray, contact_d: np.ndarray, n_regions: int, width: int) -> _GroundMet:
+        """From the contacts (rows ``(region, x, y)``, one per region and column) and their
+        disparities ``contact_d``."""
+        at = np.full((n_regions + 1, width), np.nan)
+        at[contacts[:, 0], contacts[:, 1]] = contact_d
+        met = np.isfinite(at)
+        zero = np.zeros((n_regions + 1, 1))
+        return cls(at, np.hstack([zero, np.cumsum(np.where(met, at, 0.0), axis=1)]),
+                   np.hstack([zero, np.cumsum(met, axis=1)]))
+
+    def mean(self, region: np.ndarray, x0: np.ndarray, x1: np.ndarray) -> np.ndarray:
+        """``float64 (n,)``: the mean ground disparity where region ``region[i]`` meets the ground in
+        columns ``x0[i]..x1[i]``; NaN where it meets none there."""
+        n = self.counts[region, x1 + 1] - self.counts[region, x0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(n > 0, (self.sums[region, x1 + 1] - self.sums[region, x0]) / n, np.nan)
 
 
 END_CONTACT_COLUMNS = 3
 """A run's end meets the ground where the region does in the run's first (or last) this many columns."""
+
+STRAIGHT_SHARE = 0.9
+"""A run meets the ground along the straight line between its ends in at least this share of its
+columns that meet the ground."""
 
 
 @dataclass(frozen=True)
 class BracketedRuns:
     """The runs of the textureless regions that :func:`fill_textureless` fills: in row ``y``,
     columns ``x0..x1`` (inclusive), bracketed by obstacle pixels at columns ``xl`` (left) and
-    ``xr`` (right) of disparities ``d_left`` and ``d_right``; the region meets the ground at
-    disparities ``contact_left`` and ``contact_right`` in the run's first and last
-    :data:`END_CONTACT_COLUMNS` columns (their mean, NaN where it meets none there). Each field is
-    an array of one value per run (``int64``; the disparities ``float32``, the contacts
-    ``float64``, pixels)."""
+    ``xr`` (right) of disparities ``d_left`` and ``d_right``. ``contact_left`` and
+    ``contact_right`` are the ground disparities where the region meets the ground in the run's
+    first and last :data:`END_CONTACT_COLUMNS` columns (their means), given only when the ground
+    it meets along the whole run lies on the straight line between them (one face standing on the
+    ground from end to end; module docstring), NaN otherwise. Each field is an array of one value
+    per run (``int64``; the disparities ``float32``, the contacts ``float64``, pixels)."""
 
     y: np.ndarray
     x0: np.ndarray
@@ -191,28 +210,21 @@ def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.nda
     contacts, columns = ground_contacts_kernel(regions, n_regions, np.ascontiguousarray(labels, dtype=np.uint8),
                                                Label.GROUND.value, Label.SHADOW.value, params.max_walk_px)
     contact_d = ground.disparity_at(contacts[:, 1].astype(np.float64), contacts[:, 2].astype(np.float64))
+    met = _GroundMet.of(contacts, contact_d, n_regions, ids.shape[1])
+    contact_left, contact_right = _end_contacts(met, region, x0, x1, both_ends, params)
 
-    def contact_in(first: np.ndarray, last: np.ndarray) -> np.ndarray:
-        return _mean_over_columns(contacts, contact_d, n_regions, ids.shape[1], region, first, last)
+    def agree_as_ends(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return _agree(a, b, params.end_tolerance_px, params.end_tolerance_fraction)
 
-    def on_ground(end_d: np.ndarray, contact: np.ndarray) -> np.ndarray:
-        return _agree(end_d, contact, params.contact_tolerance_px, params.contact_tolerance_fraction)
-
-    # the ground each end of a run meets in the run's own first and last columns: a face slanted in
-    # depth stands on the ground at each of its outlines' depths
-    contact_left = contact_in(x0, np.minimum(x0 + END_CONTACT_COLUMNS - 1, x1))
-    contact_right = contact_in(np.maximum(x1 - END_CONTACT_COLUMNS + 1, x0), x1)
-    slanted = both_ends & on_ground(d_left, contact_left) & on_ground(d_right, contact_right)
-    slanted[slanted] = _straight_contacts(contacts, contact_d, n_regions, ids.shape[1], region[slanted], x0[slanted],
-                                          x1[slanted], contact_left[slanted], contact_right[slanted],
-                                          params.slant_tolerance_px)
-    bracketed = both_ends & (_agree(d_left, d_right, params.end_tolerance_px, params.end_tolerance_fraction)
-                             | slanted)
+    # a face slanted in depth: its ends at two depths, each standing on the ground at its own
+    slanted = agree_as_ends(d_left, contact_left) & agree_as_ends(d_right, contact_right)
+    bracketed = both_ends & (agree_as_ends(d_left, d_right) | slanted)
     standing = _standing_regions(region * ids.shape[0] + y, bracketed, d_left, d_right, contacts, contact_d, columns,
                                  n_regions, ids.shape[0], params)
     # each run stands where its nearer end does: the ground it meets in its own columns agrees
     # with that end (a run between the edges of two nearer objects meets the ground behind them)
-    stands = on_ground(np.maximum(d_left, d_right), contact_in(x0, x1)) | slanted
+    stands = slanted | _agree(np.maximum(d_left, d_right), met.mean(region, x0, x1), params.contact_tolerance_px,
+                              params.contact_tolerance_fraction)
     chosen = bracketed & standing[region] & stands
     if not chosen.any():
         return None
@@ -220,29 +232,31 @@ def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.nda
                          contact_left[chosen], contact_right[chosen])
 
 
-STRAIGHT_SHARE = 0.9
-"""A slanted run's contacts follow the straight line between its ends in at least this share of its
-columns that meet the ground."""
-
-
-def _straight_contacts(contacts: np.ndarray, contact_d: np.ndarray, n_regions: int, width: int, region: np.ndarray,
-                       x0: np.ndarray, x1: np.ndarray, first: np.ndarray, last: np.ndarray,
-                       tolerance_px: float) -> np.ndarray:
-    """``bool (n,)``: which runs (region ``region[i]``, columns ``x0[i]..x1[i]``) meet the ground
-    along a straight line in disparity from ``first[i]`` at ``x0`` to ``last[i]`` at ``x1``, within
-    ``tolerance_px`` in :data:`STRAIGHT_SHARE` of their columns that meet it. The bottom of a plane
-    standing on the ground is a straight line in the image, its disparity linear along it; two
-    objects at two depths meet the ground with a step. ``contacts`` rows ``(region, x, y)`` with
-    disparities ``contact_d``."""
-    ground_at = np.full((n_regions + 1, width), np.nan)
-    ground_at[contacts[:, 0], contacts[:, 1]] = contact_d
-    run, xs = _run_columns(x0, x1)
-    line = first[run] + (last[run] - first[run]) * (xs - x0[run]) / np.maximum(x1[run] - x0[run], 1)
-    met = ground_at[region[run], xs]
-    measured = np.isfinite(met)
-    near_line = measured & (np.abs(met - line) <= tolerance_px)
-    return (np.bincount(run, weights=near_line, minlength=x0.size)
-            >= STRAIGHT_SHARE * np.bincount(run, weights=measured, minlength=x0.size))
+def _end_contacts(met: _GroundMet, region: np.ndarray, x0: np.ndarray, x1: np.ndarray, candidates: np.ndarray,
+                  params: TexturelessFillParameters) -> tuple[np.ndarray, np.ndarray]:
+    """``float64 (n,)`` twice: the ground disparity where each run's region meets the ground in
+    the run's first and in its last :data:`END_CONTACT_COLUMNS` columns (their means), for the
+    ``candidates`` (``bool (n,)``) among the runs (region ``region[i]``, columns ``x0[i]..x1[i]``)
+    that meet the ground in ``min_contact_fraction`` of their columns, along the straight line in
+    disparity between those two within ``slant_tolerance_px`` in :data:`STRAIGHT_SHARE` of them;
+    NaN for the others. The bottom of a plane standing on the ground is a straight line in the
+    image, its disparity linear along it; two objects at two depths meet the ground with a step."""
+    left_end, right_end = np.minimum(x0 + END_CONTACT_COLUMNS - 1, x1), np.maximum(x1 - END_CONTACT_COLUMNS + 1, x0)
+    left, right = met.mean(region, x0, left_end), met.mean(region, right_end, x1)
+    tested = np.flatnonzero(candidates & np.isfinite(left) & np.isfinite(right))
+    run, xs = _run_columns(x0[tested], x1[tested])
+    at_left, at_right = (x0[tested] + left_end[tested]) / 2, (right_end[tested] + x1[tested]) / 2  # windows' centres
+    slope = (right[tested] - left[tested]) / np.maximum(at_right - at_left, 1.0)
+    line = left[tested][run] + slope[run] * (xs - at_left[run])
+    ground_d = met.at[region[tested][run], xs]
+    measured = np.isfinite(ground_d)
+    near_line = measured & (np.abs(ground_d - line) <= params.slant_tolerance_px)
+    n_measured = np.bincount(run, weights=measured, minlength=tested.size)
+    straight = ((n_measured >= params.min_contact_fraction * (x1[tested] - x0[tested] + 1))
+                & (np.bincount(run, weights=near_line, minlength=tested.size) >= STRAIGHT_SHARE * n_measured))
+    kept = np.zeros(x0.size, bool)
+    kept[tested[straight]] = True
+    return np.where(kept, left, np.nan), np.where(kept, right, np.nan)
 
 
 def _run_columns(x0: np.ndarray, x1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
