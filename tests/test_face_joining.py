@@ -17,10 +17,12 @@ from stereo_obstacles.textureless_fill import BracketedRuns
 RIG = StereoCalibration(focal_px=554.26, cx_px=319.5, cy_px=239.5, baseline_m=0.12)   # f B = 66.5 px m
 
 
-def _two_outlines(d_left: float, d_right: float, rows: int = 8, contacts: tuple[float, float] = (np.nan, np.nan)):
+def _two_outlines(d_left: float, d_right: float, rows: int = 8, contacts: tuple[float, float] = (np.nan, np.nan),
+                  stepped: bool = False):
     """Obstacle 1 in columns 10..13 at ``d_left``, obstacle 2 in columns 30..33 at ``d_right``,
     and the runs between them (columns 14..29) in the first ``rows`` rows, meeting the ground at
-    disparities ``contacts`` in their first and last columns (NaN: nowhere)."""
+    disparities ``contacts`` in their first and last columns (NaN: nowhere), with a step between
+    them when ``stepped``."""
     ids = np.zeros((20, 40), np.int32)
     disparity = np.full((20, 40), np.nan, np.float32)
     ids[:, 10:14], disparity[:, 10:14] = 1, d_left
@@ -29,7 +31,7 @@ def _two_outlines(d_left: float, d_right: float, rows: int = 8, contacts: tuple[
     runs = BracketedRuns(y=y, x0=np.full(rows, 14), x1=np.full(rows, 29), xl=np.full(rows, 13),
                          xr=np.full(rows, 30), d_left=np.full(rows, d_left, np.float32),
                          d_right=np.full(rows, d_right, np.float32), contact_left=np.full(rows, contacts[0]),
-                         contact_right=np.full(rows, contacts[1]))
+                         contact_right=np.full(rows, contacts[1]), stepped=np.full(rows, stepped))
     return runs, ids, disparity
 
 
@@ -68,6 +70,15 @@ def test_the_outlines_of_a_face_receding_from_one_to_the_other_are_joined_where_
         assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == [], contacts
     runs, ids, disparity = _two_outlines(26.0, 23.0, rows=4, contacts=(26.0, 23.0))
     assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == []          # 4 rows, 5 needed
+
+
+def test_outlines_at_two_depths_over_ground_that_steps_are_two_objects_but_at_one_depth_one():
+    runs, ids, disparity = _two_outlines(26.0, 23.0, contacts=(25.5, 23.3), stepped=True)
+    assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == []
+    # ends 0.04 m apart, the obstacles' medians 0.77 m: one face at one depth, whatever the ground
+    runs, ids, disparity = _two_outlines(26.0, 26.4, contacts=(26.0, 26.4), stepped=True)
+    disparity[ids == 2] = 20.0
+    assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == [(1, 2)]
 
 
 @pytest.mark.parametrize("field, value", [("min_runs", 0), ("min_runs", 2.0), ("end_tolerance_m", -0.1),

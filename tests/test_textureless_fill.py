@@ -177,13 +177,28 @@ def test_a_receding_face_meets_the_ground_at_its_outlines_depths_and_its_outline
     assert obstacles_sharing_a_face(runs, world[0], world[1], RIG) == [(1, 4)]
 
 
-def test_two_objects_of_one_colour_a_little_apart_in_depth_are_not_joined_as_one_face():
-    # 4.0 and 4.35 m: their ends agree within the fill's 10 %, each stands on the ground at its
-    # own depth, but the ground steps between them (a review of session 43 joined them)
-    world, _, _ = _receding_face(4.0, 4.35, step=True)
+@pytest.mark.parametrize("near_m, far_m", [(4.0, 4.35), (5.0, 5.35), (6.0, 6.5), (8.0, 8.35), (8.0, 8.6)])
+def test_two_objects_of_one_colour_a_little_apart_in_depth_are_not_joined_as_one_face(near_m, far_m):
+    # each stands on the ground at its own depth, but the ground steps between them; from 5 m on
+    # the step (0.55 px at 5 m, 0.22 px at 8 m) lies within twice the line's 0.3 px (two reviews
+    # of session 43 joined them)
+    world, _, _ = _receding_face(near_m, far_m, step=True)
     runs = _runs(world)
-    assert runs is not None and np.isnan(runs.contact_left).all() and np.isnan(runs.contact_right).all()
-    assert obstacles_sharing_a_face(runs, world[0], world[1], RIG) == []
+    assert runs is None or obstacles_sharing_a_face(runs, world[0], world[1], RIG) == []
+
+
+@pytest.mark.parametrize("near_m, far_m", [(5.0, 5.35), (6.0, 6.5), (8.0, 8.6)])
+def test_a_face_receding_a_little_far_away_is_still_one_face(near_m, far_m):
+    world, _, _ = _receding_face(near_m, far_m)
+    assert obstacles_sharing_a_face(_runs(world), world[0], world[1], RIG) == [(1, 4)]
+
+
+def test_rows_whose_ends_agree_are_held_to_the_contact_tolerance_as_before():
+    # ends 8 % apart (within the ends' 10 %), the nearer 0.33 m in front of the ground it meets:
+    # with the contact tolerance at 0.5 px the box is not filled, as before the slanted rows came
+    tight = TexturelessFillParameters(contact_tolerance_px=0.5, end_tolerance_px=0.5)
+    world = _world(box_m=4.0, right_outline_m=3.67)
+    assert np.array_equal(_fill(world, tight)[0], world[0])
 
 
 def test_end_contacts_need_the_ground_met_along_most_of_the_run_and_on_one_line():
@@ -194,17 +209,22 @@ def test_end_contacts_need_the_ground_met_along_most_of_the_run_and_on_one_line(
         rows = np.stack([np.ones_like(xs), xs, np.zeros_like(xs)], axis=1)
         met = _GroundMet.of(rows, ground_d[xs], 1, 20)
         one = np.array([1])
-        return _end_contacts(met, one, np.array([0]), np.array([19]), np.array([True]), TexturelessFillParameters())
+        left, right, stepped = _end_contacts(met, one, np.array([0]), np.array([19]), np.array([True]),
+                                             TexturelessFillParameters())
+        return left[0], right[0], bool(stepped[0])
 
     line = np.linspace(10.0, 12.0, 20)
-    left, right = contacts_of(line)
-    np.testing.assert_allclose([left[0], right[0]], [line[1], line[18]])             # the 3-column means
+    np.testing.assert_allclose(contacts_of(line), (line[1], line[18], False))      # the 3-column means
     steep = np.linspace(10.0, 19.5, 20)                 # 0.5 px a column: the line through the windows' centres
-    assert np.isfinite(contacts_of(steep)).all()
+    assert np.isfinite(contacts_of(steep)[:2]).all()
+    for level in (10.1, 13.7, 27.3):                    # a face at one depth: a step and a line fit it alike
+        assert np.isfinite(contacts_of(np.full(20, level))[:2]).all() and not contacts_of(np.full(20, level))[2]
     only_ends = np.where((np.arange(20) < 3) | (np.arange(20) > 16), line, np.nan)
-    assert np.isnan(contacts_of(only_ends)).all()                                    # 6 of 20 columns met
-    step = np.where(np.arange(20) < 10, 10.0, 12.0)
-    assert np.isnan(contacts_of(step)).all()
+    assert np.isnan(contacts_of(only_ends)[:2]).all()                                # 6 of 20 columns met
+    left, right, stepped = contacts_of(np.where(np.arange(20) < 10, 10.0, 12.0))
+    assert np.isnan([left, right]).all() and stepped                                 # 1 px off the line
+    left, right, stepped = contacts_of(np.where(np.arange(20) < 10, 10.0, 10.4))
+    assert np.isfinite([left, right]).all() and stepped                              # within 0.3 px, but a step
 
 
 def test_a_textured_face_is_no_candidate():

@@ -17,9 +17,11 @@ or when at least ``min_runs`` of them stand on the ground at both ends: each end
 ``end_tolerance_m`` in depth of the ground the face meets under the run's first (or last)
 columns, the ground it meets along the run on the straight line between those two
 (``contact_left`` and ``contact_right`` of
-:class:`~stereo_obstacles.textureless_fill.BracketedRuns`, which the fill gives only then). Such
-a face may be slanted in depth, its outlines at two depths; its obstacles' medians may lie
-farther apart too, one of them holding background beside the outline.
+:class:`~stereo_obstacles.textureless_fill.BracketedRuns`, which the fill gives only then), and,
+unless the two ends lie within ``end_tolerance_m`` of each other, no step fitting that ground
+better than the line (``stepped``: two objects of one colour side by side, a little apart in
+depth). Such a face may be slanted in depth, its outlines at two depths; its obstacles' medians
+may lie farther apart too, one of them holding background beside the outline.
 
 Joins chain: three pieces of a long face, each pair within the tolerances, make one obstacle
 that may span more in depth (the pieces of a wall receding from the camera are one wall); the
@@ -91,7 +93,10 @@ def obstacles_sharing_a_face(runs: BracketedRuns | None, id_map: np.ndarray, dis
     ids = np.asarray(id_map)
     a, b = ids[runs.y, runs.xl], ids[runs.y, runs.xr]
     level = _within_m(runs.d_left, runs.d_right, params.end_tolerance_m, calibration)
-    standing_ends = (_within_m(runs.d_left, runs.contact_left, params.end_tolerance_m, calibration)
+    # both ends on the ground at their own depths: one face, unless the ground steps between ends
+    # at two depths (two objects of one colour side by side)
+    standing_ends = ((level | ~runs.stepped)
+                     & _within_m(runs.d_left, runs.contact_left, params.end_tolerance_m, calibration)
                      & _within_m(runs.d_right, runs.contact_right, params.end_tolerance_m, calibration))
     counted = (a != b) & (a > 0) & (b > 0) & (level | standing_ends)
     if not counted.any():

@@ -13,15 +13,16 @@ half the size, dilated by one pixel: a textured surface falls apart into small p
 least ``min_area_px`` pixels remain. Along each
 row, a run of the region is *bracketed* when an obstacle pixel with a disparity lies within
 ``reach_px`` on both sides and the two disparities agree (``max(end_tolerance_px,
-end_tolerance_fraction * d)``): one surface continues between them. A run is bracketed too when
-its two ends lie at two depths but each stands on the ground at its own, as a face slanted in
-depth does: the region meets the ground below at least ``min_contact_fraction`` of the run's
+end_tolerance_fraction * d)``): one surface continues between them. A run whose ends disagree is
+bracketed too when each stands on the ground at its own depth, as the ends of a face slanted in
+depth do: the region meets the ground below at least ``min_contact_fraction`` of the run's
 columns, along the straight line in disparity (within ``slant_tolerance_px`` in
 :data:`STRAIGHT_SHARE` of those columns) between its means under the run's first and under its
-last :data:`END_CONTACT_COLUMNS` columns, and each end agrees with the mean at its side as two ends
-must agree. The bottom of a plane standing on the ground is a straight line in the image, its
-disparity linear along it; two objects of one colour at two depths meet the ground with a step
-(``docs/pipeline.md``, "Textureless faces slanted in depth", session 43). A region is filled when
+last :data:`END_CONTACT_COLUMNS` columns, and each end agrees with the mean at its side as two
+ends must agree. The bottom of a plane standing on the ground is a straight line in the image,
+its disparity linear along it; two objects of one colour at two depths meet the ground with a
+step (``docs/pipeline.md``, "Textureless faces slanted in depth", session 43). A region is
+filled when
 
 * at least ``min_bracketed_fraction`` of its rows have a bracketed run, and
 * it stands on the ground at the depth of its outline: walking down from its lowest pixel in
@@ -179,9 +180,11 @@ class BracketedRuns:
     ``xr`` (right) of disparities ``d_left`` and ``d_right``. ``contact_left`` and
     ``contact_right`` are the ground disparities where the region meets the ground in the run's
     first and last :data:`END_CONTACT_COLUMNS` columns (their means), given only when the ground
-    it meets along the whole run lies on the straight line between them (one face standing on the
-    ground from end to end; module docstring), NaN otherwise. Each field is an array of one value
-    per run (``int64``; the disparities ``float32``, the contacts ``float64``, pixels)."""
+    it meets along the run lies on the straight line between them (:func:`_end_contacts`), NaN
+    otherwise; ``stepped`` says that a step between two levels fits that ground better than a
+    line (two objects side by side at two depths, or a face that bends; ``False`` where no ground
+    was measured). Each field is an array of one value per run (``int64``; the disparities
+    ``float32``, the contacts ``float64``, pixels; ``stepped`` ``bool``)."""
 
     y: np.ndarray
     x0: np.ndarray
@@ -192,6 +195,7 @@ class BracketedRuns:
     d_right: np.ndarray
     contact_left: np.ndarray
     contact_right: np.ndarray
+    stepped: np.ndarray
 
 
 def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.ndarray, labels: np.ndarray,
@@ -211,14 +215,15 @@ def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.nda
                                                Label.GROUND.value, Label.SHADOW.value, params.max_walk_px)
     contact_d = ground.disparity_at(contacts[:, 1].astype(np.float64), contacts[:, 2].astype(np.float64))
     met = _GroundMet.of(contacts, contact_d, n_regions, ids.shape[1])
-    contact_left, contact_right = _end_contacts(met, region, x0, x1, both_ends, params)
+    contact_left, contact_right, stepped = _end_contacts(met, region, x0, x1, both_ends, params)
 
     def agree_as_ends(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return _agree(a, b, params.end_tolerance_px, params.end_tolerance_fraction)
 
+    level = agree_as_ends(d_left, d_right)
     # a face slanted in depth: its ends at two depths, each standing on the ground at its own
-    slanted = agree_as_ends(d_left, contact_left) & agree_as_ends(d_right, contact_right)
-    bracketed = both_ends & (agree_as_ends(d_left, d_right) | slanted)
+    slanted = ~level & agree_as_ends(d_left, contact_left) & agree_as_ends(d_right, contact_right)
+    bracketed = both_ends & (level | slanted)
     standing = _standing_regions(region * ids.shape[0] + y, bracketed, d_left, d_right, contacts, contact_d, columns,
                                  n_regions, ids.shape[0], params)
     # each run stands where its nearer end does: the ground it meets in its own columns agrees
@@ -229,18 +234,22 @@ def bracketed_runs(candidates: np.ndarray, id_map: np.ndarray, disparity: np.nda
     if not chosen.any():
         return None
     return BracketedRuns(y[chosen], x0[chosen], x1[chosen], xl[chosen], xr[chosen], d_left[chosen], d_right[chosen],
-                         contact_left[chosen], contact_right[chosen])
+                         contact_left[chosen], contact_right[chosen], stepped[chosen])
 
 
 def _end_contacts(met: _GroundMet, region: np.ndarray, x0: np.ndarray, x1: np.ndarray, candidates: np.ndarray,
-                  params: TexturelessFillParameters) -> tuple[np.ndarray, np.ndarray]:
-    """``float64 (n,)`` twice: the ground disparity where each run's region meets the ground in
-    the run's first and in its last :data:`END_CONTACT_COLUMNS` columns (their means), for the
+                  params: TexturelessFillParameters) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ground under each run's ends, and whether it steps.
+
+    Returns ``float64 (n,)`` twice: the ground disparity where each run's region meets the ground
+    in the run's first and in its last :data:`END_CONTACT_COLUMNS` columns (their means), for the
     ``candidates`` (``bool (n,)``) among the runs (region ``region[i]``, columns ``x0[i]..x1[i]``)
     that meet the ground in ``min_contact_fraction`` of their columns, along the straight line in
-    disparity between those two within ``slant_tolerance_px`` in :data:`STRAIGHT_SHARE` of them;
-    NaN for the others. The bottom of a plane standing on the ground is a straight line in the
-    image, its disparity linear along it; two objects at two depths meet the ground with a step."""
+    disparity between those two (placed at the centres of their columns) within
+    ``slant_tolerance_px`` in :data:`STRAIGHT_SHARE` of them, NaN for the others; and ``bool
+    (n,)``: the candidates whose ground a step fits better than a line (:func:`_steps`). The
+    bottom of a plane standing on the ground is a straight line in the image, its disparity linear
+    along it; two objects at two depths meet the ground with a step."""
     left_end, right_end = np.minimum(x0 + END_CONTACT_COLUMNS - 1, x1), np.maximum(x1 - END_CONTACT_COLUMNS + 1, x0)
     left, right = met.mean(region, x0, left_end), met.mean(region, right_end, x1)
     tested = np.flatnonzero(candidates & np.isfinite(left) & np.isfinite(right))
@@ -254,9 +263,47 @@ def _end_contacts(met: _GroundMet, region: np.ndarray, x0: np.ndarray, x1: np.nd
     n_measured = np.bincount(run, weights=measured, minlength=tested.size)
     straight = ((n_measured >= params.min_contact_fraction * (x1[tested] - x0[tested] + 1))
                 & (np.bincount(run, weights=near_line, minlength=tested.size) >= STRAIGHT_SHARE * n_measured))
-    kept = np.zeros(x0.size, bool)
+    kept, stepped = np.zeros(x0.size, bool), np.zeros(x0.size, bool)
     kept[tested[straight]] = True
-    return np.where(kept, left, np.nan), np.where(kept, right, np.nan)
+    stepped[tested] = _steps(run[measured], xs[measured], ground_d[measured], tested.size)
+    return np.where(kept, left, np.nan), np.where(kept, right, np.nan), stepped
+
+
+def _steps(run: np.ndarray, xs: np.ndarray, ground_d: np.ndarray, n_runs: int) -> np.ndarray:
+    """``bool (n_runs,)``: which runs' ground a step fits better than a straight line does: two
+    levels, split between two of the run's columns, leave less squared error than the
+    least-squares line. Two objects side by side a little apart in depth meet the ground with a
+    step smaller than twice ``slant_tolerance_px``, which the line's tolerance alone does not see.
+    ``ground_d`` (finite) at columns ``xs`` of runs ``run`` (``(m,)`` each, run by run, left to
+    right)."""
+    xs, ground_d = xs.astype(np.float64), ground_d.astype(np.float64)
+
+    def per_run(values: np.ndarray) -> np.ndarray:
+        return np.bincount(run, weights=values, minlength=n_runs)
+
+    n, sum_x, sum_d, sum_dd = per_run(np.ones_like(xs)), per_run(xs), per_run(ground_d), per_run(ground_d ** 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        spread_x = per_run(xs ** 2) - sum_x ** 2 / n
+        covariance = per_run(xs * ground_d) - sum_x * sum_d / n
+        line_error = sum_dd - sum_d ** 2 / n - np.where(spread_x > 0, covariance ** 2 / spread_x, 0.0)
+        # each split after a column that is not its run's last: the left part up to it, the right the rest
+        start = np.searchsorted(run, run)
+        cumulative_d, cumulative_dd = np.cumsum(ground_d), np.cumsum(ground_d ** 2)
+        left_d = cumulative_d - np.where(start > 0, cumulative_d[start - 1], 0.0)
+        left_dd = cumulative_dd - np.where(start > 0, cumulative_dd[start - 1], 0.0)
+        left_n = np.arange(run.size) - start + 1.0
+        right_n = n[run] - left_n
+        split = right_n > 0
+        step_error = (left_dd - left_d ** 2 / left_n + (sum_dd[run] - left_dd)
+                      - (sum_d[run] - left_d) ** 2 / right_n)
+    best_step = np.full(n_runs, np.inf)
+    np.minimum.at(best_step, run[split], step_error[split])
+    return best_step < line_error - ROUNDING_PX2 * n
+
+
+ROUNDING_PX2 = 1e-6
+"""Squared error per column (pixels^2) below which a step and a line fit the ground equally well
+(the rounding of the sums; the ground's rows are 0.1 px of disparity apart in the synthetic rig)."""
 
 
 def _run_columns(x0: np.ndarray, x1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
