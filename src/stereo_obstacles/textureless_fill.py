@@ -182,9 +182,10 @@ class BracketedRuns:
     first and last :data:`END_CONTACT_COLUMNS` columns (their means), given only when the ground
     it meets along the run lies on the straight line between them (:func:`_end_contacts`), NaN
     otherwise; ``stepped`` says that a step between two levels fits that ground better than a
-    line (two objects side by side at two depths, or a face that bends; ``False`` where no ground
-    was measured). Each field is an array of one value per run (``int64``; the disparities
-    ``float32``, the contacts ``float64``, pixels; ``stepped`` ``bool``)."""
+    line (two objects side by side at two depths, or a face that bends; ``False`` for a run
+    without the ground under its first and last columns, and where no step was tested). Each field
+    is an array of one value per run (``int64``; the disparities ``float32``, the contacts
+    ``float64``, pixels; ``stepped`` ``bool``)."""
 
     y: np.ndarray
     x0: np.ndarray
