@@ -222,7 +222,7 @@ def test_end_contacts_need_the_ground_met_along_most_of_the_run_and_on_one_line(
     only_ends = np.where((np.arange(20) < 3) | (np.arange(20) > 16), line, np.nan)
     assert np.isnan(contacts_of(only_ends)[:2]).all()                                # 6 of 20 columns met
     left, right, stepped = contacts_of(np.where(np.arange(20) < 10, 10.0, 12.0))
-    assert np.isnan([left, right]).all() and stepped                                 # 1 px off the line
+    assert np.isnan([left, right]).all() and not stepped     # 1 px off the line: no contacts, so no step asked
     left, right, stepped = contacts_of(np.where(np.arange(20) < 10, 10.0, 10.4))
     assert np.isfinite([left, right]).all() and stepped                              # within 0.3 px, but a step
 

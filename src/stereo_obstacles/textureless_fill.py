@@ -183,9 +183,8 @@ class BracketedRuns:
     it meets along the run lies on the straight line between them (:func:`_end_contacts`), NaN
     otherwise; ``stepped`` says that a step between two levels fits that ground better than a
     line (two objects side by side at two depths, or a face that bends; ``False`` for a run
-    without the ground under its first and last columns, and where no step was tested). Each field
-    is an array of one value per run (``int64``; the disparities ``float32``, the contacts
-    ``float64``, pixels; ``stepped`` ``bool``)."""
+    without contacts). Each field is an array of one value per run (``int64``; the disparities
+    ``float32``, the contacts ``float64``, pixels; ``stepped`` ``bool``)."""
 
     y: np.ndarray
     x0: np.ndarray
@@ -248,7 +247,7 @@ def _end_contacts(met: _GroundMet, region: np.ndarray, x0: np.ndarray, x1: np.nd
     that meet the ground in ``min_contact_fraction`` of their columns, along the straight line in
     disparity between those two (placed at the centres of their columns) within
     ``slant_tolerance_px`` in :data:`STRAIGHT_SHARE` of them, NaN for the others; and ``bool
-    (n,)``: the candidates whose ground a step fits better than a line (:func:`_steps`). The
+    (n,)``: the runs with contacts whose ground a step fits better than a line (:func:`_steps`). The
     bottom of a plane standing on the ground is a straight line in the image, its disparity linear
     along it; two objects at two depths meet the ground with a step."""
     left_end, right_end = np.minimum(x0 + END_CONTACT_COLUMNS - 1, x1), np.maximum(x1 - END_CONTACT_COLUMNS + 1, x0)
@@ -266,7 +265,10 @@ def _end_contacts(met: _GroundMet, region: np.ndarray, x0: np.ndarray, x1: np.nd
                 & (np.bincount(run, weights=near_line, minlength=tested.size) >= STRAIGHT_SHARE * n_measured))
     kept, stepped = np.zeros(x0.size, bool), np.zeros(x0.size, bool)
     kept[tested[straight]] = True
-    stepped[tested] = _steps(run[measured], xs[measured], ground_d[measured], tested.size)
+    on_straight = measured & straight[run]              # the step matters only where there are contacts
+    renumbered = np.cumsum(straight) - 1
+    stepped[tested[straight]] = _steps(renumbered[run[on_straight]], xs[on_straight], ground_d[on_straight],
+                                       int(straight.sum()))
     return np.where(kept, left, np.nan), np.where(kept, right, np.nan), stepped
 
 
