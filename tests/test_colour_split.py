@@ -19,7 +19,8 @@ from stereo_obstacles.colour_split import (HIDDEN_OBJECT_BEYOND_FRACTION, OBJECT
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.footprints import close_points, footprint
 from stereo_obstacles.obstacle_grouping import GroupingParameters, group_obstacle_pixels
-from stereo_obstacles.part_boundaries import HOLE_BRIDGE_PX, MAX_DECISION_PIXELS, PixelCanvas, distance_to_other
+from stereo_obstacles.part_boundaries import (HOLE_BRIDGE_PX, MAX_DECISION_PIXELS, PixelCanvas, distance_to_other,
+                                              planes_near_boundary)
 
 
 BROWN, BLUE, GREEN, GREY, SEA, TAN = (150, 150), (128, 100), (100, 150), (128, 128), (115, 105), (150, 135)
@@ -147,6 +148,48 @@ def test_the_planes_are_fitted_away_from_the_blurred_boundary():
     panel, wall = (np.bincount(split[scene.objects == obj], minlength=2) for obj in (0, 1))
     assert panel.argmax() != wall.argmax()                      # blurred rows go to the nearer plane
     assert panel.max() >= 0.8 * panel.sum() and wall.max() >= 0.9 * wall.sum()
+
+
+def _panel_before_a_two_faced_box(panel_d, noise=0.0):
+    """A brown box showing two faces, its side face receding from 7.0 to 5.0 px over 40 columns
+    left of its front face (7.0 px, 40 columns), and a blue panel ``panel_d`` over the front face's
+    upper right corner: the boundary between them is an L. Fitted across both faces, the box's
+    plane leans towards the panel's disparity (the step reads 0.1 px at 7.6)."""
+    side = lambda xs: 5.0 + 2.0 * (xs - 10) / 40                       # noqa: E731
+    scene = (Scene((90, 160)).paint(slice(30, 90), slice(10, 50), BROWN, side)
+             .paint(slice(30, 90), slice(50, 90), BROWN, 7.0).paint(slice(10, 60), slice(60, 90), BLUE, panel_d))
+    scene.d += np.random.default_rng(0).normal(0, noise, scene.d.shape).astype(np.float32)
+    return scene, np.where(scene.objects == 1, 0, scene.objects)
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.05])
+def test_a_step_hidden_by_the_lean_of_a_two_faced_box_is_read_near_the_boundary(noise):
+    scene, objects = _panel_before_a_two_faced_box(7.6, noise)
+    split = scene.split()
+    assert split.max() == 1 and _same_parts(split, objects)
+
+
+def test_near_the_boundary_the_step_must_exceed_one_and_a_half_gaps():
+    """0.4 px is more than the gap (0.3 px) but less than 1.5 times it."""
+    scene, _ = _panel_before_a_two_faced_box(7.4)
+    assert scene.split().max() == 0
+
+
+def test_a_band_too_thin_to_pin_a_plane_down_keeps_the_plane_fitted_farther_out():
+    """A pole 12 columns wide above a wall that also passes left of it, 10 columns away: the
+    pole's band spans 12 columns and keeps the plane given, the wall's band (an L around the
+    pole) is fitted."""
+    ys, xs = np.mgrid[0:60, 0:80]
+    pole = (xs >= 60) & (xs < 72) & (ys < 30)
+    wall = (xs < 50) | (ys >= 40)
+    keep = (pole | wall).ravel()
+    canvas, _, _ = PixelCanvas.of_pixels(ys.ravel()[keep].astype(np.int64), xs.ravel()[keep].astype(np.int64))
+    second = pole[canvas.ys, canvas.xs]
+    d = np.where(second, 8.0 + 0.01 * canvas.ys, 7.0 + 0.02 * canvas.xs)
+    given = ((0.0, 0.0, 1.0), (0.0, 0.0, 2.0))
+    near = planes_near_boundary(canvas, d, second, distance_to_other(canvas, second), given)
+    assert near[1] == given[1]
+    np.testing.assert_allclose(near[0], (0.02, 0.0, 7.0), atol=1e-9)
 
 
 def test_a_rim_around_an_object_is_not_split_off():

@@ -29,7 +29,10 @@ clusters are two surfaces at two depths:
 - where the parts touch, their planes, fitted away from the boundary where the disparity is
   blurred, lie more than the gap apart: a step (:mod:`stereo_obstacles.part_boundaries`). The
   faces of one box differ in colour and in median disparity too, but their planes meet at the
-  crease between them.
+  crease between them. A part that shows two faces itself has a plane that leans across them;
+  where these planes show no step, planes fitted to a band of each part next to the boundary
+  must lie ``NEAR_STEP_FACTOR`` times the gap apart, and then sort the pixels near it
+  (:func:`~stereo_obstacles.part_boundaries.planes_near_boundary`).
 
 Only the pixels that phase 1 calls obstacle by their colour are clustered; the others (ground
 coloured, raised by their disparity: the halo at an object's foot) join the part of the nearest
@@ -75,7 +78,8 @@ from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.footprints import close_points, footprint
 from stereo_obstacles.group_splits import GroupSplits
 from stereo_obstacles.part_boundaries import (FIT_MARGIN_PX, PixelCanvas, boundary, distance_to_other,
-                                              on_plane_fraction, planes_away_from_boundary, step_at)
+                                              on_plane_fraction, planes_away_from_boundary, planes_near_boundary,
+                                              step_at)
 from stereo_obstacles.plane_fit import plane_at
 from stereo_obstacles.quantiles import median
 
@@ -111,6 +115,12 @@ synthetic sets as 0.8, 20 and 30 (``docs/pipeline.md``, session 37)."""
 STEP_PERCENTILE = 10.0
 """Percentile of the planes' difference along the boundary that must exceed the gap: a low one,
 so that planes crossing anywhere along it (a crease) do not read as a step."""
+NEAR_STEP_FACTOR = 1.5
+"""Where the planes fitted away from the boundary show no step, the planes nearest it
+(:func:`~stereo_obstacles.part_boundaries.planes_near_boundary`) must differ by this many times
+the gap along it: fitted to fewer pixels, they read a crease as a step more easily (at the gap
+itself, scene 1263's near box split at the crease between its faces; ``docs/pipeline.md``,
+session 44)."""
 CLUSTER_SAMPLE, MAX_CLUSTER_ROUNDS = 2000, 20
 """At most this many pixels (evenly spaced) find the two colour centres, in at most this many
 rounds of 2-means; every pixel then joins the nearer centre."""
@@ -472,7 +482,9 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, colours
         return None
     touching = boundary(canvas, to_other)
     if touching is not None and step_at(canvas, touching, planes, STEP_PERCENTILE) <= gap:
-        return None
+        planes = planes_near_boundary(canvas, d, second, to_other, planes)
+        if step_at(canvas, touching, planes, STEP_PERCENTILE) <= NEAR_STEP_FACTOR * gap:
+            return None
     near = to_other <= FIT_MARGIN_PX
     residual = [np.abs(d - plane_at(plane, canvas.xs, canvas.ys)) for plane in planes]
     cluster = np.where(near, residual[1] < residual[0], cluster).astype(np.int64)

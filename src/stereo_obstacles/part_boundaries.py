@@ -6,7 +6,9 @@ windows, matched at half size, blur a step over about 8 pixels, and a blurred st
 slope. So each part's plane ``d = a x + b y + c`` is fitted to its pixels farther than
 ``FIT_MARGIN_PX`` from the other part, and the two planes are compared where the parts touch:
 a crease is where they meet all along the boundary, a step where they stay apart all along it
-(:func:`step_at`, a percentile of the planes' difference over the boundary pixels).
+(:func:`step_at`, a percentile of the planes' difference over the boundary pixels). A part that
+shows two faces of a box is not one plane; :func:`planes_near_boundary` fits the band of it next
+to the boundary instead.
 
 Large groups are handled on one pixel of each ``s`` x ``s`` square (:class:`PixelCanvas`), which
 stands for its square's pixels in every pixel count; distances are in full-size pixels, at
@@ -30,6 +32,14 @@ BOUNDARY_PX = 2.0
 touch."""
 FIT_MARGIN_PX = 8.0
 """Each part's plane is fitted to its pixels farther than this from the other part."""
+NEAR_BAND_PX = 16.0
+"""The planes near the boundary (:func:`planes_near_boundary`) are fitted to the pixels from
+``FIT_MARGIN_PX`` to ``FIT_MARGIN_PX + NEAR_BAND_PX`` from the other part."""
+NEAR_BAND_MIN_SPAN_PX = 24.0
+"""A part's near band pins a plane down when its pixels span at least this many full-size pixels
+in column and in row; a thinner band (a pole's, or a strip along a straight boundary) keeps the
+part's plane fitted farther out (without this, scene 840 gained a repeated detection;
+``docs/pipeline.md``, session 44)."""
 MIN_TOUCHING_PIXELS = 10
 """Parts with fewer decided pixels (one per square in a large group) along their boundary do not
 touch."""
@@ -138,6 +148,28 @@ def planes_away_from_boundary(canvas: PixelCanvas, d: np.ndarray, second: np.nda
         plane = robust_plane(canvas.xs[fitted], canvas.ys[fitted], d[fitted])
         if plane is None:
             return None
+        planes.append(plane)
+    return planes[0], planes[1]
+
+
+def planes_near_boundary(canvas: PixelCanvas, d: np.ndarray, second: np.ndarray, to_other: np.ndarray,
+                         farther_out: tuple[Plane, Plane]) -> tuple[Plane, Plane]:
+    """The planes of the first and the second part nearest the boundary: each part's robust plane
+    of its pixels in the band from ``FIT_MARGIN_PX`` to ``FIT_MARGIN_PX + NEAR_BAND_PX`` from the
+    other part, where that band holds ``MIN_ROBUST_POINTS`` and spans ``NEAR_BAND_MIN_SPAN_PX``
+    in column and row; elsewhere the part's plane in ``farther_out`` (those of
+    :func:`planes_away_from_boundary`).
+
+    A box that shows two faces has no one plane: fitted across both, its plane leans from the face
+    that touches the boundary towards the other one, and the step to an object in front of the
+    touching face can vanish in the lean. The band reads the face at the boundary."""
+    planes = []
+    for members, plane in zip((~second, second), farther_out):
+        band = members & (to_other > FIT_MARGIN_PX) & (to_other <= FIT_MARGIN_PX + NEAR_BAND_PX)
+        if np.count_nonzero(band) >= MIN_ROBUST_POINTS and min(np.ptp(canvas.xs[band]), np.ptp(canvas.ys[band])) >= (
+                NEAR_BAND_MIN_SPAN_PX):
+            near = robust_plane(canvas.xs[band], canvas.ys[band], d[band])
+            plane = plane if near is None else near
         planes.append(plane)
     return planes[0], planes[1]
 
