@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -170,14 +171,27 @@ def test_a_step_hidden_by_the_lean_of_a_two_faced_box_is_read_near_the_boundary(
 
 
 def test_near_the_boundary_the_step_must_exceed_one_and_a_half_gaps():
-    """0.4 px is more than the gap (0.3 px) but less than 1.5 times it."""
+    """A panel 0.4 px in front: the near planes lie 0.33 px apart along the boundary (the box's
+    band, an L, takes in some of its side face), more than the gap (0.3 px) but not 1.5 times it."""
     scene, _ = _panel_before_a_two_faced_box(7.4)
     assert scene.split().max() == 0
 
 
+def test_the_near_band_leaves_out_the_blurred_pixels_at_the_boundary():
+    """The matching blurs the step over about 8 px (a 9 x 9 mean here, within the group): a band
+    reaching into the blur reads the step 0.36 px, under 1.5 gaps; from 8 px out, 0.54 px."""
+    scene, objects = _panel_before_a_two_faced_box(7.6)
+    inside = (objects >= 0).astype(np.float32)
+    summed = cv2.blur(np.where(inside > 0, scene.d, 0).astype(np.float32), (9, 9))
+    scene.d = np.where(inside > 0, summed / np.maximum(cv2.blur(inside, (9, 9)), 1e-6), np.nan).astype(np.float32)
+    split = scene.split()
+    assert split.max() == 1
+    assert np.mean(split[objects == 2] == split[40, 75]) > 0.95 and np.mean(split[objects == 0] == split[80, 20]) > 0.95
+
+
 def test_a_band_too_thin_to_pin_a_plane_down_keeps_the_plane_fitted_farther_out():
     """A pole 12 columns wide above a wall that also passes left of it, 10 columns away: the
-    pole's band spans 12 columns and keeps the plane given, the wall's band (an L around the
+    pole's band spans 11 columns and keeps the plane given, the wall's band (an L around the
     pole) is fitted."""
     ys, xs = np.mgrid[0:60, 0:80]
     pole = (xs >= 60) & (xs < 72) & (ys < 30)
@@ -190,6 +204,39 @@ def test_a_band_too_thin_to_pin_a_plane_down_keeps_the_plane_fitted_farther_out(
     near = planes_near_boundary(canvas, d, second, distance_to_other(canvas, second), given)
     assert near[1] == given[1]
     np.testing.assert_allclose(near[0], (0.02, 0.0, 7.0), atol=1e-9)
+
+
+def _near_planes_of(first, second_pixels, d_first, given):
+    """:func:`planes_near_boundary` of a first part at the pixels ``first`` (rows, columns) with
+    disparities ``d_first`` and a second part at 7.0 px at ``second_pixels``."""
+    ys = np.concatenate([first[0], second_pixels[0]]).astype(np.int64)
+    xs = np.concatenate([first[1], second_pixels[1]]).astype(np.int64)
+    canvas, chosen, _ = PixelCanvas.of_pixels(ys, xs)
+    second = chosen >= len(first[0])
+    d = np.concatenate([d_first, np.full(len(second_pixels[0]), 7.0)])[chosen]
+    return planes_near_boundary(canvas, d, second, distance_to_other(canvas, second), given)
+
+
+def test_a_part_without_a_band_keeps_the_plane_fitted_farther_out():
+    """A pole 12 columns wide between two walls: every pixel of it lies within 8 px of them."""
+    ys, xs = np.mgrid[0:40, 0:60]
+    pole = (xs >= 24) & (xs < 36)
+    given = ((0.0, 0.0, 1.0), (0.0, 0.0, 2.0))
+    near = _near_planes_of((ys[pole], xs[pole]), (ys[~pole], xs[~pole]), np.full(pole.sum(), 8.0), given)
+    assert near[0] == given[0]
+
+
+def test_a_band_whose_robust_plane_fails_keeps_the_plane_fitted_farther_out():
+    """An L of 32 pixels 11-16 px from a square, spanning 26 px each way, 3 of them wild: the
+    robust fit keeps 29, fewer than it needs."""
+    rows = np.r_[np.full(16, 30), np.arange(4, 20)]
+    columns = np.r_[np.arange(4, 20), np.full(16, 30)]
+    d_first = np.full(32, 8.0)
+    d_first[[0, 10, 20]] = 20.0
+    square_rows, square_columns = np.mgrid[0:20, 0:20]
+    given = ((0.0, 0.0, 1.0), (0.0, 0.0, 2.0))
+    near = _near_planes_of((rows, columns), (square_rows.ravel(), square_columns.ravel()), d_first, given)
+    assert near[0] == given[0]
 
 
 def test_a_rim_around_an_object_is_not_split_off():

@@ -31,7 +31,7 @@ clusters are two surfaces at two depths:
   faces of one box differ in colour and in median disparity too, but their planes meet at the
   crease between them. A part that shows two faces itself has a plane that leans across them;
   where these planes show no step, planes fitted to a band of each part next to the boundary
-  must lie ``NEAR_STEP_FACTOR`` times the gap apart, and then sort the pixels near it
+  must lie more than ``NEAR_STEP_FACTOR`` times the gap apart, and then sort the pixels near it
   (:func:`~stereo_obstacles.part_boundaries.planes_near_boundary`).
 
 Only the pixels that phase 1 calls obstacle by their colour are clustered; the others (ground
@@ -77,7 +77,7 @@ from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.field_checks import check_integers, check_numbers
 from stereo_obstacles.footprints import close_points, footprint
 from stereo_obstacles.group_splits import GroupSplits
-from stereo_obstacles.part_boundaries import (FIT_MARGIN_PX, PixelCanvas, boundary, distance_to_other,
+from stereo_obstacles.part_boundaries import (FIT_MARGIN_PX, PixelCanvas, Plane, boundary, distance_to_other,
                                               on_plane_fraction, planes_away_from_boundary, planes_near_boundary,
                                               step_at)
 from stereo_obstacles.plane_fit import plane_at
@@ -117,8 +117,8 @@ STEP_PERCENTILE = 10.0
 so that planes crossing anywhere along it (a crease) do not read as a step."""
 NEAR_STEP_FACTOR = 1.5
 """Where the planes fitted away from the boundary show no step, the planes nearest it
-(:func:`~stereo_obstacles.part_boundaries.planes_near_boundary`) must differ by this many times
-the gap along it: fitted to fewer pixels, they read a crease as a step more easily (at the gap
+(:func:`~stereo_obstacles.part_boundaries.planes_near_boundary`) must differ by more than this
+many times the gap along it: fitted to fewer pixels, they read a crease as a step more easily (at the gap
 itself, scene 1263's near box split at the crease between its faces; ``docs/pipeline.md``,
 session 44)."""
 CLUSTER_SAMPLE, MAX_CLUSTER_ROUNDS = 2000, 20
@@ -454,7 +454,8 @@ def _gap(first_median: float, second_median: float, params: ColourSplitParameter
 def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, colours: _PixelColours | None,
                 min_object_pixels: int, params: ColourSplitParameters) -> np.ndarray | None:
     """``cluster`` with the pixels near the boundary moved to the part whose plane they fit
-    better, when the two clusters are two surfaces at two depths (module docstring) and each
+    better (the planes that showed the step: :func:`_planes_with_step`), when the two clusters
+    are two surfaces at two depths (module docstring) and each
     still holds an object's pixel count; else None. ``colours``: the pixels' colours when the
     clusters are chroma clusters, for the rim test (:func:`_distance_to_nearer`,
     :func:`_partly_hidden_object`); None for phase 1's verdict and for depth clusters."""
@@ -481,14 +482,27 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, colours
             params.min_plane_fraction):
         return None
     touching = boundary(canvas, to_other)
-    if touching is not None and step_at(canvas, touching, planes, STEP_PERCENTILE) <= gap:
-        planes = planes_near_boundary(canvas, d, second, to_other, planes)
-        if step_at(canvas, touching, planes, STEP_PERCENTILE) <= NEAR_STEP_FACTOR * gap:
+    if touching is not None:
+        planes = _planes_with_step(canvas, d, second, to_other, touching, planes, gap)
+        if planes is None:
             return None
     near = to_other <= FIT_MARGIN_PX
     residual = [np.abs(d - plane_at(plane, canvas.xs, canvas.ys)) for plane in planes]
     cluster = np.where(near, residual[1] < residual[0], cluster).astype(np.int64)
     return cluster if min(canvas.pixels(cluster == 0), canvas.pixels(cluster == 1)) >= min_object_pixels else None
+
+
+def _planes_with_step(canvas: PixelCanvas, d: np.ndarray, second: np.ndarray, to_other: np.ndarray,
+                      touching: np.ndarray, planes: tuple[Plane, Plane], gap: float) -> tuple[Plane, Plane] | None:
+    """The planes of the parts (``second``: ``bool (n,)``, the second part's pixels) that show a
+    step along the boundary pixels ``touching``: ``planes``, fitted away from the boundary, when
+    they lie more than ``gap`` pixels apart there; else the planes near the boundary
+    (:func:`~stereo_obstacles.part_boundaries.planes_near_boundary`) when they lie more than
+    ``NEAR_STEP_FACTOR`` times the gap apart; None when neither do (a crease)."""
+    if step_at(canvas, touching, planes, STEP_PERCENTILE) > gap:
+        return planes
+    near = planes_near_boundary(canvas, d, second, to_other, planes)
+    return near if step_at(canvas, touching, near, STEP_PERCENTILE) > NEAR_STEP_FACTOR * gap else None
 
 
 def _partly_hidden_object(canvas: PixelCanvas, farther: np.ndarray, beyond: np.ndarray,

@@ -32,14 +32,15 @@ BOUNDARY_PX = 2.0
 touch."""
 FIT_MARGIN_PX = 8.0
 """Each part's plane is fitted to its pixels farther than this from the other part."""
-NEAR_BAND_PX = 16.0
+NEAR_BAND_WIDTH_PX = 16.0
 """The planes near the boundary (:func:`planes_near_boundary`) are fitted to the pixels from
-``FIT_MARGIN_PX`` to ``FIT_MARGIN_PX + NEAR_BAND_PX`` from the other part."""
+``FIT_MARGIN_PX`` to ``FIT_MARGIN_PX + NEAR_BAND_WIDTH_PX`` (8-24 px) from the other part; no
+other width was measured (``docs/pipeline.md``, session 44)."""
 NEAR_BAND_MIN_SPAN_PX = 24.0
-"""A part's near band pins a plane down when its pixels span at least this many full-size pixels
-in column and in row; a thinner band (a pole's, or a strip along a straight boundary) keeps the
-part's plane fitted farther out (without this, scene 840 gained a repeated detection;
-``docs/pipeline.md``, session 44)."""
+"""A part's near band pins a plane down when the bounding box of its pixels spans at least this
+many full-size pixels in column and in row; a thinner band (a pole's, or a strip along a
+boundary that runs along a row or a column) keeps the part's plane fitted farther out (without
+this, scene 840 gained a repeated detection; ``docs/pipeline.md``, session 44)."""
 MIN_TOUCHING_PIXELS = 10
 """Parts with fewer decided pixels (one per square in a large group) along their boundary do not
 touch."""
@@ -155,23 +156,30 @@ def planes_away_from_boundary(canvas: PixelCanvas, d: np.ndarray, second: np.nda
 def planes_near_boundary(canvas: PixelCanvas, d: np.ndarray, second: np.ndarray, to_other: np.ndarray,
                          farther_out: tuple[Plane, Plane]) -> tuple[Plane, Plane]:
     """The planes of the first and the second part nearest the boundary: each part's robust plane
-    of its pixels in the band from ``FIT_MARGIN_PX`` to ``FIT_MARGIN_PX + NEAR_BAND_PX`` from the
-    other part, where that band holds ``MIN_ROBUST_POINTS`` and spans ``NEAR_BAND_MIN_SPAN_PX``
-    in column and row; elsewhere the part's plane in ``farther_out`` (those of
+    of its pixels in the band from ``FIT_MARGIN_PX`` to ``FIT_MARGIN_PX + NEAR_BAND_WIDTH_PX``
+    from the other part, where that band pins a plane down (:func:`_pins_plane`) and the robust
+    fit succeeds; else the part's plane in ``farther_out`` (those of
     :func:`planes_away_from_boundary`).
 
     A box that shows two faces has no one plane: fitted across both, its plane leans from the face
     that touches the boundary towards the other one, and the step to an object in front of the
-    touching face can vanish in the lean. The band reads the face at the boundary."""
+    touching face can vanish in the lean. The band reads mostly the face at the boundary (all of
+    it where that face reaches 24 px or more from the boundary)."""
     planes = []
     for members, plane in zip((~second, second), farther_out):
-        band = members & (to_other > FIT_MARGIN_PX) & (to_other <= FIT_MARGIN_PX + NEAR_BAND_PX)
-        if np.count_nonzero(band) >= MIN_ROBUST_POINTS and min(np.ptp(canvas.xs[band]), np.ptp(canvas.ys[band])) >= (
-                NEAR_BAND_MIN_SPAN_PX):
-            near = robust_plane(canvas.xs[band], canvas.ys[band], d[band])
-            plane = plane if near is None else near
-        planes.append(plane)
+        band = members & (to_other > FIT_MARGIN_PX) & (to_other <= FIT_MARGIN_PX + NEAR_BAND_WIDTH_PX)
+        near = robust_plane(canvas.xs[band], canvas.ys[band], d[band]) if _pins_plane(canvas, band) else None
+        planes.append(plane if near is None else near)
     return planes[0], planes[1]
+
+
+def _pins_plane(canvas: PixelCanvas, band: np.ndarray) -> bool:
+    """Whether the pixels ``band`` (``bool (n,)``) pin down a plane read beyond them: at least
+    ``MIN_ROBUST_POINTS`` of them (one per square on a large group; none leaves no span to
+    measure), their bounding box spanning ``NEAR_BAND_MIN_SPAN_PX`` in column and in row."""
+    if np.count_nonzero(band) < MIN_ROBUST_POINTS:
+        return False
+    return min(np.ptp(canvas.xs[band]), np.ptp(canvas.ys[band])) >= NEAR_BAND_MIN_SPAN_PX
 
 
 def boundary(canvas: PixelCanvas, to_other: np.ndarray) -> np.ndarray | None:
