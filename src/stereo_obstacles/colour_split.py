@@ -118,9 +118,9 @@ so that planes crossing anywhere along it (a crease) do not read as a step."""
 NEAR_STEP_FACTOR = 1.5
 """Where the planes fitted away from the boundary show no step, the planes nearest it
 (:func:`~stereo_obstacles.part_boundaries.planes_near_boundary`) must differ by more than this
-many times the gap along it: fitted to fewer pixels, they read a crease as a step more easily (at the gap
-itself, scene 1263's near box split at the crease between its faces; ``docs/pipeline.md``,
-session 44)."""
+many times the gap along it: fitted to fewer pixels, they read a crease as a step more easily
+(at the gap itself, scene 1263's near box split at the crease between its faces;
+``docs/pipeline.md``, session 44)."""
 CLUSTER_SAMPLE, MAX_CLUSTER_ROUNDS = 2000, 20
 """At most this many pixels (evenly spaced) find the two colour centres, in at most this many
 rounds of 2-means; every pixel then joins the nearer centre."""
@@ -455,10 +455,10 @@ def _two_depths(canvas: PixelCanvas, d: np.ndarray, cluster: np.ndarray, colours
                 min_object_pixels: int, params: ColourSplitParameters) -> np.ndarray | None:
     """``cluster`` with the pixels near the boundary moved to the part whose plane they fit
     better (the planes that showed the step: :func:`_planes_with_step`), when the two clusters
-    are two surfaces at two depths (module docstring) and each
-    still holds an object's pixel count; else None. ``colours``: the pixels' colours when the
-    clusters are chroma clusters, for the rim test (:func:`_distance_to_nearer`,
-    :func:`_partly_hidden_object`); None for phase 1's verdict and for depth clusters."""
+    are two surfaces at two depths (module docstring) and each still holds an object's pixel
+    count; else None. ``colours``: the pixels' colours when the clusters are chroma clusters, for
+    the rim test (:func:`_distance_to_nearer`, :func:`_partly_hidden_object`); None for phase 1's
+    verdict and for depth clusters."""
     second = cluster == 1
     if second.all() or not second.any():
         return None
