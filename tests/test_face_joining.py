@@ -66,7 +66,7 @@ def test_an_outline_holding_the_background_beside_it_is_joined_by_its_nearer_par
     # covers (medians 0.61 m apart), its nearer part at the other outline's depth
     runs, ids, disparity = _two_outlines(10.4, 10.4)
     outline = np.flatnonzero(ids.ravel() == 2)
-    disparity.ravel()[outline[: outline.size * 11 // 20]] = 9.4      # 55 %: 7.07 against 6.39 m
+    disparity.ravel()[outline[: outline.size * 11 // 20]] = 9.4      # 55 %: 7.08 against 6.40 m
     assert obstacles_sharing_a_face(runs, ids, disparity, RIG) == [(1, 2)]
     assert obstacles_sharing_a_face(runs, ids, disparity, RIG, FaceJoiningParameters(near_percentile=50.0)) == []
     # a piece whose nearer part lies behind too: 9.9 px is 6.72 m, 0.32 m behind
