@@ -158,7 +158,7 @@ class ColourSplitParameters:
     min_chroma_distance: float = 10.0
     min_gap_px: float = 0.3
     min_gap_rel: float = 0.03
-    min_plane_fraction: float = 0.65
+    min_plane_fraction: float = 0.6
     max_levels: int = 2
     depth_gap_m: float = 0.3
     depth_touch_points: int = 2
