@@ -422,10 +422,9 @@ def test_pieces_apart_in_the_image_need_no_step_where_they_touch():
 
 def test_a_part_that_is_not_one_surface_is_not_split_off():
     """Two fifths of the blue part's pixels lie 1.5 px behind the rest (a colour boundary that
-    runs across another surface): 57 % of the part lies on one plane (its robust plane, pulled
-    a little towards the pixels behind, holds fewer than the three fifths in front), less than
-    ``min_plane_fraction``. With three eighths behind, 62 % lies on it, and the part is split off:
-    the default lies between the two."""
+    runs across another surface): 57 % of the part lies on one plane, as ``on_plane_fraction``
+    counts it, less than ``min_plane_fraction``. With three eighths behind, 62 % lies on it, and
+    the part is split off: the default lies between the two."""
     def split_with_behind(period: int, behind_per_period: int, params=ColourSplitParameters()) -> int:
         scene = _pole_before_box()
         diagonal = np.add.outer(np.arange(80), np.arange(120)) % period
