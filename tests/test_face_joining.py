@@ -124,4 +124,3 @@ def test_a_near_textureless_cylinder_is_one_obstacle_not_three():
     assert len(apart) == 3 and len(joined) == 1
     assert abs(joined[0] / cylinder.nearest_depth_m - 1) < 0.04
     assert len(on_the_cylinder(DetectionConfig())) == 1
-
