@@ -91,18 +91,12 @@ def run(args: argparse.Namespace) -> None:
     print(f"wrote {args.results}")
 
 
-def _scored(comparison) -> bool:
-    visible = comparison.stereo_visible_pixels or comparison.visible_pixels
-    return (comparison.height_m >= 0.3 and comparison.true_distance_m is not None
-            and comparison.true_distance_m <= 10.0 and visible >= 200)
-
-
 def _error_pct(comparison) -> float | None:
     return None if comparison.relative_error is None else 100 * comparison.relative_error
 
 
 def compare(args: argparse.Namespace) -> None:
-    from stereo_obstacles.detection_evaluation import summarise
+    from stereo_obstacles.detection_evaluation import counted, summarise
 
     new = pickle.loads(args.new.read_bytes())
     base = pickle.loads(args.base.read_bytes()) if args.base else {}
@@ -120,7 +114,7 @@ def compare(args: argparse.Namespace) -> None:
             for c in evaluation.comparisons:
                 was, now = old_errors.get(c.truth_id), _error_pct(c)
                 if (was is None) != (now is None) or (was is not None and abs(abs(now) - abs(was)) > 0.3):
-                    scored = " (scored)" if _scored(c) else ""
+                    scored = " (scored)" if counted(c) else ""
                     print(f"   {evaluation.seed} #{c.truth_id} {c.kind} at {c.true_distance_m:.2f} m: "
                           f"{'missed' if was is None else f'{was:+.1f} %'} -> "
                           f"{'missed' if now is None else f'{now:+.1f} %'}{scored}")

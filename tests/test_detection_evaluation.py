@@ -7,7 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from stereo_obstacles.detection_evaluation import SceneEvaluation, compare_with_truth, repeated_detections, summarise
+from stereo_obstacles.detection_evaluation import (SceneEvaluation, TruthComparison, compare_with_truth, counted,
+                                                   repeated_detections, summarise)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
 from stereo_obstacles.obstacles import Obstacle, ObstacleList
@@ -128,6 +129,21 @@ def test_an_obstacle_counts_by_the_pixels_both_cameras_see():
     assert [c.stereo_visible_pixels for c in as_png[0]] == [c.stereo_visible_pixels for c in comparisons]
     with pytest.raises(InvalidInputError, match="seen_by_both"):
         compare_with_truth(detections, instances, labels, truths, seen_by_both=seen_by_both[:, :-1])
+
+
+def test_an_obstacle_no_pixel_of_which_both_cameras_see_is_not_counted():
+    def comparison(**fields):
+        return TruthComparison(**{"truth_id": 1, "kind": "box", "height_m": 1.0, "true_distance_m": 6.0,
+                                  "visible_pixels": 500, "detected_id": None, "detected_distance_m": None, **fields})
+
+    assert counted(comparison())                                   # not known: all 500 visible pixels
+    assert counted(comparison(stereo_visible_pixels=200))
+    assert not counted(comparison(stereo_visible_pixels=199))
+    assert not counted(comparison(stereo_visible_pixels=0))        # none, not "not known"
+    assert not counted(comparison(height_m=0.29))
+    assert not counted(comparison(true_distance_m=10.01))
+    assert not counted(comparison(true_distance_m=None))
+    assert counted(comparison(true_distance_m=12.0), max_distance_m=15.0)
 
 
 @pytest.mark.parametrize("kwargs, match", [({"min_height_m": -1.0}, "min_height_m"),

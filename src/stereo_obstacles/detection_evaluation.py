@@ -259,6 +259,15 @@ def _stereo_visible(comparison: TruthComparison) -> int:
     return comparison.stereo_visible_pixels
 
 
+def counted(comparison: TruthComparison, *, min_height_m: float = 0.3, max_distance_m: float = 10.0,
+            min_visible_px: int = 200) -> bool:
+    """Whether :func:`summarise` counts the true obstacle of ``comparison``: at least
+    ``min_height_m`` tall, within ``max_distance_m`` (metres), and showing at least
+    ``min_visible_px`` pixels that both cameras see (all its visible pixels when that is not known)."""
+    return (comparison.height_m >= min_height_m and comparison.true_distance_m is not None
+            and comparison.true_distance_m <= max_distance_m and _stereo_visible(comparison) >= min_visible_px)
+
+
 LARGE_ERROR_PCT = 5.0
 """Distance errors above this (per cent) are listed one by one in :class:`DetectionSummary`."""
 
@@ -280,8 +289,7 @@ def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, 
     if not (math.isfinite(max_distance_m) and max_distance_m > 0):
         raise InvalidInputError(f"max_distance_m: expected a number > 0 metres, got {max_distance_m}")
     relevant = [(e.seed, c) for e in evaluations for c in e.comparisons
-                if c.height_m >= min_height_m and c.true_distance_m is not None
-                and c.true_distance_m <= max_distance_m and _stereo_visible(c) >= min_visible_px]
+                if counted(c, min_height_m=min_height_m, max_distance_m=max_distance_m, min_visible_px=min_visible_px)]
     errors = np.array([abs(c.relative_error) * 100 for _, c in relevant if c.relative_error is not None])
     alarms = [a.lies_on for e in evaluations for a in e.false_alarms]
     scans = [e.scan for e in evaluations if e.scan is not None]
