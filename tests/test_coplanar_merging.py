@@ -8,6 +8,7 @@ import pytest
 from stereo_obstacles._coplanar_merging_kernel import group_sums_kernel
 from stereo_obstacles.coplanar_merging import merge_coplanar_groups
 from stereo_obstacles.errors import InvalidInputError
+from stereo_obstacles.obstacle_grouping import GroupingParameters
 
 TOLERANCES = dict(cell_px=8, tolerance_px=0.15, rel_tolerance=0.01)
 
@@ -99,6 +100,22 @@ def test_objects_side_by_side_at_different_depths_stay_apart():
     groups[16:80, 40:64], groups[16:80, 64:88] = 0, 1
     np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **TOLERANCES), groups)
     assert merge_coplanar_groups(groups, d, **dict(TOLERANCES, tolerance_px=0.5)).max() == 0    # 0.43 px off
+
+
+def test_a_box_and_a_pole_beside_it_stay_apart_at_the_default_tolerance():
+    """Scene 1356's kind: a box (7.25 px of disparity) and a pole 0.75 px farther, 2 px beside it
+    (neighbouring cells). The plane slanted in x through both lies 0.208 px (rms) off the box's own
+    flat plane: beyond the grouping's default 0.12 px + 1 % of d (0.19 px), within the 0.15 px + 1 %
+    used until session 46 (0.22 px), which joined them."""
+    d = np.full((128, 96), np.nan, np.float32)
+    groups = np.full(d.shape, -1, np.int64)
+    groups[64:112, 16:48], d[64:112, 16:48] = 0, 7.25       # the box
+    groups[0:112, 50:66], d[0:112, 50:66] = 1, 6.5          # the pole
+    defaults = GroupingParameters()
+    tolerances = dict(cell_px=defaults.cell_px, tolerance_px=defaults.coplanar_tolerance_px,
+                      rel_tolerance=defaults.coplanar_rel_tolerance)
+    np.testing.assert_array_equal(merge_coplanar_groups(groups, d, **tolerances), groups)
+    assert merge_coplanar_groups(groups, d, **dict(tolerances, tolerance_px=0.15)).max() == 0
 
 
 def test_a_pole_rising_behind_a_box_stays_apart():

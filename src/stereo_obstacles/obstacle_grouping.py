@@ -117,7 +117,7 @@ class GroupingParameters:
     split_tolerance_px: float = 0.5
     split_min_gap_px: float = 0.5
     split_min_step_px: float = 0.3
-    coplanar_tolerance_px: float = 0.15
+    coplanar_tolerance_px: float = 0.12
     coplanar_rel_tolerance: float = 0.01
     colour_split: ColourSplitParameters | None = field(default_factory=ColourSplitParameters)
     coplanar_colour_reach_cells: int = 2
