@@ -96,7 +96,7 @@ def _error_pct(comparison) -> float | None:
 
 
 def compare(args: argparse.Namespace) -> None:
-    from stereo_obstacles.detection_evaluation import counted, summarise
+    from stereo_obstacles.detection_evaluation import is_counted, summarise
 
     new = pickle.loads(args.new.read_bytes())
     base = pickle.loads(args.base.read_bytes()) if args.base else {}
@@ -114,7 +114,7 @@ def compare(args: argparse.Namespace) -> None:
             for c in evaluation.comparisons:
                 was, now = old_errors.get(c.truth_id), _error_pct(c)
                 if (was is None) != (now is None) or (was is not None and abs(abs(now) - abs(was)) > 0.3):
-                    scored = " (scored)" if counted(c) else ""
+                    scored = " (scored)" if is_counted(c) else ""
                     print(f"   {evaluation.seed} #{c.truth_id} {c.kind} at {c.true_distance_m:.2f} m: "
                           f"{'missed' if was is None else f'{was:+.1f} %'} -> "
                           f"{'missed' if now is None else f'{now:+.1f} %'}{scored}")

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from stereo_obstacles.detection_evaluation import (SceneEvaluation, TruthComparison, compare_with_truth, counted,
+from stereo_obstacles.detection_evaluation import (SceneEvaluation, TruthComparison, compare_with_truth, is_counted,
                                                    repeated_detections, summarise)
 from stereo_obstacles.errors import InvalidInputError
 from stereo_obstacles.labels import Label
@@ -131,19 +131,19 @@ def test_an_obstacle_counts_by_the_pixels_both_cameras_see():
         compare_with_truth(detections, instances, labels, truths, seen_by_both=seen_by_both[:, :-1])
 
 
-def test_an_obstacle_no_pixel_of_which_both_cameras_see_is_not_counted():
+def test_which_true_obstacles_count():
     def comparison(**fields):
         return TruthComparison(**{"truth_id": 1, "kind": "box", "height_m": 1.0, "true_distance_m": 6.0,
                                   "visible_pixels": 500, "detected_id": None, "detected_distance_m": None, **fields})
 
-    assert counted(comparison())                                   # not known: all 500 visible pixels
-    assert counted(comparison(stereo_visible_pixels=200))
-    assert not counted(comparison(stereo_visible_pixels=199))
-    assert not counted(comparison(stereo_visible_pixels=0))        # none, not "not known"
-    assert not counted(comparison(height_m=0.29))
-    assert not counted(comparison(true_distance_m=10.01))
-    assert not counted(comparison(true_distance_m=None))
-    assert counted(comparison(true_distance_m=12.0), max_distance_m=15.0)
+    assert is_counted(comparison())                                # not known: all 500 visible pixels
+    assert is_counted(comparison(stereo_visible_pixels=200))
+    assert not is_counted(comparison(stereo_visible_pixels=199))
+    assert not is_counted(comparison(stereo_visible_pixels=0))     # none, not "not known"
+    assert not is_counted(comparison(height_m=0.29))
+    assert not is_counted(comparison(true_distance_m=10.01))
+    assert not is_counted(comparison(true_distance_m=None))
+    assert is_counted(comparison(true_distance_m=12.0), max_distance_m=15.0)
 
 
 @pytest.mark.parametrize("kwargs, match", [({"min_height_m": -1.0}, "min_height_m"),
@@ -154,8 +154,6 @@ def test_summary_refuses_bad_limits(kwargs, match):
 
 
 def test_errors_above_five_percent_are_listed_worst_first():
-    from stereo_obstacles.detection_evaluation import TruthComparison
-
     def found(truth_id, true_m, reported_m):
         return TruthComparison(truth_id=truth_id, kind="pole", height_m=1.0, true_distance_m=true_m, visible_pixels=500,
                                detected_id=1, detected_distance_m=reported_m)

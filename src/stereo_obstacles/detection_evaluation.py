@@ -34,6 +34,17 @@ from stereo_obstacles.scan_evaluation import ScanComparison, ScanSummary, compar
 FALSE_ALARM_MAX_ON_OBSTACLE = 0.2
 """A detection with less than this fraction of its pixels on true obstacles is a false alarm."""
 
+MIN_HEIGHT_M = 0.3
+"""Default least height (metres) of the true obstacles the figures count (issue 5's "taller than
+a set height")."""
+
+MAX_DISTANCE_M = 10.0
+"""Default greatest true distance (metres, nearest visible depth) of the true obstacles counted."""
+
+MIN_STEREO_VISIBLE_PX = 200
+"""Default least number of a true obstacle's pixels that both cameras see for it to count: no
+stereo method can range a part only one camera sees."""
+
 
 @dataclass(frozen=True)
 class TruthComparison:
@@ -216,7 +227,7 @@ rays bound the error at 1/6 px per outline, 1/3 px in disparity."""
 
 
 def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int = 480, config=None,
-                             render_options=None, min_height_m: float = 0.3) -> SceneEvaluation:
+                             render_options=None, min_height_m: float = MIN_HEIGHT_M) -> SceneEvaluation:
     """Render scene ``seed`` (0 = the built-in one) with ``render_options``
     (:class:`~stereo_obstacles.synthetic.RenderOptions`; default: ``EVALUATION_SUPERSAMPLE`` rays
     per pixel along each axis, no noise, uncompressed), detect, compare with the truth (the
@@ -229,7 +240,8 @@ def evaluate_synthetic_scene(seed: int, *, width_px: int = 640, height_px: int =
     return evaluate_rendered_pair(seed, scene.ground.name, pair, config=config, min_height_m=min_height_m)
 
 
-def evaluate_rendered_pair(seed: int, ground: str, pair, *, config=None, min_height_m: float = 0.3) -> SceneEvaluation:
+def evaluate_rendered_pair(seed: int, ground: str, pair, *, config=None,
+                           min_height_m: float = MIN_HEIGHT_M) -> SceneEvaluation:
     """:func:`evaluate_synthetic_scene` of a pair already rendered
     (:class:`~stereo_obstacles.synthetic.SyntheticPair` of scene ``seed``, whose ground material is
     named ``ground``): detect with ``config`` (default :class:`~stereo_obstacles.pipeline.DetectionConfig`),
@@ -259,11 +271,12 @@ def _stereo_visible(comparison: TruthComparison) -> int:
     return comparison.stereo_visible_pixels
 
 
-def counted(comparison: TruthComparison, *, min_height_m: float = 0.3, max_distance_m: float = 10.0,
-            min_visible_px: int = 200) -> bool:
+def is_counted(comparison: TruthComparison, *, min_height_m: float = MIN_HEIGHT_M,
+               max_distance_m: float = MAX_DISTANCE_M, min_visible_px: int = MIN_STEREO_VISIBLE_PX) -> bool:
     """Whether :func:`summarise` counts the true obstacle of ``comparison``: at least
-    ``min_height_m`` tall, within ``max_distance_m`` (metres), and showing at least
-    ``min_visible_px`` pixels that both cameras see (all its visible pixels when that is not known)."""
+    ``min_height_m`` tall, its true distance (nearest visible depth) known and at most
+    ``max_distance_m`` (metres), and showing at least ``min_visible_px`` pixels that both cameras
+    see (all its visible pixels when that is not known; 0 is known: none)."""
     return (comparison.height_m >= min_height_m and comparison.true_distance_m is not None
             and comparison.true_distance_m <= max_distance_m and _stereo_visible(comparison) >= min_visible_px)
 
@@ -272,8 +285,8 @@ LARGE_ERROR_PCT = 5.0
 """Distance errors above this (per cent) are listed one by one in :class:`DetectionSummary`."""
 
 
-def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, max_distance_m: float = 10.0,
-              min_visible_px: int = 200) -> DetectionSummary:
+def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = MIN_HEIGHT_M,
+              max_distance_m: float = MAX_DISTANCE_M, min_visible_px: int = MIN_STEREO_VISIBLE_PX) -> DetectionSummary:
     """Found rate, distance errors and false alarms over many scene evaluations, and the scan's
     figures (:func:`stereo_obstacles.scan_evaluation.summarise_scans` within ``max_distance_m``).
     The scan's truth was set per scene, with the ``min_height_m`` given to
@@ -289,7 +302,7 @@ def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = 0.3, 
     if not (math.isfinite(max_distance_m) and max_distance_m > 0):
         raise InvalidInputError(f"max_distance_m: expected a number > 0 metres, got {max_distance_m}")
     relevant = [(e.seed, c) for e in evaluations for c in e.comparisons
-                if counted(c, min_height_m=min_height_m, max_distance_m=max_distance_m, min_visible_px=min_visible_px)]
+                if is_counted(c, min_height_m=min_height_m, max_distance_m=max_distance_m, min_visible_px=min_visible_px)]
     errors = np.array([abs(c.relative_error) * 100 for _, c in relevant if c.relative_error is not None])
     alarms = [a.lies_on for e in evaluations for a in e.false_alarms]
     scans = [e.scan for e in evaluations if e.scan is not None]
