@@ -302,7 +302,8 @@ def summarise(evaluations: list[SceneEvaluation], *, min_height_m: float = MIN_H
     if not (math.isfinite(max_distance_m) and max_distance_m > 0):
         raise InvalidInputError(f"max_distance_m: expected a number > 0 metres, got {max_distance_m}")
     relevant = [(e.seed, c) for e in evaluations for c in e.comparisons
-                if is_counted(c, min_height_m=min_height_m, max_distance_m=max_distance_m, min_visible_px=min_visible_px)]
+                if is_counted(c, min_height_m=min_height_m, max_distance_m=max_distance_m,
+                              min_visible_px=min_visible_px)]
     errors = np.array([abs(c.relative_error) * 100 for _, c in relevant if c.relative_error is not None])
     alarms = [a.lies_on for e in evaluations for a in e.false_alarms]
     scans = [e.scan for e in evaluations if e.scan is not None]
