@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -32,6 +33,20 @@ def test_every_obstacle_of_the_default_scene_is_found_at_its_distance(default_pa
         assert c.detected_id is not None, f"missed {c}"
         assert abs(c.relative_error) < 0.03, c
     assert alarms == []
+
+
+def test_pixels_beyond_the_maximum_distance_are_not_grouped(default_pair, default_result):
+    """An obstacle whose pixels recede past the maximum distance is reported from those within it
+    (its near face where it was), and nothing beyond is grouped, measured and rejected instead."""
+    farthest = max(default_result.obstacles.obstacles, key=lambda o: o.distance_m)
+    limit_m = farthest.distance_m + 1.0
+    assert np.nanmax(default_result.depth_m[default_result.obstacles.id_map == farthest.id]) > limit_m + 1.0
+    config = DetectionConfig()
+    config = replace(config, obstacles=replace(config.obstacles, max_distance_m=limit_m))
+    result = detect(default_pair.left, default_pair.right, default_pair.calibration, config=config)
+    assert any(abs(o.distance_m - farthest.distance_m) < 0.05 for o in result.obstacles.obstacles)
+    assert np.nanmax(result.depth_m[result.obstacles.id_map > 0]) <= limit_m * (1 + 1e-6)
+    assert not any("farther than" in r.reason for r in result.obstacles.rejected)
 
 
 def test_shadows_and_markings_are_not_obstacles(default_pair, default_result):

@@ -51,7 +51,9 @@ class ObstacleParameters:
         Fraction of a group's pixels that must stand above the ground by more than the flat
         tolerance; fewer, and the group is flat on the ground (a marking, a puddle, a shadow).
     max_distance_m : float
-        Groups farther than this are not reported (depth error grows as Z**2).
+        Groups farther than this are not reported (depth error grows as Z**2); the pipeline
+        leaves the pixels farther than this out before it groups them
+        (:func:`stereo_obstacles.pipeline.detect`).
     corridor_width_m : float
         Width of the walking corridor straight ahead for :func:`corridor_summary`.
     distance_percentile : float

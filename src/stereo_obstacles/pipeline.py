@@ -478,23 +478,40 @@ def _ground_plane(disparity: np.ndarray, ground_mask: np.ndarray,
 
 
 def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray, ground: GroundPlane | None,
-                         calibration: StereoCalibration | None, min_height_m: float,
-                         min_excess_px: float | np.ndarray,
-                         colour_trusted: bool) -> np.ndarray:
+                         calibration: StereoCalibration | None, config: DetectionConfig,
+                         min_excess_px: float | np.ndarray, colour_trusted: bool) -> np.ndarray:
     """Phase-1 obstacle pixels, plus ground-coloured pixels standing clearly above the plane
-    (or every matched pixel when the colour labels are not trusted).
+    (or every matched pixel when the colour labels are not trusted); with a calibration, only
+    those within ``config.obstacles.max_distance_m`` (:func:`_within_range`).
 
-    "Clearly": higher than ``min_height_m`` and with a disparity at least ``min_excess_px``
-    (one number, or per pixel) above the plane's, so that the disparity noise of far ground
-    (where a small disparity error is a large height) does not raise it.
+    "Clearly": higher than ``config.geometric_min_height_m`` and with a disparity at least
+    ``min_excess_px`` (one number, or per pixel) above the plane's, so that the disparity noise of
+    far ground (where a small disparity error is a large height) does not raise it.
     """
     if not colour_trusted:
-        return np.isfinite(disparity)
-    candidates = segmentation.labels == Label.OBSTACLE.value
-    if ground is None or calibration is None or min_height_m <= 0:
-        return candidates
-    return candidates | raised_pixels(ground, disparity, segmentation.ground_mask, calibration,
-                                      min_height_m=min_height_m, min_excess_px=min_excess_px, strict=True)
+        candidates = np.isfinite(disparity)
+    else:
+        candidates = segmentation.labels == Label.OBSTACLE.value
+        if ground is not None and calibration is not None and config.geometric_min_height_m > 0:
+            candidates |= raised_pixels(ground, disparity, segmentation.ground_mask, calibration,
+                                        min_height_m=config.geometric_min_height_m, min_excess_px=min_excess_px,
+                                        strict=True)
+    if calibration is not None:
+        candidates &= _within_range(disparity, calibration, config.obstacles.max_distance_m)
+    return candidates
+
+
+def _within_range(disparity: np.ndarray, calibration: StereoCalibration, max_distance_m: float) -> np.ndarray:
+    """``bool (H, W)``: the pixels whose depth is at most ``max_distance_m`` (metres; their
+    disparity, ``float32 (H, W)`` pixels, at least ``f B / max_distance_m - doffs``).
+
+    Obstacles farther than that are not reported (:class:`~stereo_obstacles.obstacles.ObstacleParameters`),
+    and their pixels are left out before the grouping rather than grouped, measured and dropped:
+    on a road scene most groups lie beyond (KITTI 000005 cut to 640 x 375: the obstacle stage 131
+    -> 82 ms at 30 m; ``docs/pipeline.md``, session 47).
+    """
+    with np.errstate(invalid="ignore"):
+        return disparity >= calibration.focal_baseline_px_m / max_distance_m - calibration.doffs_px
 
 
 def _not_clearly_raised(config: DetectionConfig) -> str:
@@ -706,8 +723,7 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         (_min_excess_px, left, right, disparity, config, calibration is not None)])
     if ground is None:
         min_excess = config.geometric_min_excess_px
-    candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config.geometric_min_height_m,
-                                      min_excess, colour_trusted)
+    candidates = _obstacle_candidates(segmentation, disparity, ground, calibration, config, min_excess, colour_trusted)
     standing = standing_pixels(candidates, disparity, ground, calibration, config.obstacles, min_excess_px=min_excess)
     # beside the grouping of the standing pixels: the depth map and the flat groups (measured
     # whole; the feet of the obstacles are left out of their list once the obstacles are known)

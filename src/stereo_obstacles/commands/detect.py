@@ -21,7 +21,7 @@ def add_detection_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--corridor-width", type=positive_metres, default=None, metavar="M",
                        help="width of the walking corridor straight ahead, metres (default 1.0)")
     group.add_argument("--max-distance", type=positive_metres, default=None, metavar="M",
-                       help="report obstacles up to this distance, metres (default 30)")
+                       help="look for obstacles up to this distance, metres (default 30; farther pixels are left out)")
     group.add_argument("--matching-scale", type=float, default=None, metavar="S",
                        help="grow the matches on a copy of the pair shrunk by S in (0, 1], then refine "
                             "them at full size (default 0.5; 1 grows at full size, about 1.3x slower)")
