@@ -182,6 +182,32 @@ def test_kitti_depth_agrees_with_the_lidar_ground_truth(shared_dataset):
     assert near, "parked cars within 20 m should be reported"
 
 
+def test_strips_matched_again_beyond_the_maximum_distance_join_no_obstacle(shared_dataset, monkeypatch):
+    """On KITTI 000046 the own-colour stage matches strips again at about 43 m, beyond the 30 m the
+    obstacles are looked for up to: they leave their obstacle and join none, not even as a rejected
+    group. (000046 ships no calibration; 000005's, the same rig, stands in.)"""
+    import stereo_obstacles.pipeline as pipeline
+    from stereo_obstacles.datasets import load_pair
+
+    pair = load_pair(shared_dataset("kitti2015_000046"))
+    calibration = load_pair(shared_dataset("kitti2015_000005")).calibration
+    limit_m = DetectionConfig().obstacles.max_distance_m
+    beyond = []
+    own_colour_matches = pipeline.own_colour_matches
+
+    def spied(*args, **kwargs):
+        taken_out, rematched, new_disparity = own_colour_matches(*args, **kwargs)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            beyond.append(np.count_nonzero(rematched & (calibration.focal_baseline_px_m / new_disparity > limit_m)))
+        return taken_out, rematched, new_disparity
+
+    monkeypatch.setattr(pipeline, "own_colour_matches", spied)
+    result = detect(pair.left, pair.right, calibration)
+    assert beyond and beyond[0] > 0                       # the case this test is about happens
+    assert not any("farther than" in r.reason for r in result.obstacles.rejected)
+    assert np.nanmax(result.depth_m[result.obstacles.id_map > 0]) <= limit_m * (1 + 1e-6)
+
+
 def test_a_wall_turned_away_is_not_taken_for_the_ground_without_a_calibration(shared_dataset, caplog):
     """Middlebury Cones has no ground: its back wall slopes a little down the image (b = 0.010 px
     per row) but more across it; taken for the ground, the cones and the mask in front of it

@@ -761,6 +761,8 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
             depth = _depth(disparity, calibration)
             standing_rematched = standing_pixels(rematched, disparity, ground, calibration, config.obstacles,
                                                  min_excess_px=min_excess)
+            if calibration is not None:         # a strip matched beyond the range leaves its obstacle, for none
+                standing_rematched &= _within_range(disparity, calibration, config.obstacles.max_distance_m)
             groups, outcomes = measure_without(taken_out | rematched, groups, outcomes, measured, calibration,
                                                ground, config.obstacles)
             pieces = moved_groups(standing_rematched, disparity, int(groups.max(initial=0)) + 1, config.grouping)
