@@ -496,22 +496,22 @@ def _obstacle_candidates(segmentation: SegmentationResult, disparity: np.ndarray
             candidates |= raised_pixels(ground, disparity, segmentation.ground_mask, calibration,
                                         min_height_m=config.geometric_min_height_m, min_excess_px=min_excess_px,
                                         strict=True)
-    if calibration is not None:
-        candidates &= _within_range(disparity, calibration, config.obstacles.max_distance_m)
-    return candidates
+    return _within_range(candidates, disparity, calibration, config.obstacles.max_distance_m)
 
 
-def _within_range(disparity: np.ndarray, calibration: StereoCalibration, max_distance_m: float) -> np.ndarray:
-    """``bool (H, W)``: the pixels whose depth is at most ``max_distance_m`` (metres; their
-    disparity, ``float32 (H, W)`` pixels, at least ``f B / max_distance_m - doffs``).
+def _within_range(pixels: np.ndarray, disparity: np.ndarray, calibration: StereoCalibration | None,
+                  max_distance_m: float) -> np.ndarray:
+    """``pixels`` (``bool (H, W)``) without those deeper than ``max_distance_m`` (metres): their
+    disparity (``float32 (H, W)``, pixels, NaN where unmatched) must be at least
+    ``f B / max_distance_m - doffs``. Without a calibration, ``pixels`` as they are.
 
     Obstacles farther than that are not reported (:class:`~stereo_obstacles.obstacles.ObstacleParameters`),
-    and their pixels are left out before the grouping rather than grouped, measured and dropped:
-    on a road scene most groups lie beyond (KITTI 000005 cut to 640 x 375: the obstacle stage 131
-    -> 82 ms at 30 m; ``docs/pipeline.md``, session 47).
+    and their pixels are left out of the obstacle stage rather than grouped, measured and dropped:
+    on a road scene most groups lie beyond (``docs/pipeline.md``, session 47).
     """
-    with np.errstate(invalid="ignore"):
-        return disparity >= calibration.focal_baseline_px_m / max_distance_m - calibration.doffs_px
+    if calibration is None:
+        return pixels
+    return pixels & (disparity >= calibration.focal_baseline_px_m / max_distance_m - calibration.doffs_px)
 
 
 def _not_clearly_raised(config: DetectionConfig) -> str:
@@ -742,8 +742,11 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
         groups, hidden_rejected = reject_hidden_ground(groups, disparity, segmentation.labels, ground,
                                                        config.hidden_ground)
     if config.blind_strip is not None:
-        groups, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.labels, config.blind_strip,
-                                                      chroma=None if colour is None else colour.chroma)
+        extended, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.labels, config.blind_strip,
+                                                        chroma=None if colour is None else colour.chroma)
+        added = extended != groups          # a group's plane continued into the strip may run past the range
+        groups = np.where(added & ~_within_range(added, measured, calibration, config.obstacles.max_distance_m),
+                          groups, extended)
     outcomes = measure_groups(groups, measured, calibration, ground, config.obstacles)
     obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
     if config.fattened_fringes is not None and colour is not None:
@@ -761,8 +764,9 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
             depth = _depth(disparity, calibration)
             standing_rematched = standing_pixels(rematched, disparity, ground, calibration, config.obstacles,
                                                  min_excess_px=min_excess)
-            if calibration is not None:         # a strip matched beyond the range leaves its obstacle, for none
-                standing_rematched &= _within_range(disparity, calibration, config.obstacles.max_distance_m)
+            # a strip matched beyond the range leaves its obstacle for none
+            standing_rematched = _within_range(standing_rematched, disparity, calibration,
+                                               config.obstacles.max_distance_m)
             groups, outcomes = measure_without(taken_out | rematched, groups, outcomes, measured, calibration,
                                                ground, config.obstacles)
             pieces = moved_groups(standing_rematched, disparity, int(groups.max(initial=0)) + 1, config.grouping)
