@@ -73,8 +73,7 @@ def test_the_range_cut_keeps_what_the_depth_map_puts_within_the_limit(focal_px, 
     disparity[::7, ::3] = np.nan
     everything = np.ones(disparity.shape, dtype=bool)
     kept = _within_range(everything, disparity, calibration, limit_m)
-    with np.errstate(invalid="ignore"):
-        assert np.array_equal(kept, disparity_to_depth(disparity, calibration) <= limit_m)
+    assert np.array_equal(kept, disparity_to_depth(disparity, calibration) <= limit_m)
     assert kept[1, :10].all() and not kept[::7, ::3].any()
     assert 0 < np.count_nonzero(kept) < np.count_nonzero(np.isfinite(disparity))
     assert _within_range(everything, disparity, None, limit_m) is everything
@@ -90,8 +89,7 @@ def test_without_trusted_colours_every_match_within_the_range_is_a_candidate(def
     candidates = _obstacle_candidates(default_result.segmentation, disparity, default_result.ground,
                                       default_pair.calibration, config, config.geometric_min_excess_px,
                                       colour_trusted=False)
-    with np.errstate(invalid="ignore"):
-        within = disparity_to_depth(disparity, default_pair.calibration) <= 5.0
+    within = disparity_to_depth(disparity, default_pair.calibration) <= 5.0
     assert np.array_equal(candidates, np.isfinite(disparity) & within)
     assert 0 < np.count_nonzero(candidates) < np.count_nonzero(np.isfinite(disparity))
 
@@ -268,6 +266,7 @@ def test_strips_matched_again_beyond_the_maximum_distance_join_no_obstacle(share
     group. (000046 ships no calibration; 000005's, the same rig, stands in.)"""
     import stereo_obstacles.pipeline as pipeline
     from stereo_obstacles.datasets import load_pair
+    from stereo_obstacles.depth import disparity_to_depth
 
     pair = load_pair(shared_dataset("kitti2015_000046"))
     calibration = load_pair(shared_dataset("kitti2015_000005")).calibration
@@ -277,8 +276,7 @@ def test_strips_matched_again_beyond_the_maximum_distance_join_no_obstacle(share
 
     def spied(*args, **kwargs):
         taken_out, rematched, new_disparity = own_colour_matches(*args, **kwargs)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            beyond.append(np.count_nonzero(rematched & (calibration.focal_baseline_px_m / new_disparity > limit_m)))
+        beyond.append(np.count_nonzero(rematched & (disparity_to_depth(new_disparity, calibration) > limit_m)))
         return taken_out, rematched, new_disparity
 
     monkeypatch.setattr(pipeline, "own_colour_matches", spied)

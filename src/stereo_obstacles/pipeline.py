@@ -744,9 +744,10 @@ def detect(left: np.ndarray, right: np.ndarray, calibration: StereoCalibration |
     if config.blind_strip is not None:
         extended, measured, _ = extend_into_blind_strip(groups, disparity, segmentation.labels, config.blind_strip,
                                                         chroma=None if colour is None else colour.chroma)
-        added = extended != groups          # a group's plane continued into the strip may run past the range
-        groups = np.where(added & ~_within_range(added, measured, calibration, config.obstacles.max_distance_m),
-                          groups, extended)
+        if extended is not groups:          # a group's plane continued into the strip may run past the range
+            added = extended != groups
+            groups = np.where(added & ~_within_range(added, measured, calibration, config.obstacles.max_distance_m),
+                              groups, extended)
     outcomes = measure_groups(groups, measured, calibration, ground, config.obstacles)
     obstacles = list_obstacles(outcomes, groups, measured, calibration, config.obstacles, with_scan=False)
     if config.fattened_fringes is not None and colour is not None:
